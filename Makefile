@@ -1,0 +1,28 @@
+# shadowlab quick start: `make run` then `make test` (see README.md).
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: run test clean install
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+# The default comparison: ground truth + the shadow map at two resolutions on box_on_plane.
+run: $(STAMP)
+	$(BIN)/shadowlab compare box_on_plane \
+		--technique shadow_map \
+		--technique shadow_map:resolution=256 \
+		--size 800x600 --out results/quickstart
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+clean:
+	rm -rf $(VENV) build *.egg-info .pytest_cache results/quickstart

@@ -1,0 +1,43 @@
+// Light model shared by every GL program. Numpy twin: shadowlab/lights.py (a test checks that
+// both give the same footprint and light direction). Footprint λ as in DESIGN §8.
+#define LIGHT_POINT 0
+#define LIGHT_DIRECTIONAL 1
+#define LIGHT_SPOT 2
+#define LIGHT_TARGET_DIRECT 3
+
+uniform int light_type;
+uniform vec3 light_position;      // point, spot, target-direct
+uniform vec3 light_direction;     // unit; the direction the light travels
+uniform vec3 light_color;         // diffuse and specular intensity
+uniform float light_ambient;      // ambient intensity
+uniform float light_cos_outer;    // spot: cos(alpha / 2)
+uniform float light_cos_inner;    // spot: cos(beta / 2)
+uniform float light_radius_outer; // target-direct: R
+uniform float light_radius_inner; // target-direct: r
+
+// Unit vector from p towards the light.
+vec3 light_dir_to(vec3 p) {
+    if (light_type == LIGHT_DIRECTIONAL || light_type == LIGHT_TARGET_DIRECT)
+        return -light_direction;
+    return normalize(light_position - p);
+}
+
+// Footprint factor λ in [0, 1] at p.
+float light_footprint(vec3 p) {
+    if (light_type == LIGHT_SPOT) {
+        float cos_phi = dot(normalize(p - light_position), light_direction);
+        float width = light_cos_inner - light_cos_outer;
+        return width > 0.0 ? clamp((cos_phi - light_cos_outer) / width, 0.0, 1.0)
+                           : float(cos_phi >= light_cos_outer);
+    }
+    if (light_type == LIGHT_TARGET_DIRECT) {
+        vec3 v = p - light_position;
+        float t = dot(v, light_direction);
+        if (t <= 0.0) return 0.0;
+        float rho = length(v - t * light_direction);
+        float width = light_radius_outer - light_radius_inner;
+        return width > 0.0 ? clamp((light_radius_outer - rho) / width, 0.0, 1.0)
+                           : float(rho <= light_radius_outer);
+    }
+    return 1.0;
+}

@@ -1,0 +1,4 @@
+"""``python -m shadowlab`` is the ``shadowlab`` command."""
+from .cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,199 @@
+"""A Frame: one scene uploaded to GL, seen by its camera, with the shared primary visibility.
+
+Every technique and the ground truth read the same G-buffer (DESIGN §2.1), so differences
+between their images are differences in shadows only. Besides the GL textures, the frame
+holds the exact surface point of every covered pixel: the pixel-centre camera ray intersected
+in float64 with the triangle the G-buffer saw there (DESIGN §9). Arrays are (height, width, ...)
+with row 0 at the top of the image; "compact" arrays hold only covered pixels, in the order of
+``np.flatnonzero(covered)``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import gl
+from .lights import Light
+from .scene import Scene
+
+
+@dataclass
+class DrawRange:
+    """A run of triangles in the scene's vertex buffer: first vertex and vertex count."""
+
+    first: int
+    count: int
+
+
+class Frame:
+    """Uploads ``scene`` once and renders its G-buffer at ``width`` x ``height``."""
+
+    def __init__(self, scene: Scene, width: int, height: int):
+        self.scene = scene
+        self.width, self.height = int(width), int(height)
+        self.camera = scene.fitted_camera()
+        self.view = self.camera.view()
+        self.projection = self.camera.projection(self.width / self.height)
+        self.view_projection = self.projection @ self.view
+        self.ctx = gl.context()
+        self._upload()
+        self._render_gbuffer()
+        self._exact_points()
+        self._evaluated: dict[int, np.ndarray] = {}
+
+    # ------------------------------------------------------------------ upload
+    def _upload(self) -> None:
+        objs = self.scene.objects
+        tris = [o.triangles for o in objs]
+        self.triangles = np.concatenate(tris)  # (T, 3, 3) float64 world
+        self.triangle_object = np.concatenate([np.full(len(t), i, np.int32) for i, t in enumerate(tris)])
+        starts = np.cumsum([0] + [len(t) for t in tris])
+        self.object_ranges = [DrawRange(int(3 * a), int(3 * (b - a))) for a, b in zip(starts[:-1], starts[1:])]
+        e1 = self.triangles[:, 1] - self.triangles[:, 0]
+        e2 = self.triangles[:, 2] - self.triangles[:, 0]
+        normals = np.cross(e1, e2)
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        self.degenerate_triangles = int(np.sum(length[:, 0] == 0))
+        self.triangle_normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+        verts = self.triangles.reshape(-1, 3).astype("f4")
+        nrm = np.repeat(self.triangle_normals, 3, axis=0).astype("f4")
+        obj = np.repeat(self.triangle_object, 3).astype("i4")
+        ctx = self.ctx
+        self.vbo_position = ctx.buffer(verts.tobytes())
+        self.vbo_normal = ctx.buffer(nrm.tobytes())
+        self.vbo_object = ctx.buffer(obj.tobytes())
+        self._vaos: dict[int, object] = {}
+
+    def vertex_array(self, prog):
+        """A VertexArray binding the scene's buffers to whichever of ``in_pos``, ``in_normal``,
+        ``in_object`` the program uses (cached per program)."""
+        key = id(prog)
+        if key not in self._vaos:
+            content = [(buf, fmt, name) for buf, fmt, name in
+                       ((self.vbo_position, "3f", "in_pos"), (self.vbo_normal, "3f", "in_normal"),
+                        (self.vbo_object, "1i", "in_object")) if name in prog]
+            self._vaos[key] = (prog, self.ctx.vertex_array(prog, content))
+        return self._vaos[key][1]
+
+    def forget(self, prog) -> None:
+        """Release the cached VertexArray of ``prog`` (call before releasing the program)."""
+        entry = self._vaos.pop(id(prog), None)
+        if entry is not None:
+            entry[1].release()
+
+    def ranges(self, which: str = "all") -> list[DrawRange]:
+        """Draw ranges of ``which`` objects ('all', 'casters', 'receivers'), adjacent runs merged."""
+        keep = {"all": lambda o: True, "casters": lambda o: o.casts, "receivers": lambda o: o.receives}[which]
+        out: list[DrawRange] = []
+        for obj, rng in zip(self.scene.objects, self.object_ranges):
+            if not keep(obj):
+                continue
+            if out and out[-1].first + out[-1].count == rng.first:
+                out[-1] = DrawRange(out[-1].first, out[-1].count + rng.count)
+            else:
+                out.append(DrawRange(rng.first, rng.count))
+        return out
+
+    def draw(self, prog, which: str = "all") -> None:
+        """Draw the ``which`` objects of the scene with ``prog`` into the bound framebuffer."""
+        vao = self.vertex_array(prog)
+        for rng in self.ranges(which):
+            vao.render(vertices=rng.count, first=rng.first)
+
+    def caster_bounds(self) -> np.ndarray:
+        """Per caster object, its axis-aligned bounds (K, 2, 3)."""
+        return np.stack([o.bounds() for o in self.scene.objects if o.casts]) if self.has_casters \
+            else np.zeros((0, 2, 3))
+
+    @property
+    def has_casters(self) -> bool:
+        """True when at least one object casts shadows."""
+        return any(o.casts for o in self.scene.objects)
+
+    # ------------------------------------------------------------------ G-buffer
+    def _render_gbuffer(self) -> None:
+        from OpenGL import GL
+
+        ctx, size = self.ctx, (self.width, self.height)
+        self.tex_position = ctx.texture(size, 4, dtype="f4")
+        self.tex_normal = ctx.texture(size, 4, dtype="f4")
+        self.tex_ids = ctx.texture(size, 2, dtype="i4")
+        for tex in (self.tex_position, self.tex_normal, self.tex_ids):
+            tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.target = gl.ScreenTarget.create(size, [self.tex_position, self.tex_normal, self.tex_ids])
+        self.gbuffer_program = gl.program("gbuffer.glsl")
+        self.gbuffer_program["u_view_proj"].write(gl.mat_bytes(self.view_projection))
+        self.target.use()
+        GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
+        GL.glClearBufferfv(GL.GL_COLOR, 1, (0.0, 0.0, 0.0, 0.0))
+        GL.glClearBufferiv(GL.GL_COLOR, 2, (-1, -1, 0, 0))
+        self.target.clear_depth_stencil()
+        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.depth_func = "<"
+        self.draw(self.gbuffer_program, "all")
+        ctx.finish()
+        gl.check_errors("G-buffer pass")
+        ids = gl.read_texture(self.tex_ids, 2, "i4")
+        self.object_id = ids[..., 0].copy()
+        self.triangle_id = ids[..., 1].copy()
+        self.covered = self.triangle_id >= 0
+
+    def _exact_points(self) -> None:
+        """Float64 hit points of the pixel-centre rays with the triangles the G-buffer saw."""
+        self.pixel_index = np.flatnonzero(self.covered)
+        tri = self.triangle_id.ravel()[self.pixel_index]
+        rays = self.camera.pixel_rays(self.width, self.height).reshape(-1, 3)[self.pixel_index]
+        eye = self.camera.eye
+        v0 = self.triangles[tri, 0]
+        n = self.triangle_normals[tri]
+        denom = np.einsum("ij,ij->i", rays, n)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.einsum("ij,ij->i", v0 - eye, n) / denom
+        pts = eye + t[:, None] * rays
+        # Surfaces are two-sided: turn the geometric normal towards the camera (DESIGN §7).
+        n = np.where((denom > 0)[:, None], -n, n)
+        good = np.isfinite(t) & (t > 0) & np.any(n != 0, axis=1)
+        self.compact_position = pts  # (M, 3) float64
+        self.compact_normal = n  # (M, 3) float64, unit, facing the camera
+        self.compact_object = self.object_id.ravel()[self.pixel_index]
+        self.compact_valid = good  # degenerate triangles / grazing rays give no point
+
+    def to_image(self, compact: np.ndarray, fill=np.nan, dtype=np.float32) -> np.ndarray:
+        """Scatter a compact per-pixel array (M,) or (M, C) into a (height, width[, C]) image."""
+        shape = (self.height * self.width,) + compact.shape[1:]
+        out = np.full(shape, fill, dtype=dtype)
+        out[self.pixel_index] = compact
+        return out.reshape((self.height, self.width) + compact.shape[1:])
+
+    @property
+    def position(self) -> np.ndarray:
+        """Exact world positions, float64 (height, width, 3), NaN where nothing is visible."""
+        return self.to_image(self.compact_position, dtype=np.float64)
+
+    # ------------------------------------------------------------------ evaluation mask
+    def compact_evaluated(self, light_index: int) -> np.ndarray:
+        """Compact bool (M,): receiving surface, facing the light (N·L > 0) and lit by its
+        footprint (λ > 0) — the evaluated pixels of DESIGN §7, for one light."""
+        if light_index not in self._evaluated:
+            light: Light = self.scene.lights[light_index]
+            receives = np.array([o.receives for o in self.scene.objects])[self.compact_object]
+            dirs, dist = light.to_light(self.compact_position)
+            facing = np.einsum("ij,ij->i", dirs, self.compact_normal) > 0
+            lam = light.footprint(self.compact_position)
+            self._evaluated[light_index] = receives & self.compact_valid & facing & (lam > 0) & (dist > 0)
+        return self._evaluated[light_index]
+
+    def evaluated(self, light_index: int) -> np.ndarray:
+        """Bool (height, width): the evaluated pixels for one light (DESIGN §7)."""
+        return self.to_image(self.compact_evaluated(light_index), fill=False, dtype=bool)
+
+    def release(self) -> None:
+        """Free the frame's GL objects."""
+        for _, vao in self._vaos.values():
+            vao.release()
+        self.target.release()
+        for obj in (self.tex_position, self.tex_normal, self.tex_ids, self.vbo_position, self.vbo_normal,
+                    self.vbo_object, self.gbuffer_program):
+            obj.release()

@@ -1,0 +1,325 @@
+"""Headless OpenGL for the whole lab: the one place that makes the GL context.
+
+moderngl drives programs, buffers and draws; PyOpenGL, on moderngl's current context, does
+what moderngl has no API for: depth-stencil attachments, stencil state and depth textures of
+a chosen precision (16-bit, 24-bit fixed point, 32-bit float). Framebuffers are built with
+PyOpenGL and wrapped by ``ctx.detect_framebuffer`` so that both libraries can use them.
+
+GL's window origin is the bottom-left pixel; every array this module returns is flipped so
+that row 0 is the *top* of the image (DESIGN §5).
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+_CONTEXT = None
+
+#: Debian packages that provide headless EGL + Mesa's software rasteriser.
+EGL_HINT = "install EGL and Mesa (on Debian/Ubuntu: apt-get install libegl1 libgl1-mesa-dri)"
+
+
+class GLContextError(RuntimeError):
+    """No OpenGL 3.3+ context could be created headlessly through EGL."""
+
+
+class GLError(RuntimeError):
+    """A GL call left an error flag set (see :func:`check_errors`)."""
+
+
+def context():
+    """Return the process-wide headless moderngl context (created on first use).
+
+    Raises GLContextError with what to install when EGL or a GL driver is missing.
+    """
+    global _CONTEXT
+    if _CONTEXT is None:
+        try:
+            import moderngl
+        except ImportError as exc:  # pragma: no cover - dependency missing
+            raise GLContextError(f"moderngl is not installed ({exc})") from exc
+        try:
+            _CONTEXT = moderngl.create_standalone_context(backend="egl", require=330)
+        except Exception as exc:  # moderngl raises plain Exceptions here
+            raise GLContextError(f"cannot create a headless OpenGL context through EGL: {exc}; {EGL_HINT}") from exc
+    return _CONTEXT
+
+
+def renderer() -> str:
+    """The GL_RENDERER string of the lab's context (e.g. 'llvmpipe (LLVM 15.0.6, 256 bits)')."""
+    return context().info["GL_RENDERER"]
+
+
+def gl_info() -> dict:
+    """GL_RENDERER, GL_VENDOR and GL_VERSION of the lab's context, for run records."""
+    info = context().info
+    return {k: info[k] for k in ("GL_RENDERER", "GL_VENDOR", "GL_VERSION")}
+
+
+def is_software_renderer() -> bool:
+    """True on CPU rasterisers (llvmpipe, softpipe, swrast), whose timer queries are not meaningful."""
+    name = renderer().lower()
+    return any(s in name for s in ("llvmpipe", "softpipe", "swrast", "lavapipe"))
+
+
+def check_errors(where: str = "") -> None:
+    """Raise GLError if the GL error flag is set (drains every queued error)."""
+    from OpenGL import GL
+
+    errors = []
+    while True:
+        code = GL.glGetError()
+        if code == GL.GL_NO_ERROR:
+            break
+        errors.append(hex(int(code)))
+        if len(errors) > 16:
+            break
+    if errors:
+        raise GLError(f"GL error(s) {', '.join(errors)}" + (f" after {where}" if where else ""))
+
+
+# --------------------------------------------------------------------------- shaders
+
+_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.M)
+_STAGES = {"vertex": "VERTEX_SHADER", "geometry": "GEOMETRY_SHADER", "fragment": "FRAGMENT_SHADER"}
+GLSL_VERSION = "#version 330 core"
+
+
+def shader_dir() -> Path:
+    """Folder that holds the GLSL files (the repository's ``shaders/`` or the installed copy)."""
+    local = Path(__file__).resolve().parent.parent / "shaders"
+    if local.is_dir():
+        return local
+    return Path(str(resources.files("shadowlab.shaders")))
+
+
+def _expand(name: str, seen: tuple[str, ...] = ()) -> str:
+    if name in seen:
+        raise ValueError(f"#include cycle: {' -> '.join(seen + (name,))}")
+    path = shader_dir() / name
+    if not path.is_file():
+        raise FileNotFoundError(f"shader file not found: {path}")
+    text = path.read_text()
+    return _INCLUDE.sub(lambda m: _expand(m.group(1), seen + (name,)), text)
+
+
+@lru_cache(maxsize=None)
+def shader_source(name: str) -> str:
+    """The GLSL text of ``shaders/<name>`` with every ``#include "file"`` expanded (no #version)."""
+    return _expand(name)
+
+
+def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()):
+    """Compile ``shaders/<name>`` into a moderngl Program.
+
+    One file holds every stage, each inside ``#ifdef VERTEX_SHADER`` / ``GEOMETRY_SHADER`` /
+    ``FRAGMENT_SHADER``; a stage is built when its macro appears in the file. ``defines`` become
+    ``#define KEY VALUE`` lines (compile-time switches only; numeric parameters are uniforms).
+    """
+    ctx = context()
+    src = shader_source(name)
+    head = [GLSL_VERSION] + [f"#define {k} {v}" for k, v in (defines or {}).items()]
+    stages = {}
+    for stage, macro in _STAGES.items():
+        if macro in src:
+            stages[stage] = "\n".join(head + [f"#define {macro} 1", "#line 1", src])
+    if "vertex" not in stages:
+        raise ValueError(f"{name}: no VERTEX_SHADER section")
+    kwargs = dict(vertex_shader=stages["vertex"], geometry_shader=stages.get("geometry"))
+    if varyings:
+        kwargs["varyings"] = varyings
+    else:
+        kwargs["fragment_shader"] = stages.get("fragment")
+    return ctx.program(**kwargs)
+
+
+def set_uniforms(prog, values: dict) -> None:
+    """Set the uniforms in ``values`` that ``prog`` uses (the compiler drops unused ones)."""
+    for key, val in values.items():
+        if key in prog:
+            member = prog[key]
+            if isinstance(val, np.ndarray):
+                member.write(np.ascontiguousarray(val, dtype="f4" if val.dtype.kind == "f" else "i4").tobytes())
+            else:
+                member.value = val
+
+
+# --------------------------------------------------------------------------- render targets
+
+def mat_bytes(m: np.ndarray) -> bytes:
+    """A 4x4 row-major float64 matrix as the column-major float32 bytes GLSL's mat4 expects."""
+    return np.ascontiguousarray(np.asarray(m, dtype=np.float64).T, dtype="f4").tobytes()
+
+
+_DEPTH_FORMATS = {16: "GL_DEPTH_COMPONENT16", 24: "GL_DEPTH_COMPONENT24", 32: "GL_DEPTH_COMPONENT32F"}
+
+
+@dataclass
+class DepthTexture:
+    """A depth texture of 16, 24 (fixed point) or 32 (float) bits, sampled with texelFetch/texture.
+
+    ``texture`` is a moderngl wrapper (``.use(unit)``); ``fbo`` renders depth only into it.
+    """
+
+    size: tuple[int, int]
+    bits: int
+    glo: int
+    texture: object
+    fbo: object
+    fbo_glo: int
+
+    @classmethod
+    def create(cls, size: tuple[int, int], bits: int) -> "DepthTexture":
+        """Allocate a ``size`` = (width, height) depth texture with ``bits`` in {16, 24, 32}."""
+        from OpenGL import GL
+
+        if bits not in _DEPTH_FORMATS:
+            raise ValueError(f"depth_bits must be one of {sorted(_DEPTH_FORMATS)}, got {bits}")
+        ctx = context()
+        w, h = size
+        tid = int(GL.glGenTextures(1))
+        GL.glBindTexture(GL.GL_TEXTURE_2D, tid)
+        GL.glTexImage2D(GL.GL_TEXTURE_2D, 0, getattr(GL, _DEPTH_FORMATS[bits]), w, h, 0,
+                        GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT, None)
+        for pname in (GL.GL_TEXTURE_MIN_FILTER, GL.GL_TEXTURE_MAG_FILTER):
+            GL.glTexParameteri(GL.GL_TEXTURE_2D, pname, GL.GL_NEAREST)
+        for pname in (GL.GL_TEXTURE_WRAP_S, GL.GL_TEXTURE_WRAP_T):
+            GL.glTexParameteri(GL.GL_TEXTURE_2D, pname, GL.GL_CLAMP_TO_EDGE)
+        GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_COMPARE_MODE, GL.GL_NONE)
+        GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
+        fid = int(GL.glGenFramebuffers(1))
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fid)
+        GL.glFramebufferTexture2D(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_ATTACHMENT, GL.GL_TEXTURE_2D, tid, 0)
+        GL.glDrawBuffer(GL.GL_NONE)
+        GL.glReadBuffer(GL.GL_NONE)
+        _check_complete(GL)
+        fbo = ctx.detect_framebuffer(fid)
+        tex = ctx.external_texture(tid, (w, h), 1, 0, "f4")
+        check_errors("DepthTexture.create")
+        return cls((w, h), bits, tid, tex, fbo, fid)
+
+    @property
+    def nbytes(self) -> int:
+        """GPU memory of the texture in bytes (24-bit formats are counted as stored, 4 bytes)."""
+        per = {16: 2, 24: 4, 32: 4}[self.bits]
+        return self.size[0] * self.size[1] * per
+
+    def use_as_target(self) -> None:
+        """Bind for a depth-only pass and set the viewport to the whole texture."""
+        self.fbo.use()
+        context().viewport = (0, 0, *self.size)
+
+    def read(self) -> np.ndarray:
+        """Depth values as float32 (height, width), row 0 = top (slow; for tests and debugging)."""
+        from OpenGL import GL
+
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fbo_glo)
+        data = GL.glReadPixels(0, 0, self.size[0], self.size[1], GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT)
+        return np.frombuffer(data, np.float32).reshape(self.size[1], self.size[0])[::-1].copy()
+
+    def release(self) -> None:
+        """Free the GL objects."""
+        from OpenGL import GL
+
+        GL.glDeleteFramebuffers(1, [self.fbo_glo])
+        GL.glDeleteTextures(1, [self.glo])
+
+
+def _check_complete(GL) -> None:
+    status = GL.glCheckFramebufferStatus(GL.GL_FRAMEBUFFER)
+    if status != GL.GL_FRAMEBUFFER_COMPLETE:
+        raise GLError(f"framebuffer incomplete (status {hex(int(status))})")
+
+
+@dataclass
+class ScreenTarget:
+    """Colour attachments plus a 24-bit depth / 8-bit stencil renderbuffer, at screen size.
+
+    The G-buffer lives here; techniques that need the stencil (shadow volumes) use
+    :meth:`read_stencil` and PyOpenGL's stencil calls while this target is bound.
+    """
+
+    size: tuple[int, int]
+    colors: list
+    fbo: object
+    fbo_glo: int
+    depth_stencil_glo: int
+
+    @classmethod
+    def create(cls, size: tuple[int, int], colors: list) -> "ScreenTarget":
+        """Wrap moderngl textures ``colors`` (all of ``size``) with a new depth-stencil attachment."""
+        from OpenGL import GL
+
+        ctx = context()
+        w, h = size
+        fid = int(GL.glGenFramebuffers(1))
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fid)
+        for i, tex in enumerate(colors):
+            GL.glFramebufferTexture2D(GL.GL_FRAMEBUFFER, GL.GL_COLOR_ATTACHMENT0 + i, GL.GL_TEXTURE_2D, tex.glo, 0)
+        GL.glDrawBuffers(len(colors), [GL.GL_COLOR_ATTACHMENT0 + i for i in range(len(colors))])
+        rb = int(GL.glGenRenderbuffers(1))
+        GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, rb)
+        GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_DEPTH24_STENCIL8, w, h)
+        GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_STENCIL_ATTACHMENT, GL.GL_RENDERBUFFER, rb)
+        _check_complete(GL)
+        fbo = ctx.detect_framebuffer(fid)
+        check_errors("ScreenTarget.create")
+        return cls((w, h), list(colors), fbo, fid, rb)
+
+    def use(self) -> None:
+        """Bind as the draw target with a full-size viewport."""
+        self.fbo.use()
+        context().viewport = (0, 0, *self.size)
+
+    def clear_depth_stencil(self, depth: float = 1.0, stencil: int = 0) -> None:
+        """Clear depth and stencil of this target (it must be bound)."""
+        from OpenGL import GL
+
+        GL.glDepthMask(GL.GL_TRUE)
+        GL.glStencilMask(0xFF)
+        GL.glClearDepth(depth)
+        GL.glClearStencil(stencil)
+        GL.glClear(GL.GL_DEPTH_BUFFER_BIT | GL.GL_STENCIL_BUFFER_BIT)
+
+    def read_stencil(self) -> np.ndarray:
+        """The stencil buffer as uint8 (height, width), row 0 = top."""
+        from OpenGL import GL
+
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fbo_glo)
+        GL.glPixelStorei(GL.GL_PACK_ALIGNMENT, 1)
+        data = GL.glReadPixels(0, 0, self.size[0], self.size[1], GL.GL_STENCIL_INDEX, GL.GL_UNSIGNED_BYTE)
+        return np.frombuffer(data, np.uint8).reshape(self.size[1], self.size[0])[::-1].copy()
+
+    def read_depth(self) -> np.ndarray:
+        """Window depth in [0, 1] as float32 (height, width), row 0 = top."""
+        from OpenGL import GL
+
+        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fbo_glo)
+        data = GL.glReadPixels(0, 0, self.size[0], self.size[1], GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT)
+        return np.frombuffer(data, np.float32).reshape(self.size[1], self.size[0])[::-1].copy()
+
+    def release(self) -> None:
+        """Free the framebuffer and the depth-stencil renderbuffer (not the colour textures)."""
+        from OpenGL import GL
+
+        GL.glDeleteFramebuffers(1, [self.fbo_glo])
+        GL.glDeleteRenderbuffers(1, [self.depth_stencil_glo])
+
+
+def read_texture(tex, components: int, dtype: str = "f4") -> np.ndarray:
+    """A moderngl texture as an array (height, width, components), row 0 = top."""
+    w, h = tex.size
+    data = np.frombuffer(tex.read(), dtype=np.dtype(dtype))
+    return data.reshape(h, w, components)[::-1].copy()
+
+
+def fullscreen_quad(prog):
+    """A VertexArray drawing one screen-covering triangle pair; ``prog`` needs ``in vec2 in_pos``."""
+    ctx = context()
+    vbo = ctx.buffer(np.array([-1, -1, 1, -1, 1, 1, -1, -1, 1, 1, -1, 1], dtype="f4").tobytes())
+    return ctx.vertex_array(prog, [(vbo, "2f", "in_pos")])

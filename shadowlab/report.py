@@ -1,0 +1,124 @@
+"""Pictures and the HTML report of a comparison run.
+
+Images are written beside ``report.html`` (PNG, row 0 = top). Colours of the error map:
+correct lit and correct shadow in greys, false shadow in orange, false lit in blue, pixels
+that are not evaluated dimmed from the shaded image.
+"""
+from __future__ import annotations
+
+import html
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+BACKGROUND = np.array([0.16, 0.18, 0.22])
+NOT_EVALUATED = np.array([0.30, 0.32, 0.40])
+#: Error-map legend: class id (metrics.error_classes) → (label, RGB in [0, 1]).
+ERROR_COLORS = {
+    1: ("lit, correct", (0.85, 0.85, 0.85)),
+    2: ("shadowed, correct", (0.35, 0.35, 0.35)),
+    3: ("false shadow (acne, over-darkening)", (0.93, 0.45, 0.05)),
+    4: ("false lit (leak, missing shadow)", (0.10, 0.45, 0.90)),
+}
+
+
+def to_display(linear: np.ndarray, covered: np.ndarray) -> np.ndarray:
+    """Linear RGB (H, W, 3) → display RGB float in [0, 1] (gamma 2.2), background where uncovered."""
+    rgb = np.clip(linear, 0.0, 1.0) ** (1.0 / 2.2)
+    rgb[~covered] = BACKGROUND
+    return rgb
+
+
+def visibility_picture(vis: np.ndarray, evaluated: np.ndarray, covered: np.ndarray) -> np.ndarray:
+    """Visibility as grey levels on evaluated pixels (white = lit), a slate colour elsewhere."""
+    rgb = np.repeat(np.nan_to_num(vis, nan=1.0)[..., None], 3, axis=2).astype(np.float64)
+    rgb[~evaluated] = NOT_EVALUATED
+    rgb[~covered] = BACKGROUND
+    return rgb
+
+
+def error_picture(classes: np.ndarray, shaded_display: np.ndarray) -> np.ndarray:
+    """The error map: one colour per class of :func:`shadowlab.metrics.error_classes`."""
+    rgb = shaded_display * 0.35
+    for cls, (_, color) in ERROR_COLORS.items():
+        rgb[classes == cls] = color
+    return rgb
+
+
+def save_png(path: Path, rgb: np.ndarray) -> None:
+    """Write an RGB float image in [0, 1] (H, W, 3), row 0 = top."""
+    import matplotlib.image as mpimg
+
+    mpimg.imsave(path, np.clip(rgb, 0.0, 1.0))
+
+
+def speed_error_plot(df: pd.DataFrame, path: Path) -> None:
+    """Scatter of error rate against median time, one point per configuration and light."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
+    for (label, light), g in df.groupby(["label", "light"], sort=False):
+        ax.errorbar(g["time_ms_median"], 100 * g["error_rate"], xerr=g["time_ms_iqr"] / 2, fmt="o", capsize=3,
+                    label=f"{label} (light {light})" if df["light"].nunique() > 1 else label)
+    ax.set_xlabel("time per frame, ms (median; bar = IQR)")
+    ax.set_ylabel("error rate, % of evaluated pixels")
+    ax.set_title("Speed vs error against the ray-traced ground truth")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+_TABLE_COLUMNS = ["label", "light", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
+                  "visibility_mae", "evaluated_pixels", "time_ms_median", "time_ms_iqr"]
+
+
+def write_html(path: Path, run: dict, df: pd.DataFrame, images: list[dict]) -> None:
+    """Write ``report.html``: run facts, the metrics table, the speed/error plot and an image grid
+    (shaded | visibility | error map per configuration). ``images`` holds dicts with ``label``,
+    ``shaded``, ``visibility`` and optionally ``error`` (file names relative to the report)."""
+    cols = [c for c in _TABLE_COLUMNS if c in df.columns]
+    table = df[cols].copy()
+    for c in ("error_rate", "false_shadow_rate", "false_lit_rate"):
+        table[c] = table[c].map(lambda x: f"{100 * x:.3f} %")
+    for c in ("boundary_error_px", "visibility_mae", "time_ms_median", "time_ms_iqr"):
+        if c in table:
+            table[c] = table[c].map(lambda x: f"{x:.3f}")
+    legend = "".join(f'<span class="sw" style="background:rgb({",".join(str(int(255 * v)) for v in col)})"></span>'
+                     f"{html.escape(name)} &nbsp; " for name, col in ERROR_COLORS.values())
+    rows = []
+    for im in images:
+        cells = [f'<figure><img src="{im[k]}" alt="{k}"><figcaption>{k}</figcaption></figure>'
+                 for k in ("shaded", "visibility", "error") if im.get(k)]
+        rows.append(f'<h3>{html.escape(im["label"])}</h3><div class="row">{"".join(cells)}</div>')
+    notes = "".join(f"<li>{html.escape(n)}</li>" for n in run.get("notes", []))
+    doc = f"""<!doctype html>
+<html><head><meta charset="utf-8"><title>shadowlab — {html.escape(run['scene']['name'])}</title>
+<style>
+body {{ font-family: system-ui, sans-serif; margin: 1.5em; color: #222; }}
+table {{ border-collapse: collapse; font-size: 0.85em; }}
+td, th {{ border: 1px solid #ccc; padding: 0.25em 0.5em; text-align: right; }}
+.row {{ display: flex; gap: 0.6em; flex-wrap: wrap; }}
+figure {{ margin: 0; }} img {{ max-width: 32vw; border: 1px solid #999; }}
+figcaption {{ font-size: 0.8em; color: #555; }}
+.sw {{ display: inline-block; width: 1em; height: 1em; vertical-align: middle; margin-right: 0.3em; border: 1px solid #666; }}
+</style></head><body>
+<h1>shadowlab: {html.escape(run['scene']['name'])}</h1>
+<p>{run['size'][0]}×{run['size'][1]} pixels · renderer: {html.escape(run['renderer'])} · {html.escape(run['date'])}<br>
+timing: {html.escape(run['timing_method'])}, {run['repeat']} repeats after {run['warmup']} warm-up<br>
+masks, metrics and error maps are for the first light; metrics.csv has every light.</p>
+{f'<h2>Notes</h2><ul>{notes}</ul>' if notes else ''}
+<h2>Metrics</h2>
+{table.to_html(index=False, escape=True)}
+<p><img src="speed_vs_error.png" alt="speed vs error plot"></p>
+<h2>Images</h2>
+<p>Error map legend: {legend} dimmed: not evaluated (not a receiver, facing away from the light, or outside its footprint)</p>
+{''.join(rows)}
+</body></html>
+"""
+    path.write_text(doc)

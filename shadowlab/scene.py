@@ -1,0 +1,342 @@
+"""Scenes: camera, lights and objects, loaded from TOML files (the contract of DESIGN §4).
+
+A loaded :class:`Scene` is plain data: every object's triangles are already in world space
+(float64), welded (vertices merged, so seams do not break edge adjacency) and validated. A
+shipped scene is named by its file stem (``box_on_plane``); any other argument is a path.
+"""
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from . import transforms as tf
+from .lights import Light, parse_light
+from .validation import SceneError, TableReader
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+
+@dataclass
+class Camera:
+    """A perspective camera (OpenGL conventions; vertical ``fov_y`` in degrees).
+
+    ``near`` / ``far`` are None until :meth:`Scene.fitted_camera` fits them to the scene.
+    """
+
+    eye: np.ndarray
+    target: np.ndarray
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 1.0, 0.0]))
+    fov_y: float = 45.0
+    near: float | None = None
+    far: float | None = None
+
+    def view(self) -> np.ndarray:
+        """World → view matrix (float64, 4x4)."""
+        return tf.look_at(self.eye, self.target, self.up)
+
+    def projection(self, aspect: float) -> np.ndarray:
+        """View → clip matrix for ``aspect`` = width / height (needs near and far)."""
+        return tf.perspective(self.fov_y, aspect, self.near, self.far)
+
+    def pixel_rays(self, width: int, height: int) -> np.ndarray:
+        """Unnormalised world-space directions through every pixel centre, float64
+        (height, width, 3), row 0 = top of the image."""
+        view = self.view()
+        right, up, back = view[0, :3], view[1, :3], view[2, :3]
+        t = np.tan(np.radians(self.fov_y) / 2.0)
+        x = (2.0 * (np.arange(width) + 0.5) / width - 1.0) * t * width / height
+        y = (1.0 - 2.0 * (np.arange(height) + 0.5) / height) * t
+        return (-back[None, None, :] + x[None, :, None] * right[None, None, :]
+                + y[:, None, None] * up[None, None, :])
+
+
+@dataclass
+class Material:
+    """Extended Blinn material (DESIGN §8): diffuse, specular and ambient reflectance, shininess."""
+
+    diffuse: np.ndarray = field(default_factory=lambda: np.array([0.8, 0.8, 0.8]))
+    specular: np.ndarray = field(default_factory=lambda: np.array([0.3, 0.3, 0.3]))
+    shininess: float = 32.0
+    ambient: np.ndarray | None = None  # defaults to the diffuse colour
+
+    def ambient_color(self) -> np.ndarray:
+        """k_A: the ambient reflectance (the diffuse colour unless set)."""
+        return self.diffuse if self.ambient is None else self.ambient
+
+
+@dataclass
+class SceneObject:
+    """One mesh in world space: ``vertices`` float64 (V, 3), ``faces`` int64 (F, 3), CCW outward."""
+
+    name: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    material: Material = field(default_factory=Material)
+    casts: bool = True
+    receives: bool = True
+    source: str = ""
+
+    @property
+    def triangles(self) -> np.ndarray:
+        """Triangle corners, float64 (F, 3, 3)."""
+        return self.vertices[self.faces]
+
+    def bounds(self) -> np.ndarray:
+        """Axis-aligned bounds [[min xyz], [max xyz]] (2, 3)."""
+        return np.stack([self.vertices.min(0), self.vertices.max(0)])
+
+
+@dataclass
+class Shading:
+    """Scene-wide shadow appearance for the extended Blinn model: density and colour of shadow."""
+
+    density: float = 1.0
+    shadow_color: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+
+@dataclass
+class Scene:
+    """A validated scene: camera, lights (at least one), objects (at least one)."""
+
+    name: str
+    camera: Camera
+    lights: list[Light]
+    objects: list[SceneObject]
+    shading: Shading = field(default_factory=Shading)
+    path: Path | None = None
+
+    def bounds(self) -> np.ndarray:
+        """Axis-aligned bounds of every object, (2, 3)."""
+        b = np.stack([o.bounds() for o in self.objects])
+        return np.stack([b[:, 0].min(0), b[:, 1].max(0)])
+
+    def extent(self) -> float:
+        """The diagonal of the scene's bounds (a length scale for tolerances)."""
+        b = self.bounds()
+        return float(np.linalg.norm(b[1] - b[0]))
+
+    def fitted_camera(self) -> Camera:
+        """The camera with near/far fitted to the scene's bounds where the file left them out:
+        far just beyond the farthest corner, near at the nearest corner in front of the eye but
+        no closer than far / 1000 (keeps a 24-bit depth buffer well conditioned)."""
+        cam = self.camera
+        if cam.near is not None and cam.far is not None:
+            return cam
+        b = self.bounds()
+        corners = np.array([[x, y, z] for x in b[:, 0] for y in b[:, 1] for z in b[:, 2]])
+        depth = -(tf.transform_points(cam.view(), corners)[:, 2])
+        far = cam.far if cam.far is not None else max(float(depth.max()) * 1.01, 1e-3)
+        near = cam.near
+        if near is None:
+            nearest = float(depth.min()) * 0.99
+            near = min(max(nearest, far / 1000.0), far * 0.5)
+        return Camera(cam.eye, cam.target, cam.up, cam.fov_y, near, far)
+
+    def describe(self) -> dict:
+        """Scene summary for run.json."""
+        return {
+            "name": self.name,
+            "path": str(self.path) if self.path else None,
+            "lights": [l.describe() for l in self.lights],
+            "objects": [{"name": o.name, "source": o.source, "triangles": int(len(o.faces)),
+                         "casts": o.casts, "receives": o.receives} for o in self.objects],
+        }
+
+
+# --------------------------------------------------------------------------- primitives
+
+def _plane(size, divisions) -> trimesh.Trimesh:
+    n = divisions + 1
+    xs = np.linspace(-size[0] / 2, size[0] / 2, n)
+    zs = np.linspace(-size[1] / 2, size[1] / 2, n)
+    gx, gz = np.meshgrid(xs, zs, indexing="xy")
+    verts = np.stack([gx.ravel(), np.zeros(gx.size), gz.ravel()], axis=1)
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    # CCW seen from +y: (a, c, b) and (b, c, d) with z growing towards the viewer.
+    faces = np.concatenate([np.stack([a, c, b], 1), np.stack([b, c, d], 1)])
+    return trimesh.Trimesh(verts, faces, process=False)
+
+
+_Z_TO_Y = tf.euler_xyz([-90.0, 0.0, 0.0])  # trimesh builds round primitives along z; ours stand on y
+
+
+def _along_y(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    mesh.vertices = mesh.vertices @ _Z_TO_Y.T
+    return mesh
+
+
+def _build_primitive(kind: str, rd: TableReader) -> trimesh.Trimesh:
+    """Builtin primitive centred at the origin, from its parameters in the object's table."""
+    if kind == "box":
+        return trimesh.creation.box(extents=rd.vector("size", 3, default=[1.0, 1.0, 1.0], positive=True))
+    if kind == "sphere":
+        return trimesh.creation.icosphere(subdivisions=rd.number("subdivisions", 3, min=0, max=7, integer=True),
+                                          radius=rd.number("radius", 0.5, min=0, min_open=True))
+    if kind == "plane":
+        size = rd.vector("size", 2, default=[10.0, 10.0], positive=True)
+        return _plane(size, rd.number("divisions", 1, min=1, max=2048, integer=True))
+    if kind == "cylinder":
+        return _along_y(trimesh.creation.cylinder(radius=rd.number("radius", 0.5, min=0, min_open=True),
+                                                  height=rd.number("height", 1.0, min=0, min_open=True),
+                                                  sections=rd.number("sections", 32, min=3, integer=True)))
+    if kind == "torus":
+        return _along_y(trimesh.creation.torus(
+            major_radius=rd.number("major_radius", 1.0, min=0, min_open=True),
+            minor_radius=rd.number("minor_radius", 0.25, min=0, min_open=True),
+            major_sections=rd.number("major_sections", 48, min=3, integer=True),
+            minor_sections=rd.number("minor_sections", 24, min=3, integer=True)))
+    if kind == "capsule":
+        return _along_y(trimesh.creation.capsule(height=rd.number("height", 1.0, min=0, min_open=False),
+                                                 radius=rd.number("radius", 0.5, min=0, min_open=True),
+                                                 count=[32, 16]))
+    raise AssertionError(kind)
+
+
+PRIMITIVES = ("box", "sphere", "plane", "cylinder", "torus", "capsule")
+
+
+def _load_mesh_file(rd: TableReader, ref: str, base: Path) -> trimesh.Trimesh:
+    path = (base / ref).resolve()
+    if not path.is_file():
+        raise rd.error("mesh", f"mesh file not found: {path}")
+    try:
+        mesh = trimesh.load(path, force="mesh", process=False)
+    except Exception as exc:
+        raise rd.error("mesh", f"cannot read mesh file {path}: {exc}") from exc
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise rd.error("mesh", f"{path} holds no triangles")
+    return mesh
+
+
+def _parse_object(table, i: int, file: str, base: Path) -> SceneObject:
+    rd = TableReader(table, f"objects[{i}]", file)
+    ref = rd.string("mesh")
+    mesh = _build_primitive(ref, rd) if ref in PRIMITIVES else _load_mesh_file(rd, ref, base)
+    scale = rd.raw("scale", 1.0)
+    if isinstance(scale, list):
+        scale = rd.vector("scale", 3, positive=True)
+    else:
+        scale = np.full(3, rd.number("scale", 1.0, min=0, min_open=True))
+    rot = tf.euler_xyz(rd.vector("rotate", 3, default=[0.0, 0.0, 0.0]))
+    trans = rd.vector("translate", 3, default=[0.0, 0.0, 0.0])
+    mat = _parse_material(rd.raw("material", {}), f"objects[{i}].material", file)
+    name = rd.string("name", default=f"{ref if ref in PRIMITIVES else Path(ref).stem}_{i}")
+    casts, receives = rd.boolean("casts", True), rd.boolean("receives", True)
+    rd.finish()
+    # Scale, then rotate, then translate (DESIGN §4).
+    verts = (np.asarray(mesh.vertices, np.float64) * scale) @ rot.T + trans
+    faces = np.asarray(mesh.faces, np.int64)
+    if np.linalg.det(np.diag(scale)) < 0:  # pragma: no cover - positive scales only
+        faces = faces[:, ::-1]
+    welded = trimesh.Trimesh(verts, faces, process=False)
+    welded.merge_vertices()
+    if not np.all(np.isfinite(welded.vertices)):
+        raise rd.error("mesh", "mesh has non-finite vertices")
+    return SceneObject(name, np.asarray(welded.vertices, np.float64), np.asarray(welded.faces, np.int64),
+                       mat, casts, receives, ref)
+
+
+def _parse_material(table, where: str, file: str) -> Material:
+    rd = TableReader(table, where, file)
+    mat = Material(
+        diffuse=rd.vector("diffuse", 3, default=[0.8, 0.8, 0.8]),
+        specular=rd.vector("specular", 3, default=[0.3, 0.3, 0.3]),
+        shininess=rd.number("shininess", 32.0, min=0.0),
+        ambient=rd.vector("ambient", 3, default=None),
+    )
+    rd.finish()
+    for key in ("diffuse", "specular", "ambient"):
+        val = getattr(mat, key)
+        if val is not None and np.any(val < 0):
+            raise rd.error(key, "entries must be >= 0")
+    return mat
+
+
+def _parse_camera(table, file: str) -> Camera:
+    rd = TableReader(table, "camera", file)
+    cam = Camera(eye=rd.vector("eye", 3), target=rd.vector("target", 3),
+                 up=rd.vector("up", 3, default=[0.0, 1.0, 0.0], nonzero=True),
+                 fov_y=rd.number("fov_y", 45.0, min=0.0, min_open=True, max=179.0),
+                 near=rd.number("near", None, min=0.0, min_open=True),
+                 far=rd.number("far", None, min=0.0, min_open=True))
+    rd.finish()
+    forward = cam.target - cam.eye
+    if not np.linalg.norm(forward) > 0:
+        raise rd.error("target", "must differ from eye")
+    if np.linalg.norm(np.cross(forward / np.linalg.norm(forward), cam.up / np.linalg.norm(cam.up))) < 1e-6:
+        raise rd.error("up", "must not be parallel to the viewing direction")
+    if cam.near is not None and cam.far is not None and cam.near >= cam.far:
+        raise rd.error("near", f"must be < far ({cam.far}), got {cam.near}")
+    return cam
+
+
+def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> Scene:
+    """Build a Scene from a parsed TOML dict; ``base`` is the folder mesh paths are relative to."""
+    rd = TableReader(data, "", file)
+    name = rd.string("name", default=Path(file).stem)
+    camera = _parse_camera(rd.raw("camera"), file)
+    light_tables = rd.table_list("lights")
+    if not light_tables:
+        raise rd.error("lights", "at least one [[lights]] table is required")
+    lights = [parse_light(t, f"lights[{i}]", file) for i, t in enumerate(light_tables)]
+    obj_tables = rd.table_list("objects")
+    if not obj_tables:
+        raise rd.error("objects", "at least one [[objects]] table is required")
+    objects = [_parse_object(t, i, file, base or Path.cwd()) for i, t in enumerate(obj_tables)]
+    shading_rd = TableReader(rd.raw("shading", {}), "shading", file)
+    shading = Shading(density=shading_rd.number("density", 1.0, min=0.0, max=1.0),
+                      shadow_color=shading_rd.vector("shadow_color", 3, default=[0.0, 0.0, 0.0]))
+    shading_rd.finish()
+    rd.finish()
+    return Scene(name, camera, lights, objects, shading, Path(file) if file != "<scene>" else None)
+
+
+def builtin_scene_dir() -> Path:
+    """The folder of the shipped scene files (package data)."""
+    return Path(str(resources.files("shadowlab.scenes")))
+
+
+def builtin_scenes() -> dict[str, Path]:
+    """Shipped scenes: name (file stem) → path, sorted by name."""
+    return {p.stem: p for p in sorted(builtin_scene_dir().glob("*.toml"))}
+
+
+def resolve_scene_path(ref: str | Path) -> Path:
+    """A shipped scene's name or a path to a scene file → the file's path (SceneError if neither)."""
+    ref = str(ref)
+    shipped = builtin_scenes()
+    if ref in shipped:
+        return shipped[ref]
+    path = Path(ref)
+    if path.is_file():
+        return path
+    raise SceneError(ref, "scene", f"no such scene file, and not a shipped scene ({', '.join(shipped)})")
+
+
+def load_scene(ref: str | Path) -> Scene:
+    """Load and validate a scene by shipped name or path; raises SceneError on any problem."""
+    path = resolve_scene_path(ref)
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(str(path), "toml", f"not valid TOML: {exc}") from exc
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(str(path), "file", f"cannot read: {exc}") from exc
+    return parse_scene(data, str(path), path.parent)
+
+
+def scene_summary(path: Path) -> str:
+    """One line about a scene file: name, lights, objects, triangles (loads it)."""
+    s = load_scene(path)
+    tris = sum(len(o.faces) for o in s.objects)
+    lights = ", ".join(l.type_name for l in s.lights)
+    return f"{len(s.objects)} objects, {tris} triangles, lights: {lights}"

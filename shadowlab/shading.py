@@ -1,0 +1,67 @@
+"""Shared shading: the extended Blinn model of DESIGN §8 over the G-buffer.
+
+Every technique's image comes from this one pass with its own visibility images, so the
+pictures differ only where the shadows differ.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import gl
+
+
+class Shader:
+    """Shades a frame given one visibility image per light (built once per frame)."""
+
+    def __init__(self, frame):
+        self.frame = frame
+        ctx = frame.ctx
+        self.prog = gl.program("shade.glsl")
+        self.quad = gl.fullscreen_quad(self.prog)
+        objs = frame.scene.objects
+        mats = np.zeros((3, len(objs), 4), np.float32)  # rows: diffuse+receives, specular+shininess, ambient
+        for i, o in enumerate(objs):
+            m = o.material
+            mats[0, i] = (*m.diffuse, 1.0 if o.receives else 0.0)
+            mats[1, i] = (*m.specular, m.shininess)
+            mats[2, i, :3] = m.ambient_color()
+        self.materials = ctx.texture((len(objs), 3), 4, mats.tobytes(), dtype="f4")
+        self.materials.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
+        self.vis_tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.out_tex = ctx.texture((frame.width, frame.height), 4, dtype="f4")
+        self.out_fbo = ctx.framebuffer(color_attachments=[self.out_tex])
+        sh = frame.scene.shading
+        gl.set_uniforms(self.prog, {
+            "u_position": 0, "u_normal": 1, "u_ids": 2, "u_materials": 3, "u_visibility": 4,
+            "u_eye": tuple(map(float, frame.camera.eye)), "u_density": float(sh.density),
+            "u_shadow_color": tuple(map(float, sh.shadow_color)),
+        })
+
+    def shade(self, visibilities: list[np.ndarray]) -> np.ndarray:
+        """Linear RGB float32 (height, width, 3), row 0 = top, from one visibility image
+        (float32 (height, width), row 0 = top) per light; uncovered pixels are 0."""
+        frame, ctx = self.frame, self.frame.ctx
+        if len(visibilities) != len(frame.scene.lights):
+            raise ValueError(f"need {len(frame.scene.lights)} visibility images, got {len(visibilities)}")
+        self.out_fbo.use()
+        ctx.viewport = (0, 0, frame.width, frame.height)
+        ctx.clear(0.0, 0.0, 0.0, 0.0)
+        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
+        ctx.enable(ctx.BLEND)
+        ctx.blend_func = ctx.ONE, ctx.ONE
+        for tex, unit in ((frame.tex_position, 0), (frame.tex_normal, 1), (frame.tex_ids, 2),
+                          (self.materials, 3), (self.vis_tex, 4)):
+            tex.use(unit)
+        for light, vis in zip(frame.scene.lights, visibilities):
+            self.vis_tex.write(np.ascontiguousarray(vis[::-1], dtype=np.float32).tobytes())
+            gl.set_uniforms(self.prog, light.uniforms())
+            self.quad.render()
+        ctx.disable(ctx.BLEND)
+        gl.check_errors("shading pass")
+        return gl.read_texture(self.out_tex, 4)[..., :3]
+
+    def release(self) -> None:
+        """Free GL objects."""
+        for obj in (self.quad, self.prog, self.materials, self.vis_tex, self.out_fbo, self.out_tex):
+            obj.release()

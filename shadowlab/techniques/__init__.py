@@ -1,0 +1,22 @@
+"""The technique registry: name → class. Adding a technique is one module plus one line here."""
+from __future__ import annotations
+
+from .base import Param, Technique, TechniqueError, parse_spec
+from .raytrace import RayTraced
+from .shadow_map import ShadowMap
+
+REGISTRY: dict[str, type[Technique]] = {
+    RayTraced.name: RayTraced,
+    ShadowMap.name: ShadowMap,
+}
+
+
+def from_spec(spec: str) -> Technique:
+    """Build a technique from ``name`` or ``name:key=value,...`` (TechniqueError if invalid)."""
+    name, values = parse_spec(spec)
+    if name not in REGISTRY:
+        raise TechniqueError(f"unknown technique '{name}' (known: {', '.join(REGISTRY)})")
+    return REGISTRY[name](**values)
+
+
+__all__ = ["REGISTRY", "from_spec", "Technique", "TechniqueError", "Param", "parse_spec"]

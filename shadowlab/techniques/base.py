@@ -1,0 +1,154 @@
+"""What every shadow technique is: declared parameters, and a visibility image per light.
+
+A technique is built from a spec string ``name`` or ``name:key=value,...``. Its parameters are
+declared (:class:`Param`) with defaults; an unknown or ill-typed parameter is an error (pbrt's
+unused-parameter report), and :meth:`Technique.spec` round-trips: ``from_spec(t.spec())``
+rebuilds ``t``. The run calls, per (frame, light): :meth:`setup` once (untimed allocation and
+fitting), :meth:`render` repeatedly (the timed passes), then :meth:`visibility`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+class TechniqueError(ValueError):
+    """A technique spec names an unknown technique, an unknown parameter or a bad value,
+    or a technique cannot handle the scene it was given."""
+
+
+_TRUE, _FALSE = {"1", "true", "yes", "on"}, {"0", "false", "no", "off"}
+
+
+@dataclass(frozen=True)
+class Param:
+    """One declared parameter: default (its type is the parameter's type), doc, and limits."""
+
+    default: Any
+    doc: str
+    choices: tuple | None = None
+    min: float | None = None
+    max: float | None = None
+
+    def parse(self, owner: str, key: str, value: Any) -> Any:
+        """Convert ``value`` (a string from the command line, or a Python value) and check it."""
+        kind = type(self.default)
+        try:
+            if kind is bool:
+                if isinstance(value, str):
+                    low = value.strip().lower()
+                    if low not in _TRUE | _FALSE:
+                        raise ValueError
+                    value = low in _TRUE
+                elif not isinstance(value, (bool, np.bool_)):
+                    raise ValueError
+                value = bool(value)
+            elif kind is int:
+                if isinstance(value, float) and not value.is_integer():
+                    raise ValueError
+                value = int(value)
+            elif kind is float:
+                value = float(value)
+                if not np.isfinite(value):
+                    raise ValueError
+            else:
+                value = str(value)
+        except (TypeError, ValueError):
+            raise TechniqueError(f"{owner}: {key} must be {kind.__name__}, got {value!r}") from None
+        if self.choices is not None and value not in self.choices:
+            raise TechniqueError(f"{owner}: {key} must be one of {', '.join(map(str, self.choices))}, got {value!r}")
+        if self.min is not None and value < self.min:
+            raise TechniqueError(f"{owner}: {key} must be >= {self.min}, got {value!r}")
+        if self.max is not None and value > self.max:
+            raise TechniqueError(f"{owner}: {key} must be <= {self.max}, got {value!r}")
+        return value
+
+
+def format_value(value: Any) -> str:
+    """A parameter value as written in a spec (``true``, ``0.002``, ``1024``)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+class Technique:
+    """Base class. Subclasses set ``name``, ``PARAMS`` and implement setup/render/visibility."""
+
+    name = "technique"
+    summary = ""
+    PARAMS: dict[str, Param] = {}
+    #: True when visibility can be fractional (filtering, area lights): metrics add visibility_mae.
+    fractional = False
+    #: True when the work is on the CPU (no GL finish needed around it when timing).
+    cpu = False
+
+    def __init__(self, **params):
+        unknown = sorted(set(params) - set(self.PARAMS))
+        if unknown:
+            known = ", ".join(self.PARAMS) or "none"
+            raise TechniqueError(f"{self.name}: unknown parameter '{unknown[0]}' (known: {known})")
+        self._params = {k: p.parse(self.name, k, params.get(k, p.default)) for k, p in self.PARAMS.items()}
+        self.notes: list[str] = []
+
+    def __getattr__(self, key):
+        params = self.__dict__.get("_params")
+        if params is not None and key in params:
+            return params[key]
+        raise AttributeError(key)
+
+    def params(self) -> dict:
+        """Every parameter's value (defaults included), in declaration order."""
+        return dict(self._params)
+
+    def params_string(self) -> str:
+        """``key=value,...`` for every parameter (the metrics.csv ``params`` column)."""
+        return ",".join(f"{k}={format_value(v)}" for k, v in self._params.items())
+
+    def spec(self) -> str:
+        """The full spec ``name:key=value,...``; ``from_spec(spec())`` rebuilds this technique."""
+        ps = self.params_string()
+        return f"{self.name}:{ps}" if ps else self.name
+
+    def __repr__(self) -> str:
+        return f"<{self.spec()}>"
+
+    # -- the per-light protocol -------------------------------------------------
+    def setup(self, frame, light_index: int) -> None:
+        """Untimed preparation for one light of ``frame`` (allocate, fit frusta)."""
+
+    def render(self) -> None:
+        """The technique's own passes for the light given to :meth:`setup` (timed)."""
+        raise NotImplementedError
+
+    def visibility(self) -> np.ndarray:
+        """Visibility in [0, 1], float32 (height, width), row 0 = top; 1 = lit."""
+        raise NotImplementedError
+
+    def stats(self) -> dict:
+        """Cost figures beside time (memory, passes ...), as extra metrics.csv columns."""
+        return {}
+
+    def release(self) -> None:
+        """Free GL resources made by :meth:`setup`."""
+
+
+def parse_spec(spec: str) -> tuple[str, dict[str, str]]:
+    """Split ``name:key=value,...`` into the name and a dict of raw string values."""
+    spec = spec.strip()
+    name, _, rest = spec.partition(":")
+    name = name.strip()
+    if not name:
+        raise TechniqueError(f"empty technique name in spec {spec!r}")
+    values: dict[str, str] = {}
+    for item in filter(None, (s.strip() for s in rest.split(","))):
+        key, eq, val = item.partition("=")
+        if not eq or not key.strip():
+            raise TechniqueError(f"{name}: expected key=value, got {item!r}")
+        if key.strip() in values:
+            raise TechniqueError(f"{name}: parameter {key.strip()!r} given twice")
+        values[key.strip()] = val.strip()
+    return name, values

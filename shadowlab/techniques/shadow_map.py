@@ -5,7 +5,9 @@ precision; pass 2 (over the shared G-buffer) transforms each visible point into 
 clip space with the bias matrix and compares its depth, minus a constant ``bias`` in
 window-depth units, with the stored one.
 
-Light frusta are fitted to what the scene and camera involve (DESIGN §11), never constants:
+Light frusta are fitted to what the scene and camera involve (DESIGN §11), never constants.
+The points to cover are the evaluated receiver points that can be in shadow at all — those
+whose segment to the light crosses a caster's bounding box (:func:`shadowable`); then
 - directional: orthographic along the light, its x/y extent fitted to the evaluated receiver
   points, its depth range from the nearest caster to the farthest receiver;
 - target-direct: orthographic over the light's cylinder (radius R), clipped to the receivers;
@@ -44,11 +46,36 @@ def _corners(bounds: np.ndarray) -> np.ndarray:
         if len(bounds) else np.zeros((0, 3))
 
 
+def shadowable(points: np.ndarray, normals: np.ndarray, light, bounds: np.ndarray, eps: float) -> np.ndarray:
+    """Bool (M,): receiver points whose segment to the light crosses some caster's bounding box.
+
+    Conservative (a superset of the points that can be in shadow): a point whose segment
+    misses every caster box is certainly lit, so the shadow map need not cover it. The
+    segment starts ``eps`` off the surface, so a receiver's own flat box does not count.
+    """
+    origin = points + eps * normals
+    dirs, dist = light.to_light(origin)
+    dist = np.minimum(dist, 1e30)
+    hit = np.zeros(len(points), bool)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / dirs
+        for lo, hi in bounds:  # slab test (Kay & Kajiya 1986), one box at a time over all points
+            t1, t2 = (lo - origin) * inv, (hi - origin) * inv
+            t_near = np.nanmax(np.minimum(t1, t2), axis=1)
+            t_far = np.nanmin(np.maximum(t1, t2), axis=1)
+            hit |= (t_near <= t_far) & (t_far >= 0) & (t_near <= dist)
+    return hit
+
+
 def fit_light_frustum(frame, light_index: int) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """Light view and projection matrices (float64 4x4) fitted to the frame, and notes."""
     light = frame.scene.lights[light_index]
-    receivers = frame.compact_position[frame.compact_evaluated(light_index)]
+    evaluated = frame.compact_evaluated(light_index)
     casters = frame.caster_bounds()
+    receivers = frame.compact_position[evaluated]
+    focus = shadowable(receivers, frame.compact_normal[evaluated], light, casters,
+                       eps=1e-5 * frame.scene.extent())
+    receivers = receivers[focus]
     notes: list[str] = []
     if len(receivers) == 0:
         receivers = frame.scene.bounds()  # nothing to answer: any valid frustum will do

@@ -1,0 +1,119 @@
+"""The `shadowlab` command end to end: contract files and columns, bad input, atomic output."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from shadowlab.cli import main
+from shadowlab.run import CONTRACT_COLUMNS
+
+
+def test_compare_writes_every_contract_file(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = main(["compare", "box_on_plane", "--technique", "shadow_map:resolution=512,bias=0.002",
+                 "--technique", "shadow_map:resolution=128", "--size", "160x120", "--out", str(out),
+                 "--repeat", "2"])
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert str(out) in printed and "report.html" in printed
+    df = pd.read_csv(out / "metrics.csv")
+    assert list(df.columns[: len(CONTRACT_COLUMNS)]) == CONTRACT_COLUMNS
+    assert len(df) == 3 and df["reference"].sum() == 1
+    assert (df["width"] == 160).all() and (df["height"] == 120).all()
+    assert df.loc[df["reference"], "error_rate"].item() == 0
+    masks = np.load(out / "masks.npz")
+    labels = set(df["label"]) - {df.loc[df["reference"], "label"].item()}
+    assert set(masks.files) == {"ground_truth"} | labels
+    for key in masks.files:
+        m = masks[key]
+        assert m.dtype == np.float32 and m.shape == (120, 160)
+        finite = m[np.isfinite(m)]
+        assert finite.size == df["evaluated_pixels"].iloc[0] and finite.min() >= 0 and finite.max() <= 1
+    # The masks reproduce the metrics.
+    gt = masks["ground_truth"]
+    row = df[df["label"] == "shadow_map:resolution=128,bias=0.002,depth_bits=24"].iloc[0]
+    m = masks[row["label"]]
+    ev = np.isfinite(gt)
+    assert np.sum((m[ev] < 0.5) != (gt[ev] < 0.5)) / ev.sum() == pytest.approx(row["error_rate"])
+    run = json.loads((out / "run.json").read_text())
+    for key in ("scene", "configurations", "renderer", "versions", "timing_method", "date"):
+        assert run[key]
+    for im in run["images"]:
+        for k in ("shaded", "visibility", "error"):
+            if k in im:
+                assert (out / im[k]).stat().st_size > 0
+    assert "<table" in (out / "report.html").read_text()
+
+
+@pytest.mark.parametrize("args,culprit", [
+    (["compare", "no_such_scene"], "no_such_scene"),
+    (["compare", "box_on_plane", "--technique", "nope"], "nope"),
+    (["compare", "box_on_plane", "--technique", "shadow_map:foo=1"], "foo"),
+    (["compare", "box_on_plane", "--size", "800by600"], "--size"),
+    (["compare", "box_on_plane", "--size", "0x600"], "--size"),
+    (["compare", "box_on_plane", "--repeat", "0"], "--repeat"),
+])
+def test_bad_input_exit_2_one_line(tmp_path, capsys, args, culprit):
+    out = tmp_path / "existing"
+    out.mkdir()
+    (out / "keep.txt").write_text("earlier results")
+    assert main(args + ["--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and culprit in err
+    assert (out / "keep.txt").read_text() == "earlier results"
+    assert [p.name for p in tmp_path.iterdir()] == ["existing"]  # no temporary left behind
+
+
+@pytest.mark.parametrize("change,culprit", [
+    (('beta = 50.0', 'beta = 80.0'), "lights[0].beta"),
+    (('alpha = 70.0', 'alpha = 70.0\nintensity = 3.0'), "lights[0].intensity"),
+    (('mesh = "sphere"', 'mesh = "meshes/nowhere.obj"'), "nowhere.obj"),
+])
+def test_bad_scene_file_exit_2(tmp_path, capsys, change, culprit):
+    from shadowlab.scene import builtin_scenes
+
+    text = builtin_scenes()["spot_scene"].read_text()
+    assert change[0] in text
+    path = tmp_path / "bad.toml"
+    path.write_text(text.replace(*change))
+    assert main(["compare", str(path), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and culprit in err and "bad.toml" in err
+    assert not (tmp_path / "r").exists()
+
+
+def test_failed_run_leaves_earlier_results(tmp_path, monkeypatch):
+    """A failure in the middle of a run (after GL work began) keeps the old run directory."""
+    from shadowlab import run as runmod
+
+    out = tmp_path / "run"
+    assert main(["compare", "box_on_plane", "--size", "64x48", "--repeat", "1", "--out", str(out)]) == 0
+    before = (out / "metrics.csv").read_text()
+
+    def boom(*a, **k):
+        raise RuntimeError("simulated failure while writing")
+
+    monkeypatch.setattr(runmod.report, "write_html", boom)
+    with pytest.raises(RuntimeError):
+        main(["compare", "box_on_plane", "--size", "80x60", "--repeat", "1", "--out", str(out)])
+    assert (out / "metrics.csv").read_text() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def test_listing_and_python_m(tmp_path):
+    env = dict(os.environ)
+    res = subprocess.run([sys.executable, "-m", "shadowlab", "scenes"], capture_output=True, text=True, env=env)
+    assert res.returncode == 0 and "box_on_plane" in res.stdout and "sun_scene" in res.stdout
+    res = subprocess.run([sys.executable, "-m", "shadowlab", "techniques"], capture_output=True, text=True, env=env)
+    assert res.returncode == 0 and "shadow_map" in res.stdout and "resolution=2048" in res.stdout
+    # Not a terminal: no progress bar noise on stderr.
+    res = subprocess.run([sys.executable, "-m", "shadowlab", "compare", "box_on_plane", "--size", "64x48",
+                          "--repeat", "1", "--out", str(tmp_path / "r")], capture_output=True, text=True, env=env)
+    assert res.returncode == 0 and res.stderr == ""

@@ -1,0 +1,77 @@
+"""Lights: the numpy and GLSL definitions agree; footprints follow DESIGN §8."""
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from shadowlab import gl
+from shadowlab.lights import (LIGHT_TYPE_IDS, DirectionalLight, PointLight, SpotLight, TargetDirectLight)
+
+LIGHTS = [
+    PointLight(position=np.array([0.5, 4.0, -1.0])),
+    DirectionalLight(direction=np.array([-0.3, -1.0, 0.2]) / np.linalg.norm([-0.3, -1.0, 0.2])),
+    SpotLight(position=np.array([0.0, 3.0, 0.0]), direction=np.array([0.0, -1.0, 0.0]), alpha=70.0, beta=40.0),
+    SpotLight(position=np.array([1.0, 3.0, 0.0]), direction=np.array([0.0, -1.0, 0.0]), alpha=50.0, beta=50.0),
+    TargetDirectLight(position=np.array([0.0, 3.0, 0.0]), direction=np.array([0.0, -1.0, 0.0]), R=2.0, r=1.0),
+]
+
+
+_TARGET = []
+
+
+def _probe_target(ctx):
+    """A 1x1 framebuffer kept for the session (moderngl re-binds its last one, so never release it)."""
+    if not _TARGET:
+        _TARGET.append(ctx.framebuffer(color_attachments=[ctx.texture((1, 1), 4)]))
+    return _TARGET[0]
+
+
+def glsl_eval(ctx, light, points):
+    prog = gl.program("light_probe.glsl", varyings=("out_footprint", "out_dir"))
+    gl.set_uniforms(prog, light.uniforms())
+    vbo = ctx.buffer(points.astype("f4").tobytes())
+    out = ctx.buffer(reserve=len(points) * 16)
+    vao = ctx.vertex_array(prog, [(vbo, "3f", "in_pos")])
+    _probe_target(ctx).use()  # EGL standalone contexts have no default framebuffer
+    vao.transform(out, vertices=len(points))
+    res = np.frombuffer(out.read(), "f4").reshape(-1, 4)
+    for obj in (vao, vbo, out, prog):
+        obj.release()
+    return res[:, 0], res[:, 1:]
+
+
+@pytest.mark.parametrize("light", LIGHTS, ids=lambda l: l.type_name)
+def test_glsl_and_numpy_agree(ctx, light, rng):
+    pts = rng.uniform([-4, -1, -4], [4, 2.9, 4], size=(20000, 3))
+    lam_gl, dir_gl = glsl_eval(ctx, light, pts)
+    lam_np = light.footprint(pts)
+    dir_np, _ = light.to_light(pts)
+    # float32 GLSL vs float64 numpy: the ramp agrees to float32 precision; a point exactly on a
+    # step edge may differ, so allow a handful of pixels of disagreement there only.
+    close = np.abs(lam_gl - lam_np) < 1e-4
+    assert close.mean() > 0.9995, np.abs(lam_gl - lam_np).max()
+    assert np.allclose(dir_gl, dir_np, atol=1e-5)
+
+
+def test_type_ids_match_glsl():
+    src = gl.shader_source("lights.glsl")
+    for name, idx in LIGHT_TYPE_IDS.items():
+        assert re.search(rf"#define LIGHT_{name.upper()} {idx}\b", src), name
+
+
+def test_spot_footprint_values():
+    spot = SpotLight(position=np.zeros(3), direction=np.array([0.0, -1.0, 0.0]), alpha=60.0, beta=40.0)
+    def at(deg):
+        return spot.footprint(np.array([[np.sin(np.radians(deg)), -np.cos(np.radians(deg)), 0.0]]))[0]
+    assert at(0) == 1.0 and at(19.9) == 1.0
+    assert at(30.1) == 0.0
+    c_o, c_i = np.cos(np.radians(30)), np.cos(np.radians(20))
+    assert at(25) == pytest.approx((np.cos(np.radians(25)) - c_o) / (c_i - c_o))
+
+
+def test_target_direct_footprint_values():
+    td = TargetDirectLight(position=np.zeros(3), direction=np.array([0.0, -1.0, 0.0]), R=2.0, r=1.0)
+    pts = np.array([[0.5, -1, 0], [1.5, -1, 0], [2.5, -1, 0], [0.0, 1.0, 0.0]])
+    assert td.footprint(pts).tolist() == [1.0, 0.5, 0.0, 0.0]  # last: behind the light

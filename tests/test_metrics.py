@@ -1,0 +1,84 @@
+"""Metrics of DESIGN §7 on hand-made masks."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from shadowlab.metrics import compare, error_classes, shadow_boundary
+
+
+def masks(h=20, w=30):
+    truth = np.ones((h, w), np.float32)
+    truth[5:15, 10:20] = 0.0  # a 10x10 shadow
+    return truth, np.ones((h, w), bool)
+
+
+def test_identical_is_perfect():
+    truth, ev = masks()
+    m = compare(truth, truth, ev)
+    assert m["error_rate"] == 0 and m["false_shadow_rate"] == 0 and m["false_lit_rate"] == 0
+    assert m["boundary_error_px"] == 0 and m["evaluated_pixels"] == 600
+    assert m["truth_shadowed_pixels"] == 100 and m["truth_lit_pixels"] == 500
+
+
+def test_rates_by_hand():
+    truth, ev = masks()
+    vis = truth.copy()
+    vis[5:15, 10:12] = 1.0      # 20 false lit
+    vis[0:2, 0:5] = 0.0         # 10 false shadow
+    m = compare(vis, truth, ev)
+    assert m["false_lit_pixels"] == 20 and m["false_shadow_pixels"] == 10
+    assert m["false_lit_rate"] == pytest.approx(20 / 100)
+    assert m["false_shadow_rate"] == pytest.approx(10 / 500)
+    assert m["error_rate"] == pytest.approx(30 / 600)
+
+
+def test_shifted_boundary_distance():
+    truth, ev = masks()
+    vis = np.ones_like(truth)
+    vis[5:15, 13:23] = 0.0  # the same square moved 3 px right
+    m = compare(vis, truth, ev)
+    # vertical edges are 3 px apart; horizontal edges overlap partly (distance 0 or up to 3)
+    assert 1.0 < m["boundary_error_px"] <= 3.0
+    assert m["boundary_hausdorff_px"] == pytest.approx(3.0)
+
+
+def test_not_evaluated_pixels_do_not_count():
+    truth, ev = masks()
+    vis = np.zeros_like(truth)
+    ev[:] = False
+    ev[5:15, 10:20] = True  # only the true shadow is evaluated
+    m = compare(vis, truth, ev)
+    assert m["evaluated_pixels"] == 100 and m["error_rate"] == 0
+    assert m["false_shadow_rate"] == 0 and m["truth_lit_pixels"] == 0  # empty denominator -> 0
+
+
+def test_empty_and_all_shadow():
+    ev = np.ones((10, 10), bool)
+    lit, dark = np.ones((10, 10), np.float32), np.zeros((10, 10), np.float32)
+    m = compare(dark, dark, ev)
+    assert m["error_rate"] == 0 and m["false_lit_rate"] == 0 and m["boundary_error_px"] == 0
+    m = compare(dark, lit, ev)
+    assert m["error_rate"] == 1.0 and m["false_shadow_rate"] == 1.0 and m["false_lit_rate"] == 0.0
+    m = compare(lit, lit, np.zeros((10, 10), bool))
+    assert m["evaluated_pixels"] == 0 and m["error_rate"] == 0
+    # one side has a boundary, the other none: worst case, the image diagonal
+    half = lit.copy(); half[:, :5] = 0
+    assert compare(half, lit, ev)["boundary_error_px"] == pytest.approx(np.hypot(10, 10))
+
+
+def test_fractional_visibility_mae():
+    truth, ev = masks()
+    vis = np.clip(truth + 0.25, 0, 1)
+    m = compare(vis, truth, ev)
+    assert m["error_rate"] == 0
+    assert m["visibility_mae"] == pytest.approx(0.25 * 100 / 600)
+
+
+def test_boundary_and_classes():
+    truth, ev = masks()
+    b = shadow_boundary(truth < 0.5, ev)
+    assert b[5, 10] and b[5, 9] and not b[10, 15] and not b[0, 0]
+    vis = truth.copy(); vis[0, 0] = 0; vis[10, 15] = 1
+    cls = error_classes(vis, truth, ev)
+    assert cls[0, 0] == 3 and cls[10, 15] == 4 and cls[1, 1] == 1 and cls[6, 11] == 2

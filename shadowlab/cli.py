@@ -60,8 +60,8 @@ def _cmd_compare(args) -> int:
     cols = ["label", "light", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px", "time_ms_median"]
     with pd.option_context("display.width", 200, "display.max_colwidth", 60):
         print(df[cols].to_string(index=False, float_format=lambda x: f"{x:.4g}"))
-    print(f"run directory: {out}")
-    print(f"report: {out / 'report.html'}")
+    print(f"run directory: {out.resolve()}")
+    print(f"report: {(out / 'report.html').resolve()}")
     return 0
 
 

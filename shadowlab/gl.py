@@ -13,7 +13,6 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -92,10 +91,11 @@ GLSL_VERSION = "#version 330 core"
 
 def shader_dir() -> Path:
     """Folder that holds the GLSL files (the repository's ``shaders/`` or the installed copy)."""
-    local = Path(__file__).resolve().parent.parent / "shaders"
-    if local.is_dir():
-        return local
-    return Path(str(resources.files("shadowlab.shaders")))
+    here = Path(__file__).resolve().parent
+    for folder in (here.parent / "shaders", here / "shaders"):  # source checkout, installed package
+        if (folder / "lights.glsl").is_file():
+            return folder
+    raise FileNotFoundError(f"no shaders/ folder beside {here}: the installation is incomplete")
 
 
 def _expand(name: str, seen: tuple[str, ...] = ()) -> str:

@@ -249,10 +249,13 @@ class ScreenTarget:
     fbo: object
     fbo_glo: int
     depth_stencil_glo: int
+    owns_depth_stencil: bool = True
 
     @classmethod
-    def create(cls, size: tuple[int, int], colors: list) -> "ScreenTarget":
-        """Wrap moderngl textures ``colors`` (all of ``size``) with a new depth-stencil attachment."""
+    def create(cls, size: tuple[int, int], colors: list, share_depth_stencil: "ScreenTarget | None" = None
+               ) -> "ScreenTarget":
+        """Wrap moderngl textures ``colors`` (all of ``size``) with a new depth-stencil attachment,
+        or with the one of ``share_depth_stencil`` (e.g. a technique drawing on the G-buffer's stencil)."""
         from OpenGL import GL
 
         ctx = context()
@@ -262,14 +265,19 @@ class ScreenTarget:
         for i, tex in enumerate(colors):
             GL.glFramebufferTexture2D(GL.GL_FRAMEBUFFER, GL.GL_COLOR_ATTACHMENT0 + i, GL.GL_TEXTURE_2D, tex.glo, 0)
         GL.glDrawBuffers(len(colors), [GL.GL_COLOR_ATTACHMENT0 + i for i in range(len(colors))])
-        rb = int(GL.glGenRenderbuffers(1))
-        GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, rb)
-        GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_DEPTH24_STENCIL8, w, h)
+        if share_depth_stencil is not None:
+            if tuple(share_depth_stencil.size) != (w, h):
+                raise ValueError(f"shared depth-stencil is {share_depth_stencil.size}, target is {size}")
+            rb = share_depth_stencil.depth_stencil_glo
+        else:
+            rb = int(GL.glGenRenderbuffers(1))
+            GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, rb)
+            GL.glRenderbufferStorage(GL.GL_RENDERBUFFER, GL.GL_DEPTH24_STENCIL8, w, h)
         GL.glFramebufferRenderbuffer(GL.GL_FRAMEBUFFER, GL.GL_DEPTH_STENCIL_ATTACHMENT, GL.GL_RENDERBUFFER, rb)
         _check_complete(GL)
         fbo = ctx.detect_framebuffer(fid)
         check_errors("ScreenTarget.create")
-        return cls((w, h), list(colors), fbo, fid, rb)
+        return cls((w, h), list(colors), fbo, fid, rb, share_depth_stencil is None)
 
     def use(self) -> None:
         """Bind as the draw target with a full-size viewport."""
@@ -304,11 +312,12 @@ class ScreenTarget:
         return np.frombuffer(data, np.float32).reshape(self.size[1], self.size[0])[::-1].copy()
 
     def release(self) -> None:
-        """Free the framebuffer and the depth-stencil renderbuffer (not the colour textures)."""
+        """Free the framebuffer and its own depth-stencil renderbuffer (not colour textures, not a shared one)."""
         from OpenGL import GL
 
         GL.glDeleteFramebuffers(1, [self.fbo_glo])
-        GL.glDeleteRenderbuffers(1, [self.depth_stencil_glo])
+        if self.owns_depth_stencil:
+            GL.glDeleteRenderbuffers(1, [self.depth_stencil_glo])
 
 
 def read_texture(tex, components: int, dtype: str = "f4") -> np.ndarray:

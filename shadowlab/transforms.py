@@ -46,6 +46,15 @@ def perspective(fov_y_deg: float, aspect: float, near: float, far: float) -> np.
     return m
 
 
+def perspective_infinite(fov_y_deg: float, aspect: float, near: float, eps: float = 0.0) -> np.ndarray:
+    """Perspective projection with the far plane at infinity (Everitt & Kilgard 2002, eq. for
+    P_inf): points at infinity (w = 0) land at window depth 1 − ε/2 instead of being clipped."""
+    m = perspective(fov_y_deg, aspect, near, 2.0 * near)
+    m[2, 2] = eps - 1.0
+    m[2, 3] = (eps - 2.0) * near
+    return m
+
+
 def orthographic(left, right, bottom, top, near, far) -> np.ndarray:
     """OpenGL orthographic projection (glOrtho)."""
     m = np.eye(4)

@@ -4,10 +4,12 @@ from __future__ import annotations
 from .base import Param, Technique, TechniqueError, parse_spec
 from .raytrace import RayTraced
 from .shadow_map import ShadowMap
+from .shadow_volume import ShadowVolume
 
 REGISTRY: dict[str, type[Technique]] = {
     RayTraced.name: RayTraced,
     ShadowMap.name: ShadowMap,
+    ShadowVolume.name: ShadowVolume,
 }
 
 

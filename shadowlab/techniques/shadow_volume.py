@@ -1,0 +1,330 @@
+"""Stencil shadow volumes (Crow 1977; Heidmann 1991), z-pass and z-fail, with real 8-bit stencil.
+
+Per light and caster: silhouette edges from edge adjacency (``silhouette=cpu``: numpy over the
+edge table of :mod:`shadowlab.adjacency`; ``silhouette=gpu``: a geometry shader over
+``GL_TRIANGLES_ADJACENCY``), extruded to infinity as w = 0 points. Counting happens in the
+stencil of the G-buffer's depth-stencil attachment, two-sided (``glStencilOpSeparate``) with
+wrapping increments and decrements; colour and depth writes are off. A pixel is lit where
+its count is 0.
+
+- ``mode=zpass``: count volume faces in front of the surface (front +1, back −1). Wrong when
+  the camera is inside a volume or the near plane cuts one (hard case SV1).
+- ``mode=zfail`` (Carmack 2000; Everitt & Kilgard 2002, "Practical and Robust Stenciled
+  Shadow Volumes"): count faces behind the surface (back +1, front −1 on depth fail), which
+  needs closed volumes: near caps (the light-facing faces) and far caps (the same, extruded).
+- ``far=infinite``: the camera projection with its far plane at infinity (Everitt & Kilgard,
+  with their ε so that w = 0 points stay inside the clip volume); ``far=clamp``: the finite
+  projection with ``GL_DEPTH_CLAMP`` (NV_depth_clamp); ``far=finite``: neither — far caps and
+  sides are clipped and z-fail loses shadow (hard case SV2, kept to reproduce it on purpose).
+
+Near caps coincide with the casters' own lit faces. The technique renders its own depth
+pre-pass (in ``setup``, untimed: it is primary visibility under the projection it needs) with
+the very program and vertex data that draw the caps, so a cap's depth equals the surface's
+bit for bit and a lit face is never counted inside its own volume (no acne). Caps that must be
+turned round (two-sided mode) keep their vertex order and are drawn with the stencil
+operations of the other face instead, for the same reason.
+
+Open meshes, non-manifold edges, inconsistent winding and a light inside a closed caster are
+detected per object and handled with the two-sided multiplicity scheme (see
+:mod:`shadowlab.adjacency`); the run notes say which objects needed it. The GPU path cannot
+describe non-manifold edges in an adjacency buffer: such objects fall back to the CPU path,
+and the notes say so.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import adjacency as adj
+from .. import gl
+from .. import transforms as tf
+from .base import Param, Technique
+
+#: Everitt & Kilgard's ε for the infinite projection: keeps w = 0 points just inside the far plane.
+INFINITE_EPSILON = 2.4e-7
+
+
+@dataclass
+class CasterPlan:
+    """How one caster object is drawn for the current light."""
+
+    index: int
+    table: adj.EdgeTable
+    two_sided: bool
+    path: str  # 'cpu' or 'gpu'
+    first_triangle: int  # offset of the object's triangles in the frame's vertex order
+
+
+class ShadowVolume(Technique):
+    """Stencil shadow volumes with CPU or GPU silhouettes, z-pass or z-fail, three far-plane modes."""
+
+    name = "shadow_volume"
+    summary = "stencil shadow volumes (z-pass / z-fail, infinite far plane or depth clamp)"
+    PARAMS = {
+        "mode": Param("zfail", "stencil counting: zpass (Heidmann) or zfail (Carmack; Everitt & Kilgard)",
+                      choices=("zpass", "zfail")),
+        "silhouette": Param("cpu", "silhouette extraction: cpu (numpy edge table) or gpu (geometry shader)",
+                            choices=("cpu", "gpu")),
+        "far": Param("infinite", "far plane: infinite projection, clamp (GL_DEPTH_CLAMP), or finite (SV2 artefact)",
+                     choices=("infinite", "clamp", "finite")),
+    }
+
+    # ------------------------------------------------------------------ setup
+    def setup(self, frame, light_index: int) -> None:
+        """Plan each caster, build programs and buffers, and render the depth pre-pass."""
+        ctx = frame.ctx
+        self.frame, self.light = frame, frame.scene.lights[light_index]
+        if self.far == "infinite":
+            cam = frame.camera
+            self.proj = tf.perspective_infinite(cam.fov_y, frame.width / frame.height, cam.near, INFINITE_EPSILON)
+        else:
+            self.proj = frame.projection
+        self.matrices = {"u_view": gl.mat_bytes(frame.view), "u_proj": gl.mat_bytes(self.proj)}
+        starts = np.cumsum([0] + [len(o.faces) for o in frame.scene.objects])
+        self.plans: list[CasterPlan] = []
+        for i, obj in enumerate(frame.scene.objects):
+            if not obj.casts:
+                continue
+            table = adj.cached_edge_table(obj)
+            inside = (not self.light.at_infinity and table.closed
+                      and adj.light_inside_closed_mesh(table, self.light.position))
+            two_sided = not table.closed or inside
+            path = self.silhouette
+            if two_sided:
+                why = "the light is inside it" if inside else table.describe()
+                self.notes.append(f"object '{obj.name}': {why}; volumes use the two-sided multiplicity scheme")
+            if path == "gpu" and not table.manifold:
+                self.notes.append(f"object '{obj.name}': non-manifold edges cannot be described to the geometry "
+                                  f"shader; its silhouette falls back to the CPU path")
+                path = "cpu"
+            self.plans.append(CasterPlan(i, table, two_sided, path, int(starts[i])))
+        self.vs_prog = gl.program("shadow_volume.glsl")
+        for key, val in self.matrices.items():
+            self.vs_prog[key].write(val)
+        gl.set_uniforms(self.vs_prog, self.light.uniforms())
+        self.scene4 = ctx.buffer(_flagged(frame.triangles.reshape(-1, 3), 0.0).tobytes())
+        self.scene4_vao = ctx.vertex_array(self.vs_prog, [(self.scene4, "3f 1f", "in_pos", "in_extrude")])
+        self.volume_vbo = None
+        self.gpu, self.gs_prog = {}, None
+        if any(p.path == "gpu" for p in self.plans):
+            self.gs_prog = gl.program("shadow_volume_gs.glsl")
+            gl.set_uniforms(self.gs_prog, self.light.uniforms())
+            for key, val in self.matrices.items():
+                self.gs_prog[key].write(val)
+            gl.set_uniforms(self.gs_prog, {"u_two_sided": False, "u_caps": self.mode == "zfail",
+                                           "u_far_cap": not self.light.at_infinity})
+            for p in self.plans:
+                if p.path == "gpu":
+                    vbo = ctx.buffer(p.table.vertices.astype("f4").tobytes())
+                    ibo = ctx.buffer(p.table.adjacency_indices().tobytes())
+                    vao = ctx.vertex_array(self.gs_prog, [(vbo, "3f", "in_pos")], index_buffer=ibo, index_element_size=4)
+                    self.gpu[p.index] = (vbo, ibo, vao)
+        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
+        self.target = gl.ScreenTarget.create((frame.width, frame.height), [self.vis_tex],
+                                             share_depth_stencil=frame.target)
+        self.const_prog = gl.program("constant.glsl")
+        self.quad = gl.fullscreen_quad(self.const_prog)
+        self._depth_prepass()
+
+    def _depth_prepass(self) -> None:
+        """Scene depth under this technique's projection, drawn by the programs that draw the caps."""
+        from OpenGL import GL
+
+        ctx = self.frame.ctx
+        self.target.use()
+        self.target.clear_depth_stencil()
+        GL.glColorMask(False, False, False, False)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+        ctx.depth_func = "<"
+        gpu_objects = {p.index for p in self.plans if p.path == "gpu"}
+        for i, rng in enumerate(self.frame.object_ranges):
+            if i in gpu_objects:
+                self.gs_prog["u_stage"].value = 0
+                self.gpu[i][2].render(ctx.TRIANGLES_ADJACENCY)
+            else:
+                self.scene4_vao.render(vertices=rng.count, first=rng.first)
+        GL.glColorMask(True, True, True, True)
+        gl.check_errors("shadow volume depth pre-pass")
+
+    # ------------------------------------------------------------------ per-frame work
+    def _cpu_geometry(self):
+        """Volume vertices (sides and far caps, vec4) and near-cap triangle indices for the CPU path."""
+        zfail = self.mode == "zfail"
+        verts, caps, flipped = [], [], []
+        for p in self.plans:
+            if p.path != "cpu":
+                continue
+            t = p.table
+            lit = adj.facing(t, self.light)
+            sil = adj.silhouette_edges(t, lit, p.two_sided)
+            a, b = _flagged(t.vertices[sil[:, 0]], 0.0), _flagged(t.vertices[sil[:, 1]], 0.0)
+            ae, be = a.copy(), b.copy()
+            ae[:, 3] = be[:, 3] = 1.0
+            # Triangles (b, a, a') and (b, a', b'): the same as the geometry shader emits.
+            verts.append(np.stack([b, a, ae, b, ae, be], axis=1).reshape(-1, 4))
+            if zfail:
+                faces_lit = np.flatnonzero(lit)
+                faces_dark = np.flatnonzero(~lit) if p.two_sided else np.zeros(0, np.int64)
+                caps.append(faces_lit + p.first_triangle)
+                flipped.append(faces_dark + p.first_triangle)
+                if not self.light.at_infinity:  # far cap: the light-facing orientation, reversed
+                    tri_l = t.vertices[t.faces[faces_lit]][:, [0, 2, 1]]
+                    tri_d = t.vertices[t.faces[faces_dark]]
+                    verts.append(_flagged(np.concatenate([tri_l, tri_d]).reshape(-1, 3), 1.0))
+        volume = np.concatenate(verts) if verts else np.zeros((0, 4), "f4")
+        cap_idx = _triangle_indices(np.concatenate(caps) if caps else np.zeros(0, np.int64))
+        flip_idx = _triangle_indices(np.concatenate(flipped) if flipped else np.zeros(0, np.int64))
+        return volume, cap_idx, flip_idx
+
+    def _stencil_ops(self, flipped: bool = False) -> None:
+        from OpenGL import GL
+
+        inc, dec, keep = GL.GL_INCR_WRAP, GL.GL_DECR_WRAP, GL.GL_KEEP
+        front, back = (GL.GL_BACK, GL.GL_FRONT) if flipped else (GL.GL_FRONT, GL.GL_BACK)
+        if self.mode == "zpass":  # Heidmann: on depth pass, front +1, back -1
+            GL.glStencilOpSeparate(front, keep, keep, inc)
+            GL.glStencilOpSeparate(back, keep, keep, dec)
+        else:  # Everitt & Kilgard: on depth fail, back +1, front -1
+            GL.glStencilOpSeparate(front, keep, dec, keep)
+            GL.glStencilOpSeparate(back, keep, inc, keep)
+
+    def _draw_volumes(self, volume, cap_idx, flip_idx) -> None:
+        """All volume geometry, with the stencil state already set (used by render and stats)."""
+        ctx = self.frame.ctx
+        if len(volume):
+            if self.volume_vbo is None or self.volume_vbo.size < volume.nbytes:
+                if self.volume_vbo is not None:
+                    self.volume_vao.release()
+                    self.volume_vbo.release()
+                self.volume_vbo = ctx.buffer(reserve=max(volume.nbytes, 1 << 16), dynamic=True)
+                self.volume_vao = ctx.vertex_array(self.vs_prog, [(self.volume_vbo, "3f 1f", "in_pos", "in_extrude")])
+            self.volume_vbo.write(volume.tobytes())
+            self.volume_vao.render(vertices=len(volume))
+        for idx, flipped in ((cap_idx, False), (flip_idx, True)):
+            if len(idx):
+                self._stencil_ops(flipped)
+                ibo = ctx.buffer(idx.astype("i4").tobytes())
+                vao = ctx.vertex_array(self.vs_prog, [(self.scene4, "3f 1f", "in_pos", "in_extrude")],
+                                       index_buffer=ibo, index_element_size=4)
+                vao.render()
+                vao.release()
+                ibo.release()
+        self._stencil_ops(False)
+        for p in self.plans:
+            if p.path != "gpu":
+                continue
+            vao = self.gpu[p.index][2]
+            self.gs_prog["u_two_sided"].value = p.two_sided
+            self.gs_prog["u_stage"].value = 1
+            vao.render(ctx.TRIANGLES_ADJACENCY)
+            if p.two_sided and self.mode == "zfail":
+                self._stencil_ops(True)
+                self.gs_prog["u_stage"].value = 2
+                vao.render(ctx.TRIANGLES_ADJACENCY)
+                self._stencil_ops(False)
+
+    def render(self) -> None:
+        """Silhouettes (CPU path), stencil counting, then stencil → visibility."""
+        from OpenGL import GL
+
+        ctx = self.frame.ctx
+        self._geometry = self._cpu_geometry()
+        self.target.use()
+        GL.glStencilMask(0xFF)
+        GL.glClearStencil(0)
+        GL.glClear(GL.GL_STENCIL_BUFFER_BIT)
+        GL.glColorMask(False, False, False, False)
+        GL.glDepthMask(False)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+        ctx.depth_func = "<"
+        if self.far == "clamp":
+            GL.glEnable(GL.GL_DEPTH_CLAMP)
+        GL.glEnable(GL.GL_STENCIL_TEST)
+        GL.glStencilFunc(GL.GL_ALWAYS, 0, 0xFF)
+        self._stencil_ops()
+        self._draw_volumes(*self._geometry)
+        GL.glDisable(GL.GL_DEPTH_CLAMP)
+        # Visibility: 0 everywhere, 1 where the count is 0.
+        GL.glColorMask(True, True, True, True)
+        ctx.disable(ctx.DEPTH_TEST)
+        GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
+        GL.glStencilFunc(GL.GL_EQUAL, 0, 0xFF)
+        GL.glStencilOp(GL.GL_KEEP, GL.GL_KEEP, GL.GL_KEEP)
+        self.const_prog["u_value"].value = 1.0
+        self.quad.render()
+        GL.glDisable(GL.GL_STENCIL_TEST)
+        GL.glDepthMask(True)
+
+    def visibility(self) -> np.ndarray:
+        """Binary visibility from the stencil count."""
+        return gl.read_texture(self.vis_tex, 1)[..., 0]
+
+    def stats(self) -> dict:
+        """Silhouette edges, volume triangles, stencil fill and peak count (untimed extra passes)."""
+        from OpenGL import GL
+
+        ctx = self.frame.ctx
+        stencil = self.target.read_stencil().astype(np.int64)
+        out = {
+            # Extruded edges (an edge of multiplicity m counts |m| times), on every path.
+            "silhouette_edges": sum(len(adj.silhouette_edges(p.table, adj.facing(p.table, self.light), p.two_sided))
+                                    for p in self.plans),
+            "stencil_peak_count": int(np.max(np.minimum(stencil, 256 - stencil))),  # counts wrap modulo 256
+        }
+        # Fill: fragments of all volume geometry with the depth test ALWAYS (so no class is
+        # missed), and those that update the stencil under the real depth test.
+        self.target.use()
+        GL.glColorMask(False, False, False, False)
+        GL.glDepthMask(False)
+        ctx.enable(ctx.DEPTH_TEST)
+        if self.far == "clamp":
+            GL.glEnable(GL.GL_DEPTH_CLAMP)
+        fill, prims = {}, 0
+        for name, func in (("volume_fragments", "1"), ("passed", "<")):
+            ctx.depth_func = func
+            q = ctx.query(samples=True, primitives=True) if name == "volume_fragments" else ctx.query(samples=True)
+            with q:
+                self._draw_volumes(*self._geometry)
+            fill[name] = q.samples
+            if name == "volume_fragments":
+                prims = q.primitives
+        GL.glDisable(GL.GL_DEPTH_CLAMP)
+        GL.glColorMask(True, True, True, True)
+        GL.glDepthMask(True)
+        ctx.depth_func = "<"
+        out["volume_fragments"] = int(fill["volume_fragments"])
+        out["stencil_updates"] = int(fill["passed"] if self.mode == "zpass" else fill["volume_fragments"] - fill["passed"])
+        out["fill_per_pixel"] = out["volume_fragments"] / (self.frame.width * self.frame.height)
+        out["volume_triangles"] = int(prims)  # primitives generated (geometry shader output included)
+        return out
+
+    def release(self) -> None:
+        """Free GL objects (the shared depth-stencil stays with the frame)."""
+        self.frame.target.use()
+        for vbo, ibo, vao in self.gpu.values():
+            for obj in (vao, ibo, vbo):
+                obj.release()
+        if self.volume_vbo is not None:
+            self.volume_vao.release()
+            self.volume_vbo.release()
+        self.target.release()
+        for obj in (self.scene4_vao, self.scene4, self.vs_prog, self.quad, self.const_prog, self.vis_tex):
+            obj.release()
+        if self.gs_prog is not None:
+            self.gs_prog.release()
+
+
+def _flagged(pts: np.ndarray, extrude: float) -> np.ndarray:
+    """float32 (N, 4): world points (rounded to float32 like the GPU path's) and the extrude flag."""
+    out = np.empty((len(pts), 4), np.float32)
+    out[:, :3] = pts
+    out[:, 3] = extrude
+    return out
+
+
+def _triangle_indices(triangles: np.ndarray) -> np.ndarray:
+    """Vertex indices (3 per triangle) into the frame's unwelded vertex order."""
+    return (triangles[:, None] * 3 + np.arange(3)).ravel()

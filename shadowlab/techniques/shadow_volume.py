@@ -103,7 +103,11 @@ class ShadowVolume(Technique):
         for key, val in self.matrices.items():
             self.vs_prog[key].write(val)
         gl.set_uniforms(self.vs_prog, self.light.uniforms())
-        self.scene4 = ctx.buffer(_flagged(frame.triangles.reshape(-1, 3), 0.0).tobytes())
+        # The scene's triangles twice: as surface points (pre-pass, near caps) and extruded to
+        # infinity (far caps); caps are then drawn by index, with no per-frame vertex copies.
+        corners = frame.triangles.reshape(-1, 3)
+        self.scene4 = ctx.buffer(_flagged(corners, 0.0).tobytes())
+        self.scene_ext = ctx.buffer(_flagged(corners, 1.0).tobytes())
         self.scene4_vao = ctx.vertex_array(self.vs_prog, [(self.scene4, "3f 1f", "in_pos", "in_extrude")])
         self.volume_vbo = None
         self.gpu, self.gs_prog = {}, None
@@ -152,7 +156,7 @@ class ShadowVolume(Technique):
     def _cpu_geometry(self):
         """Volume vertices (sides and far caps, vec4) and near-cap triangle indices for the CPU path."""
         zfail = self.mode == "zfail"
-        verts, caps, flipped = [], [], []
+        verts, caps, flipped, far = [], [], [], []
         for p in self.plans:
             if p.path != "cpu":
                 continue
@@ -170,13 +174,13 @@ class ShadowVolume(Technique):
                 caps.append(faces_lit + p.first_triangle)
                 flipped.append(faces_dark + p.first_triangle)
                 if not self.light.at_infinity:  # far cap: the light-facing orientation, reversed
-                    tri_l = t.vertices[t.faces[faces_lit]][:, [0, 2, 1]]
-                    tri_d = t.vertices[t.faces[faces_dark]]
-                    verts.append(_flagged(np.concatenate([tri_l, tri_d]).reshape(-1, 3), 1.0))
+                    far.append(_triangle_indices(faces_lit + p.first_triangle, (0, 2, 1)))
+                    far.append(_triangle_indices(faces_dark + p.first_triangle))
         volume = np.concatenate(verts) if verts else np.zeros((0, 4), "f4")
         cap_idx = _triangle_indices(np.concatenate(caps) if caps else np.zeros(0, np.int64))
         flip_idx = _triangle_indices(np.concatenate(flipped) if flipped else np.zeros(0, np.int64))
-        return volume, cap_idx, flip_idx
+        far_idx = np.concatenate(far) if far else np.zeros(0, np.int64)
+        return volume, cap_idx, flip_idx, far_idx
 
     def _stencil_ops(self, flipped: bool = False) -> None:
         from OpenGL import GL
@@ -190,7 +194,17 @@ class ShadowVolume(Technique):
             GL.glStencilOpSeparate(front, keep, dec, keep)
             GL.glStencilOpSeparate(back, keep, inc, keep)
 
-    def _draw_volumes(self, volume, cap_idx, flip_idx) -> None:
+    def _draw_indexed(self, vbo, idx: np.ndarray) -> None:
+        """Triangles of ``vbo`` (the scene's corners, flagged) picked by vertex indices."""
+        ctx = self.frame.ctx
+        ibo = ctx.buffer(idx.astype("i4").tobytes())
+        vao = ctx.vertex_array(self.vs_prog, [(vbo, "3f 1f", "in_pos", "in_extrude")], index_buffer=ibo,
+                               index_element_size=4)
+        vao.render()
+        vao.release()
+        ibo.release()
+
+    def _draw_volumes(self, volume, cap_idx, flip_idx, far_idx) -> None:
         """All volume geometry, with the stencil state already set (used by render and stats)."""
         ctx = self.frame.ctx
         if len(volume):
@@ -202,15 +216,12 @@ class ShadowVolume(Technique):
                 self.volume_vao = ctx.vertex_array(self.vs_prog, [(self.volume_vbo, "3f 1f", "in_pos", "in_extrude")])
             self.volume_vbo.write(volume.tobytes())
             self.volume_vao.render(vertices=len(volume))
+        if len(far_idx):
+            self._draw_indexed(self.scene_ext, far_idx)
         for idx, flipped in ((cap_idx, False), (flip_idx, True)):
             if len(idx):
                 self._stencil_ops(flipped)
-                ibo = ctx.buffer(idx.astype("i4").tobytes())
-                vao = ctx.vertex_array(self.vs_prog, [(self.scene4, "3f 1f", "in_pos", "in_extrude")],
-                                       index_buffer=ibo, index_element_size=4)
-                vao.render()
-                vao.release()
-                ibo.release()
+                self._draw_indexed(self.scene4, idx)
         self._stencil_ops(False)
         for p in self.plans:
             if p.path != "gpu":
@@ -311,7 +322,7 @@ class ShadowVolume(Technique):
             self.volume_vao.release()
             self.volume_vbo.release()
         self.target.release()
-        for obj in (self.scene4_vao, self.scene4, self.vs_prog, self.quad, self.const_prog, self.vis_tex):
+        for obj in (self.scene4_vao, self.scene4, self.scene_ext, self.vs_prog, self.quad, self.const_prog, self.vis_tex):
             obj.release()
         if self.gs_prog is not None:
             self.gs_prog.release()
@@ -325,6 +336,7 @@ def _flagged(pts: np.ndarray, extrude: float) -> np.ndarray:
     return out
 
 
-def _triangle_indices(triangles: np.ndarray) -> np.ndarray:
-    """Vertex indices (3 per triangle) into the frame's unwelded vertex order."""
-    return (triangles[:, None] * 3 + np.arange(3)).ravel()
+def _triangle_indices(triangles: np.ndarray, corners=(0, 1, 2)) -> np.ndarray:
+    """Vertex indices (3 per triangle, corners in the given order) into the frame's unwelded
+    vertex order."""
+    return (triangles[:, None] * 3 + np.asarray(corners)).ravel()

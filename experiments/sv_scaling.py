@@ -1,0 +1,137 @@
+"""Shadow-volume cost against triangle count: silhouette extraction (CPU and GPU) and the whole technique.
+
+One torus (10k … 1M triangles) over a floor, a point light, 640x480. For each size:
+- ``edge_table_ms``: building the edge table (once per mesh; cached afterwards);
+- ``cpu_silhouette_ms``: per light, face facing + edge multiplicities + silhouette list (numpy);
+- ``cpu_geometry_ms``: the above plus building the volume's vertex arrays;
+- ``gpu_silhouette_ms``: the geometry-shader pass alone (rasteriser discard: no fill);
+- ``cpu_total_ms`` / ``gpu_total_ms``: the technique's whole timed render (z-fail);
+plus silhouette edges, volume triangles and fill per pixel. Timings: wall clock (with
+``ctx.finish()`` around GL work), median of ``--repeat``. Writes CSV and a plot into results/.
+
+    python experiments/sv_scaling.py [--sizes 10000,30000,100000,300000,1000000] [--repeat 5]
+"""
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from shadowlab import adjacency as adj
+from shadowlab import gl
+from shadowlab.frame import Frame
+from shadowlab.scene import parse_scene
+from shadowlab.techniques import from_spec
+
+
+def torus_scene(triangles: int):
+    minor = max(8, int(round(np.sqrt(triangles / 4))))
+    major = max(8, int(round(triangles / (2 * minor))))
+    return parse_scene({
+        "name": f"torus_{triangles}",
+        "camera": {"eye": [3.0, 3.0, 4.0], "target": [0.0, 0.5, 0.0], "fov_y": 50.0},
+        "lights": [{"type": "point", "position": [1.5, 4.0, 1.0]}],
+        "objects": [{"mesh": "plane", "size": [10.0, 10.0], "name": "floor"},
+                    {"mesh": "torus", "name": "torus", "major_radius": 1.0, "minor_radius": 0.3,
+                     "major_sections": major, "minor_sections": minor, "translate": [0.0, 0.8, 0.0],
+                     "rotate": [60.0, 0.0, 0.0]}]})
+
+
+def median_ms(fn, repeat, gpu=False):
+    ctx = gl.context()
+    fn()
+    if gpu:
+        ctx.finish()
+    ts = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        if gpu:
+            ctx.finish()
+        ts.append(time.perf_counter() - t0)
+    return 1e3 * float(np.median(ts))
+
+
+def measure(n, repeat):
+    from OpenGL import GL
+
+    scene = torus_scene(n)
+    torus = scene.objects[1]
+    t0 = time.perf_counter()
+    table = adj.edge_table(torus.vertices, torus.faces)
+    edge_ms = 1e3 * (time.perf_counter() - t0)
+    torus.__dict__["_edge_table"] = table
+    light = scene.lights[0]
+    cpu_sil = median_ms(lambda: adj.silhouette_edges(table, adj.facing(table, light), False), repeat)
+    frame = Frame(scene, 640, 480)
+    row = {"triangles": len(torus.faces), "edge_table_ms": edge_ms, "cpu_silhouette_ms": cpu_sil}
+    for path in ("cpu", "gpu"):
+        tech = from_spec(f"shadow_volume:silhouette={path}")
+        tech.setup(frame, 0)
+        row[f"{path}_total_ms"] = median_ms(tech.render, repeat, gpu=True)
+        stats = tech.stats()
+        if path == "cpu":
+            row["cpu_geometry_ms"] = median_ms(tech._cpu_geometry, repeat)
+        else:
+            plan = [p for p in tech.plans if p.path == "gpu" and p.index == 1][0]
+            vao = tech.gpu[plan.index][2]
+
+            def gs_only():
+                GL.glEnable(GL.GL_RASTERIZER_DISCARD)
+                tech.gs_prog["u_two_sided"].value = plan.two_sided
+                tech.gs_prog["u_stage"].value = 1
+                vao.render(frame.ctx.TRIANGLES_ADJACENCY)
+                GL.glDisable(GL.GL_RASTERIZER_DISCARD)
+            row["gpu_silhouette_ms"] = median_ms(gs_only, repeat, gpu=True)
+        row.update({k: stats[k] for k in ("silhouette_edges", "volume_triangles", "fill_per_pixel")})
+        tech.release()
+    frame.release()
+    return row
+
+
+def plot(df, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.8, 4.4), dpi=110)
+    for col, label in (("cpu_silhouette_ms", "CPU silhouette (numpy)"), ("gpu_silhouette_ms", "GPU silhouette (geometry shader, no fill)"),
+                       ("cpu_total_ms", "whole technique, CPU silhouette"), ("gpu_total_ms", "whole technique, GPU silhouette"),
+                       ("edge_table_ms", "edge table build (once per mesh)")):
+        ax.loglog(df["triangles"], df[col], "o-", label=label)
+    ax.set_xlabel("caster triangles")
+    ax.set_ylabel("time, ms (median)")
+    ax.set_title(f"Shadow volumes (z-fail) vs triangle count\n{gl.renderer()}, 640x480")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="10000,30000,100000,300000,1000000")
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--out", default="results/sv_scaling")
+    args = ap.parse_args()
+    rows = []
+    for n in map(int, args.sizes.split(",")):
+        rows.append(measure(n, args.repeat))
+        print(rows[-1], flush=True)
+    df = pd.DataFrame(rows)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    df.to_csv(out.with_suffix(".csv"), index=False)
+    plot(df, out.with_suffix(".png"))
+    with pd.option_context("display.width", 250):
+        print(df.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    print(f"renderer: {gl.renderer()}; wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
+
+
+if __name__ == "__main__":
+    main()

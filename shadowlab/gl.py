@@ -216,11 +216,7 @@ class DepthTexture:
 
     def read(self) -> np.ndarray:
         """Depth values as float32 (height, width), row 0 = top (slow; for tests and debugging)."""
-        from OpenGL import GL
-
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fbo_glo)
-        data = GL.glReadPixels(0, 0, self.size[0], self.size[1], GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT)
-        return np.frombuffer(data, np.float32).reshape(self.size[1], self.size[0])[::-1].copy()
+        return _read_pixels(self.fbo_glo, self.size, "depth")
 
     def release(self) -> None:
         """Free the GL objects."""
@@ -228,6 +224,18 @@ class DepthTexture:
 
         GL.glDeleteFramebuffers(1, [self.fbo_glo])
         GL.glDeleteTextures(1, [self.glo])
+
+
+def _read_pixels(fbo_glo: int, size: tuple[int, int], what: str) -> np.ndarray:
+    """Depth (float32) or stencil (uint8) of a framebuffer as (height, width), row 0 = top."""
+    from OpenGL import GL
+
+    fmt, gltype, dtype = {"depth": (GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT, np.float32),
+                          "stencil": (GL.GL_STENCIL_INDEX, GL.GL_UNSIGNED_BYTE, np.uint8)}[what]
+    GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo_glo)
+    GL.glPixelStorei(GL.GL_PACK_ALIGNMENT, 1)
+    data = GL.glReadPixels(0, 0, size[0], size[1], fmt, gltype)
+    return np.frombuffer(data, dtype).reshape(size[1], size[0])[::-1].copy()
 
 
 def _check_complete(GL) -> None:
@@ -296,20 +304,11 @@ class ScreenTarget:
 
     def read_stencil(self) -> np.ndarray:
         """The stencil buffer as uint8 (height, width), row 0 = top."""
-        from OpenGL import GL
-
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fbo_glo)
-        GL.glPixelStorei(GL.GL_PACK_ALIGNMENT, 1)
-        data = GL.glReadPixels(0, 0, self.size[0], self.size[1], GL.GL_STENCIL_INDEX, GL.GL_UNSIGNED_BYTE)
-        return np.frombuffer(data, np.uint8).reshape(self.size[1], self.size[0])[::-1].copy()
+        return _read_pixels(self.fbo_glo, self.size, "stencil")
 
     def read_depth(self) -> np.ndarray:
         """Window depth in [0, 1] as float32 (height, width), row 0 = top."""
-        from OpenGL import GL
-
-        GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, self.fbo_glo)
-        data = GL.glReadPixels(0, 0, self.size[0], self.size[1], GL.GL_DEPTH_COMPONENT, GL.GL_FLOAT)
-        return np.frombuffer(data, np.float32).reshape(self.size[1], self.size[0])[::-1].copy()
+        return _read_pixels(self.fbo_glo, self.size, "depth")
 
     def release(self) -> None:
         """Free the framebuffer and its own depth-stencil renderbuffer (not colour textures, not a shared one)."""

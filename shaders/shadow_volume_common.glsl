@@ -23,3 +23,21 @@ vec4 surface_clip(vec3 p) {
 vec4 extruded_clip(vec3 p) {
     return u_proj * (u_view * vec4(at_infinity() ? light_direction : p - light_position, 0.0));
 }
+
+#ifdef VERTEX_SHADER
+// The one vertex stage of both shadow-volume programs: each vertex is transformed once, with
+// the same code in both, so every triangle built from it (pre-pass, caps, sides) gets
+// bit-identical clip positions whichever path draws it.
+in vec3 in_pos;
+in float in_extrude;  // CPU path: 0 = surface point, 1 = extruded to infinity
+out vec3 v_pos;
+out vec4 v_surface;   // clip position of the vertex
+out vec4 v_extruded;  // clip position of the vertex pushed to infinity away from the light
+out float v_extrude;
+void main() {
+    v_pos = in_pos;
+    v_surface = surface_clip(in_pos);
+    v_extruded = extruded_clip(in_pos);
+    v_extrude = in_extrude;
+}
+#endif

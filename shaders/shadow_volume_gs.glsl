@@ -18,19 +18,7 @@ uniform bool u_two_sided;
 uniform bool u_caps;       // z-fail: draw near and far caps
 uniform bool u_far_cap;    // false for lights at infinity: the far cap collapses to a point
 
-#ifdef VERTEX_SHADER
-// Each welded vertex is transformed here once, so every triangle that shares it (near caps,
-// sides, far caps, pre-pass) uses bit-identical clip positions: the volume has no cracks.
-in vec3 in_pos;
-out vec3 v_pos;
-out vec4 v_surface;   // clip position of the vertex
-out vec4 v_extruded;  // clip position of the vertex pushed to infinity away from the light
-void main() {
-    v_pos = in_pos;
-    v_surface = surface_clip(in_pos);
-    v_extruded = extruded_clip(in_pos);
-}
-#endif
+// The vertex stage is in shadow_volume_common.glsl (shared with the CPU path).
 
 #ifdef GEOMETRY_SHADER
 layout(triangles_adjacency) in;

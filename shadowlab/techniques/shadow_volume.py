@@ -132,7 +132,8 @@ class ShadowVolume(Technique):
         self._depth_prepass()
 
     def _depth_prepass(self) -> None:
-        """Scene depth under this technique's projection, drawn by the programs that draw the caps."""
+        """Scene depth under this technique's projection, drawn by the CPU path's program; the GPU
+        path's geometry shader takes its caps from the same shared vertex stage."""
         from OpenGL import GL
 
         ctx = self.frame.ctx
@@ -142,13 +143,9 @@ class ShadowVolume(Technique):
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE | ctx.BLEND)
         ctx.depth_func = "<"
-        gpu_objects = {p.index for p in self.plans if p.path == "gpu"}
-        for i, rng in enumerate(self.frame.object_ranges):
-            if i in gpu_objects:
-                self.gs_prog["u_stage"].value = 0
-                self.gpu[i][2].render(ctx.TRIANGLES_ADJACENCY)
-            else:
-                self.scene4_vao.render(vertices=rng.count, first=rng.first)
+        # One pre-pass program for both silhouette paths (they share the vertex stage): their
+        # volumes then meet the same depths, also where a side starts on a surface (contacts).
+        self.scene4_vao.render()
         GL.glColorMask(True, True, True, True)
         gl.check_errors("shadow volume depth pre-pass")
 

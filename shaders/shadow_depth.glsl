@@ -1,4 +1,6 @@
-// Shadow-map depth pass (Williams 1978): casters rendered from the light; depth only.
+// Shadow-map depth pass (Williams 1978): casters rendered from the light into one face of the
+// depth atlas; depth only. With PEEL defined (depth peeling, Everitt 2001), fragments not
+// strictly behind the first layer are discarded, leaving the second-nearest surface.
 uniform mat4 u_light_view_proj;
 
 #ifdef VERTEX_SHADER
@@ -9,5 +11,14 @@ void main() {
 #endif
 
 #ifdef FRAGMENT_SHADER
-void main() {}
+#ifdef PEEL
+uniform sampler2D u_first_layer;   // the first layer's depth, same atlas layout
+uniform float u_peel_epsilon;      // one step of the depth format: what "the same surface" means
+#endif
+void main() {
+#ifdef PEEL
+    float first = texelFetch(u_first_layer, ivec2(gl_FragCoord.xy), 0).r;
+    if (gl_FragCoord.z <= first + u_peel_epsilon) discard;
+#endif
+}
 #endif

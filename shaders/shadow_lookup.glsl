@@ -1,26 +1,99 @@
 // Shadow-map lookup over the G-buffer: one visibility value per screen pixel (DESIGN §2.2).
-// u_light_matrix = bias · projection · view of the light (classic formulation: Everitt,
-// Rege & Cebenoyan 2001), so light-space coordinates land in [0, 1]^3.
+// The map is an atlas of u_faces faces (1, or 6 for a point light's cube); face f has the light
+// matrix u_light_matrix[f] = bias · projection · view (classic formulation: Everitt, Rege &
+// Cebenoyan 2001) and occupies u_face_rect[f] = (x0, y0, width, height) of the atlas, in texels.
+// Depth offsets: constant u_bias (window depth), slope-scaled u_slope_scale · (depth change over
+// one texel on the receiver's plane), and normal offset (the lookup point moved along the normal
+// by u_normal_offset texels). Filtering: texel-exact PCF over (2r+1)² texels (r = 0: nearest),
+// or, with FILTER_HW, the hardware 2x2 bilinear comparison (sampler2DShadow).
 #include "fullscreen.glsl"
 
 #ifdef FRAGMENT_SHADER
-uniform sampler2D u_position;     // G-buffer world position, w = 1 where covered
-uniform sampler2D u_shadow_map;   // window depth of the nearest caster, nearest filtering
-uniform mat4 u_light_matrix;
-uniform float u_bias;             // constant bias in window-depth units
+#include "lights.glsl"
 #define LIT 1.0
 #define SHADOWED 0.0
+#define MAX_FACES 6
+
+uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
+uniform sampler2D u_normal;              // G-buffer geometric normal
+#ifdef FILTER_HW
+uniform sampler2DShadow u_map;           // comparison sampler, linear filtering
+#else
+uniform sampler2D u_map;                 // window depth of the comparison layer
+#endif
+uniform vec2 u_atlas_size;               // atlas width, height in texels
+uniform int u_faces;
+uniform mat4 u_light_matrix[MAX_FACES];
+uniform vec4 u_face_rect[MAX_FACES];
+uniform float u_bias;
+uniform float u_slope_scale;
+uniform float u_normal_offset;           // texels
+uniform float u_texel_world;             // orthographic maps: world size of a texel
+uniform float u_texel_angle;             // perspective maps: world size of a texel per unit distance
+uniform int u_kernel_radius;
 out float out_visibility;
 
+int face_of(vec3 p) {
+    if (u_faces == 1) return 0;
+    vec3 d = p - light_position;         // cube faces: +x, -x, +y, -y, +z, -z
+    vec3 a = abs(d);
+    if (a.x >= a.y && a.x >= a.z) return d.x > 0.0 ? 0 : 1;
+    if (a.y >= a.z) return d.y > 0.0 ? 2 : 3;
+    return d.z > 0.0 ? 4 : 5;
+}
+
+vec3 to_map(int f, vec3 p) {             // (u, v, depth) in [0, 1] within face f
+    vec4 s = u_light_matrix[f] * vec4(p, 1.0);
+    return s.xyz / s.w;
+}
+
 void main() {
-    vec4 p = texelFetch(u_position, ivec2(gl_FragCoord.xy), 0);
+    vec4 p4 = texelFetch(u_position, ivec2(gl_FragCoord.xy), 0);
     out_visibility = LIT;
-    if (p.w == 0.0) return;
-    vec4 s = u_light_matrix * vec4(p.xyz, 1.0);
-    if (s.w <= 0.0) return;                       // behind the light's centre of projection
+    if (p4.w == 0.0) return;
+    vec3 P = p4.xyz;
+    vec3 L = light_dir_to(P);
+    vec3 N = normalize(texelFetch(u_normal, ivec2(gl_FragCoord.xy), 0).xyz);
+    if (dot(N, L) < 0.0) N = -N;         // two-sided receivers: the side facing the light
+    float texel = u_texel_world > 0.0 ? u_texel_world : u_texel_angle * length(P - light_position);
+    vec3 Q = P + N * (u_normal_offset * texel);
+    int f = face_of(Q);
+    vec4 s = u_light_matrix[f] * vec4(Q, 1.0);
+    if (s.w <= 0.0) return;              // behind the light's centre of projection
     vec3 c = s.xyz / s.w;
-    if (any(lessThan(c, vec3(0.0))) || any(greaterThan(c, vec3(1.0)))) return;  // outside the frustum
-    float stored = texture(u_shadow_map, c.xy).r;
-    out_visibility = (c.z - u_bias <= stored) ? LIT : SHADOWED;
+    if (any(lessThan(c, vec3(0.0))) || any(greaterThan(c, vec3(1.0)))) return;  // outside the map
+    float bias = u_bias;
+    if (u_slope_scale > 0.0) {
+        // Depth change across one texel on the receiver's plane, from two tangent points.
+        vec3 t1 = normalize(abs(N.x) < 0.9 ? cross(N, vec3(1.0, 0.0, 0.0)) : cross(N, vec3(0.0, 1.0, 0.0)));
+        vec3 t2 = cross(N, t1);
+        vec3 a = to_map(f, Q + t1 * texel) - c;
+        vec3 b = to_map(f, Q + t2 * texel) - c;
+        float det = a.x * b.y - a.y * b.x;
+        vec2 texel_uv = 1.0 / u_face_rect[f].zw;
+        if (abs(det) > 0.0) {
+            // dz/du, dz/dv of the receiver plane in map space (Cramer's rule).
+            vec2 dz = vec2(a.z * b.y - b.z * a.y, a.x * b.z - b.x * a.z) / det;
+            bias += u_slope_scale * (abs(dz.x) * texel_uv.x + abs(dz.y) * texel_uv.y);
+        } else {
+            bias += u_slope_scale * max(abs(a.z), abs(b.z));  // edge-on to the light
+        }
+    }
+    float ref = c.z - bias;
+    vec2 atlas = u_face_rect[f].xy + c.xy * u_face_rect[f].zw;   // texel coordinates in the atlas
+#ifdef FILTER_HW
+    out_visibility = texture(u_map, vec3(atlas / u_atlas_size, ref));
+#else
+    ivec2 lo = ivec2(u_face_rect[f].xy), hi = lo + ivec2(u_face_rect[f].zw) - 1;
+    ivec2 t = clamp(ivec2(floor(atlas)), lo, hi);
+    float lit = 0.0, n = 0.0;
+    for (int dy = -u_kernel_radius; dy <= u_kernel_radius; ++dy)
+        for (int dx = -u_kernel_radius; dx <= u_kernel_radius; ++dx) {
+            float stored = texelFetch(u_map, clamp(t + ivec2(dx, dy), lo, hi), 0).r;
+            lit += ref <= stored ? LIT : SHADOWED;
+            n += 1.0;
+        }
+    out_visibility = lit / n;
+#endif
 }
 #endif

@@ -57,7 +57,7 @@ def _cmd_compare(args) -> int:
     import pandas as pd
 
     df = pd.read_csv(out / "metrics.csv")
-    cols = ["label", "light", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px", "time_ms_median"]
+    cols = ["short_label", "light", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px", "time_ms_median"]
     with pd.option_context("display.width", 200, "display.max_colwidth", 60):
         print(df[cols].to_string(index=False, float_format=lambda x: f"{x:.4g}"))
     print(f"run directory: {out.resolve()}")

@@ -61,7 +61,8 @@ def speed_error_plot(df: pd.DataFrame, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
-    for (label, light), g in df.groupby(["label", "light"], sort=False):
+    key = "short_label" if "short_label" in df.columns else "label"
+    for (label, light), g in df.groupby([key, "light"], sort=False):
         ax.errorbar(g["time_ms_median"], 100 * g["error_rate"], xerr=g["time_ms_iqr"] / 2, fmt="o", capsize=3,
                     label=f"{label} (light {light})" if df["light"].nunique() > 1 else label)
     ax.set_xlabel("time per frame, ms (median; bar = IQR)")
@@ -74,7 +75,7 @@ def speed_error_plot(df: pd.DataFrame, path: Path) -> None:
     plt.close(fig)
 
 
-_TABLE_COLUMNS = ["label", "light", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
+_TABLE_COLUMNS = ["short_label", "light", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
                   "visibility_mae", "evaluated_pixels", "time_ms_median", "time_ms_iqr"]
 
 

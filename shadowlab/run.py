@@ -196,7 +196,7 @@ def _run(scene: Scene, techniques: list[Technique], size, tmp: Path, repeat: int
 
     images = [_write_images(tmp, "ground_truth", GROUND_TRUTH_KEY + f" ({truth.spec()})", shader, frame, gt_vis, None)]
     for tech, vis_all in zip(techniques, per_tech_vis):
-        images.append(_write_images(tmp, _safe(tech.spec()), tech.spec(), shader, frame, vis_all, gt_vis[0]))
+        images.append(_write_images(tmp, _safe(tech.short_label()), tech.spec(), shader, frame, vis_all, gt_vis[0]))
     report.speed_error_plot(df, tmp / "speed_vs_error.png")
 
     run = {
@@ -234,7 +234,8 @@ def _json_default(obj):
 
 def _row(scene, li, tech, frame, vis, truth, t, reference=False) -> dict:
     row = {"scene": scene.name, "light": li, "light_type": scene.lights[li].type_name, "technique": tech.name,
-           "params": tech.params_string(), "label": tech.spec(), "reference": reference,
+           "params": tech.params_string(), "label": tech.spec(), "short_label": tech.short_label(),
+           "reference": reference,
            "width": frame.width, "height": frame.height}
     row.update(metrics.compare(vis, truth, frame.evaluated(li)))
     row.update(t.columns())

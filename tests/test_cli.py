@@ -38,7 +38,7 @@ def test_compare_writes_every_contract_file(tmp_path, capsys):
         assert finite.size == df["evaluated_pixels"].iloc[0] and finite.min() >= 0 and finite.max() <= 1
     # The masks reproduce the metrics.
     gt = masks["ground_truth"]
-    row = df[df["label"] == "shadow_map:resolution=128,bias=0.002,depth_bits=24"].iloc[0]
+    row = df[df["short_label"] == "shadow_map:resolution=128"].iloc[0]
     m = masks[row["label"]]
     ev = np.isfinite(gt)
     assert np.sum((m[ev] < 0.5) != (gt[ev] < 0.5)) / ev.sum() == pytest.approx(row["error_rate"])

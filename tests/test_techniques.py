@@ -14,9 +14,11 @@ def test_defaults_round_trip(name):
 
 
 def test_spec_values_are_typed():
-    t = from_spec("shadow_map:resolution=1024,bias=0.002,depth_bits=16")
-    assert t.params() == {"resolution": 1024, "bias": 0.002, "depth_bits": 16}
-    assert t.spec() == "shadow_map:resolution=1024,bias=0.002,depth_bits=16"
+    t = from_spec("shadow_map:resolution=1024,bias=0.002,depth_bits=16,variant=slope,hardware_offset=on")
+    p = t.params()
+    assert (p["resolution"], p["bias"], p["depth_bits"], p["variant"], p["hardware_offset"]) == (1024, 0.002, 16, "slope", True)
+    assert t.spec().startswith("shadow_map:resolution=1024,bias=0.002,depth_bits=16,variant=slope,")
+    assert t.short_label() == "shadow_map:resolution=1024,depth_bits=16,variant=slope,hardware_offset=true"
 
 
 @pytest.mark.parametrize("spec,match", [
@@ -25,6 +27,8 @@ def test_spec_values_are_typed():
     ("shadow_map:resolution=big", "resolution must be int"),
     ("shadow_map:resolution=1.5", "resolution must be int"),
     ("shadow_map:depth_bits=12", "depth_bits must be one of 16, 24, 32"),
+    ("shadow_map:variant=bogus", "variant must be one of none, constant, slope"),
+    ("shadow_map:filter=pcf7", "filter must be one of"),
     ("shadow_map:bias=-1", "bias must be >= 0"),
     ("shadow_map:bias=nan", "bias must be float"),
     ("shadow_map:bias", "expected key=value"),

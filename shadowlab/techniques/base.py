@@ -113,6 +113,11 @@ class Technique:
         ps = self.params_string()
         return f"{self.name}:{ps}" if ps else self.name
 
+    def short_label(self) -> str:
+        """The name and the parameters that differ from their defaults (for legends and headings)."""
+        diff = [f"{k}={format_value(v)}" for k, v in self._params.items() if v != self.PARAMS[k].default]
+        return f"{self.name}:{','.join(diff)}" if diff else self.name
+
     def __repr__(self) -> str:
         return f"<{self.spec()}>"
 

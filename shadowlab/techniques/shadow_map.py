@@ -1,25 +1,47 @@
-"""Depth-buffer shadow maps (Williams 1978), the classic two-pass form.
+"""Depth-buffer shadow maps (Williams 1978) and their family of depth comparisons.
 
-Pass 1 renders the casters' depth from the light into a depth texture of ``depth_bits``
-precision; pass 2 (over the shared G-buffer) transforms each visible point into the light's
-clip space with the bias matrix and compares its depth, minus a constant ``bias`` in
-window-depth units, with the stored one.
+The map is an atlas of one face (spot, directional, target-direct, a point light's single
+frustum) or six (a point light's cube, 90° faces, chosen in the lookup by the major axis of the
+light-to-point vector). Passes: the casters' depth from the light (one per face and layer), an
+optional resolve, then one lookup pass over the shared G-buffer writing visibility.
+
+Variants (``variant=``), tuned by ``bias`` (window depth), ``slope_scale`` and ``normal_offset``
+(texels):
+
+- ``none``: compare with no offset — shows acne;
+- ``constant``: subtract ``bias``;
+- ``slope``: ``bias`` plus ``slope_scale`` × the depth change over one texel on the receiver's
+  plane, computed in the shader from the receiver's normal (the shader-side form of slope-scaled
+  bias); with ``hardware_offset=true`` the depth pass instead applies glPolygonOffset(factor =
+  ``slope_scale``, units = ``offset_units``), the hardware form;
+- ``normal_offset``: ``bias`` plus the lookup point moved along the normal by ``normal_offset``
+  texels (world size of a texel at the point);
+- ``second_depth`` (Wang & Molnar 1994): the map holds the back faces only (front faces culled),
+  no bias — single-sided casters vanish from it;
+- ``midpoint`` (Woo 1992): the average of the first and second depth layers (depth peeling);
+- ``dual`` (Weiskopf & Ertl 2003): the first layer plus min(half the gap to the second, ``bias``).
+
+Filters (``filter=``): ``nearest``; ``hw2x2`` (sampler2DShadow with linear filtering: hardware
+bilinear PCF); ``pcf3`` / ``pcf5`` (texel-exact percentage-closer filtering, Reeves et al. 1987).
+Filtered visibility is fractional; the metrics report ``visibility_mae`` beside thresholded rates.
 
 Light frusta are fitted to what the scene and camera involve (DESIGN §11), never constants.
 The points to cover are the evaluated receiver points that can be in shadow at all — those
 whose segment to the light crosses a caster's bounding box (:func:`shadowable`); then
-- directional: orthographic along the light, its x/y extent fitted to the evaluated receiver
-  points, its depth range from the nearest caster to the farthest receiver;
-- target-direct: orthographic over the light's cylinder (radius R), clipped to the receivers;
+- directional: orthographic along the light, x/y extent fitted to those points, depth range
+  from the nearest caster to the farthest receiver;
+- target-direct: orthographic over the light's cylinder (radius R), clipped to those points;
   near plane at the light's disc (nothing behind the light casts);
 - spot: perspective with the cone's full angle α;
-- point: a single perspective frustum around the receivers (a cube map comes later); when
-  the receivers span more than ``MAX_POINT_HALF_ANGLE`` around the light, the frustum is
-  clamped and the run reports how many evaluated pixels fall outside (treated as lit).
-Near planes sit at the nearest caster bounding box (a caster in front of near would be
-clipped and lose its shadow), far planes just past the farthest receiver.
+- point: ``projection=frustum`` — one frustum around those points; ``cube`` — six faces;
+  ``auto`` — the frustum when the points fit in a cone of ``MAX_POINT_HALF_ANGLE``, else the cube.
+Near planes sit at the nearest caster bounding box (a caster in front of near would be clipped
+and lose its shadow), unless ``near`` forces one (to show what a too-close near plane does to
+depth precision); far planes just past the farthest receiver.
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -31,6 +53,11 @@ from .base import Param, Technique, TechniqueError
 MAX_POINT_HALF_ANGLE = 80.0
 #: Relative padding of fitted ranges, so that fitted points do not sit exactly on a clip plane.
 _PAD = 1e-3
+#: Cube faces: look direction and up vector, in the order the lookup shader's face_of() uses.
+CUBE_FACES = [((1, 0, 0), (0, -1, 0)), ((-1, 0, 0), (0, -1, 0)), ((0, 1, 0), (0, 0, 1)),
+              ((0, -1, 0), (0, 0, -1)), ((0, 0, 1), (0, -1, 0)), ((0, 0, -1), (0, -1, 0))]
+VARIANTS = ("none", "constant", "slope", "normal_offset", "second_depth", "midpoint", "dual")
+FILTERS = {"nearest": 0, "pcf3": 1, "pcf5": 2, "hw2x2": None}
 
 
 def _aabb_distance(p: np.ndarray, bounds: np.ndarray) -> np.ndarray:
@@ -67,8 +94,26 @@ def shadowable(points: np.ndarray, normals: np.ndarray, light, bounds: np.ndarra
     return hit
 
 
-def fit_light_frustum(frame, light_index: int) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """Light view and projection matrices (float64 4x4) fitted to the frame, and notes."""
+@dataclass
+class Face:
+    """One face of the map: light view and projection (float64 4x4); ``texel_world`` is the
+    world size of a texel (orthographic) and ``texel_angle`` its size per unit distance
+    (perspective), at the map's resolution."""
+
+    view: np.ndarray
+    proj: np.ndarray
+    texel_world: float = 0.0
+    texel_angle: float = 0.0
+
+    @property
+    def view_proj(self) -> np.ndarray:
+        """Projection · view."""
+        return self.proj @ self.view
+
+
+def fit_light_faces(frame, light_index: int, resolution: int, projection: str = "auto",
+                    near_override: float = 0.0) -> tuple[list[Face], list[str]]:
+    """The map's faces (1, or 6 for a cube) fitted to the frame, and notes for the run."""
     light = frame.scene.lights[light_index]
     evaluated = frame.compact_evaluated(light_index)
     casters = frame.caster_bounds()
@@ -99,92 +144,207 @@ def fit_light_frustum(frame, light_index: int) -> tuple[np.ndarray, np.ndarray, 
         span = max(far - near, 1e-9)
         near, far = near - _PAD * span, far + _PAD * span
         proj = tf.orthographic(lo[0], hi[0], lo[1], hi[1], near, far)
-        return view, proj, notes
+        return [Face(view, proj, texel_world=float(max(hi - lo)) / resolution)], notes
     # point and spot: perspective from the light's position
     p = light.position
     dist = np.linalg.norm(receivers - p, axis=1)
     far = float(dist.max()) * (1 + _PAD)
     nearest = float(_aabb_distance(p, casters).min()) if len(casters) else far * 0.5
     near = min(max(nearest * (1 - _PAD), far * 1e-4), far * 0.5)
+    if near_override > 0:
+        near = near_override
     if light.type_name == "spot":
-        view = tf.look_along(p, light.direction)
         fov = min(light.alpha * (1 + _PAD), 179.0)
-    else:
-        dirs = (receivers - p) / dist[:, None]
-        axis = tf.normalize(dirs.mean(axis=0))
-        half = float(np.degrees(np.arccos(np.clip(dirs @ axis, -1, 1))).max()) * (1 + _PAD)
-        # A square frustum must contain the cone of this half-angle: its diagonal is wider.
-        if half > MAX_POINT_HALF_ANGLE:
-            outside = int(np.sum(np.degrees(np.arccos(np.clip(dirs @ axis, -1, 1))) > MAX_POINT_HALF_ANGLE))
-            notes.append(f"point light: receivers span {half:.1f} degrees around the light, more than one "
-                         f"frustum's {MAX_POINT_HALF_ANGLE}; {outside} evaluated pixels lie outside the "
-                         f"shadow map and are treated as lit")
-            half = MAX_POINT_HALF_ANGLE
-        view = tf.look_along(p, axis)
-        fov = 2 * half
-    return view, tf.perspective(fov, 1.0, near, far), notes
+        return [Face(tf.look_along(p, light.direction), tf.perspective(fov, 1.0, near, far),
+                     texel_angle=2 * np.tan(np.radians(fov) / 2) / resolution)], notes
+    dirs = (receivers - p) / dist[:, None]
+    axis = tf.normalize(dirs.mean(axis=0))
+    angles = np.degrees(np.arccos(np.clip(dirs @ axis, -1, 1)))
+    half = float(angles.max()) * (1 + _PAD)
+    if projection == "cube" or (projection == "auto" and half > MAX_POINT_HALF_ANGLE):
+        proj = tf.perspective(90.0, 1.0, near, far)
+        faces = [Face(tf.look_at(p, p + np.array(d, float), np.array(u, float)), proj,
+                      texel_angle=2.0 / resolution) for d, u in CUBE_FACES]
+        return faces, notes
+    if half > MAX_POINT_HALF_ANGLE:
+        outside = int(np.sum(angles > MAX_POINT_HALF_ANGLE))
+        notes.append(f"point light: receivers span {half:.1f} degrees around the light, more than one "
+                     f"frustum's {MAX_POINT_HALF_ANGLE}; {outside} shadowable pixels lie outside the shadow "
+                     f"map and are treated as lit (use projection=cube)")
+        half = MAX_POINT_HALF_ANGLE
+    fov = 2 * half
+    return [Face(tf.look_along(p, axis), tf.perspective(fov, 1.0, near, far),
+                 texel_angle=2 * np.tan(np.radians(fov) / 2) / resolution)], notes
 
 
 class ShadowMap(Technique):
-    """Classic two-pass depth-buffer shadow map with a constant depth bias."""
+    """Depth-buffer shadow maps: every light type, the bias family, two-layer variants, filters."""
 
     name = "shadow_map"
-    summary = "depth-buffer shadow map (Williams 1978), constant bias"
+    summary = "depth-buffer shadow maps (Williams 1978): bias variants, second-depth, midpoint, dual, PCF"
+    fractional = True
     PARAMS = {
-        "resolution": Param(2048, "shadow map width and height in texels", min=16, max=16384),
-        "bias": Param(0.002, "constant depth bias in window-depth units [0, 1]", min=0.0, max=1.0),
-        "depth_bits": Param(24, "depth texture format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
+        "resolution": Param(2048, "shadow map width and height in texels (per cube face)", min=16, max=16384),
+        "bias": Param(0.002, "constant depth bias in window-depth units [0, 1] (dual: the offset cap)",
+                      min=0.0, max=1.0),
+        "depth_bits": Param(24, "depth format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
+        "variant": Param("constant", "depth comparison", choices=VARIANTS),
+        "slope_scale": Param(2.0, "slope variant: multiple of the receiver's depth change over one texel",
+                             min=0.0, max=1e4),
+        "normal_offset": Param(1.0, "normal_offset variant: lookup point moved along the normal, in texels",
+                               min=0.0, max=1e3),
+        "hardware_offset": Param(False, "slope variant: glPolygonOffset in the depth pass instead of the shader form"),
+        "offset_units": Param(4.0, "hardware_offset: glPolygonOffset units", min=0.0, max=1e6),
+        "filter": Param("nearest", "nearest, hw2x2 (hardware bilinear comparison), pcf3, pcf5",
+                        choices=tuple(FILTERS)),
+        "projection": Param("auto", "point lights: cube (six faces), frustum (one), auto",
+                            choices=("auto", "cube", "frustum")),
+        "near": Param(0.0, "perspective maps: force this near plane (0 = fitted to the casters)", min=0.0),
     }
 
+    # ------------------------------------------------------------------ setup
     def setup(self, frame, light_index: int) -> None:
-        """Fit the light frustum, allocate the depth map and the visibility target."""
+        """Fit the faces, allocate the atlas layers and programs."""
         ctx = frame.ctx
-        max_size = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
-        if self.resolution > max_size:
-            raise TechniqueError(f"{self.name}: resolution {self.resolution} exceeds GL_MAX_TEXTURE_SIZE {max_size}")
-        self.frame = frame
-        self.light_view, self.light_proj, notes = fit_light_frustum(frame, light_index)
+        self.frame, self.light = frame, frame.scene.lights[light_index]
+        self.faces, notes = fit_light_faces(frame, light_index, self.resolution, self.projection, self.near)
         self.notes.extend(notes)
-        self.light_view_proj = self.light_proj @ self.light_view
-        self.depth = gl.DepthTexture.create((self.resolution, self.resolution), self.depth_bits)
+        n = len(self.faces)
+        cols, rows = (3, 2) if n == 6 else (1, 1)
+        self.atlas = (cols * self.resolution, rows * self.resolution)
+        max_size = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
+        if max(self.atlas) > max_size:
+            raise TechniqueError(f"{self.name}: a {self.atlas[0]}x{self.atlas[1]} map exceeds GL_MAX_TEXTURE_SIZE "
+                                 f"{max_size}; lower the resolution")
+        self.rects = [((i % cols) * self.resolution, (i // cols) * self.resolution, self.resolution, self.resolution)
+                      for i in range(n)]
+        two_layer = self.variant in ("midpoint", "dual")
+        self.layers = [gl.DepthTexture.create(self.atlas, self.depth_bits) for _ in range(3 if two_layer else 1)]
+        self.map = self.layers[-1]  # the layer the lookup compares with
         self.depth_prog = gl.program("shadow_depth.glsl")
-        self.depth_prog["u_light_view_proj"].write(gl.mat_bytes(self.light_view_proj))
-        self.lookup_prog = gl.program("shadow_lookup.glsl")
-        self.lookup_prog["u_light_matrix"].write(gl.mat_bytes(tf.BIAS @ self.light_view_proj))
-        self.lookup_prog["u_bias"].value = float(self.bias)
-        self.lookup_prog["u_position"].value = 0
-        self.lookup_prog["u_shadow_map"].value = 1
+        if two_layer:
+            self.peel_prog = gl.program("shadow_depth.glsl", defines={"PEEL": 1})
+            self.resolve_prog = gl.program("shadow_resolve.glsl")
+            self.resolve_quad = gl.fullscreen_quad(self.resolve_prog)
+            gl.set_uniforms(self.peel_prog, {"u_first_layer": 0, "u_peel_epsilon": self._depth_step()})
+            gl.set_uniforms(self.resolve_prog, {"u_first_layer": 0, "u_second_layer": 1,
+                                                "u_resolve": 1 if self.variant == "dual" else 0,
+                                                "u_dual_offset": float(self.bias)})
+        hw = self.filter == "hw2x2"
+        self.lookup_prog = gl.program("shadow_lookup.glsl", defines={"FILTER_HW": 1} if hw else None)
+        self.sampler = None
+        if hw:
+            self.sampler = ctx.sampler(texture=self.map.texture, filter=(ctx.LINEAR, ctx.LINEAR),
+                                       compare_func="<=", repeat_x=False, repeat_y=False)
+        mats = np.concatenate([tf.BIAS @ f.view_proj for f in self.faces] +
+                              [np.eye(4)] * (6 - n))
+        gl.set_uniforms(self.lookup_prog, self.light.uniforms())
+        self.lookup_prog["u_light_matrix"].write(
+            np.ascontiguousarray(np.stack([m.T for m in mats.reshape(6, 4, 4)]), dtype="f4").tobytes())
+        rects = np.zeros((6, 4), np.float32)
+        rects[:n] = self.rects
+        face = self.faces[0]
+        gl.set_uniforms(self.lookup_prog, {
+            "u_position": 0, "u_normal": 1, "u_map": 2, "u_faces": n, "u_face_rect": rects,
+            "u_atlas_size": tuple(map(float, self.atlas)),
+            "u_bias": 0.0 if self.variant in ("none", "second_depth", "midpoint", "dual") else float(self.bias),
+            "u_slope_scale": float(self.slope_scale) if self.variant == "slope" and not self.hardware_offset else 0.0,
+            "u_normal_offset": float(self.normal_offset) if self.variant == "normal_offset" else 0.0,
+            "u_texel_world": float(face.texel_world), "u_texel_angle": float(face.texel_angle),
+            "u_kernel_radius": FILTERS[self.filter] or 0,
+        })
         self.quad = gl.fullscreen_quad(self.lookup_prog)
         self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
         self.vis_fbo = ctx.framebuffer(color_attachments=[self.vis_tex])
 
-    def render(self) -> None:
-        """Depth pass from the light, then the comparison pass over the G-buffer."""
+    def _depth_step(self) -> float:
+        """One step of the depth format (what 'the same surface' means when peeling)."""
+        return {16: 1.0 / 65535, 24: 1.0 / 16777215, 32: 2.0 ** -22}[self.depth_bits]
+
+    # ------------------------------------------------------------------ passes
+    def _depth_pass(self, layer: gl.DepthTexture, prog, cull_front: bool = False) -> None:
+        """Render the casters into every face of ``layer``."""
+        from OpenGL import GL
+
         ctx, frame = self.frame.ctx, self.frame
-        self.depth.use_as_target()
+        layer.use_as_target()
         ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+        ctx.disable(ctx.BLEND)
         ctx.depth_func = "<"
         ctx.clear(depth=1.0)
-        frame.draw(self.depth_prog, "casters")
+        if cull_front:
+            ctx.enable(ctx.CULL_FACE)
+            ctx.cull_face = "front"
+        else:
+            ctx.disable(ctx.CULL_FACE)
+        hardware = self.variant == "slope" and self.hardware_offset
+        if hardware:
+            GL.glEnable(GL.GL_POLYGON_OFFSET_FILL)
+            GL.glPolygonOffset(float(self.slope_scale), float(self.offset_units))
+        for face, rect in zip(self.faces, self.rects):
+            ctx.viewport = rect
+            prog["u_light_view_proj"].write(gl.mat_bytes(face.view_proj))
+            frame.draw(prog, "casters")
+        if hardware:
+            GL.glDisable(GL.GL_POLYGON_OFFSET_FILL)
+        ctx.disable(ctx.CULL_FACE)
+        ctx.cull_face = "back"
+
+    def render(self) -> None:
+        """Depth pass(es) from the light, the resolve (two-layer variants), the lookup."""
+        ctx = self.frame.ctx
+        if self.variant == "second_depth":
+            self._depth_pass(self.map, self.depth_prog, cull_front=True)
+        elif self.variant in ("midpoint", "dual"):
+            first, second, comparison = self.layers
+            self._depth_pass(first, self.depth_prog)
+            first.texture.use(0)
+            self._depth_pass(second, self.peel_prog)
+            comparison.use_as_target()
+            ctx.enable(ctx.DEPTH_TEST)
+            ctx.depth_func = "1"  # always: every texel gets the resolved depth
+            first.texture.use(0)
+            second.texture.use(1)
+            self.resolve_quad.render()
+            ctx.depth_func = "<"
+        else:
+            self._depth_pass(self.map, self.depth_prog)
         self.vis_fbo.use()
         ctx.disable(ctx.DEPTH_TEST)
-        frame.tex_position.use(0)
-        self.depth.texture.use(1)
+        self.frame.tex_position.use(0)
+        self.frame.tex_normal.use(1)
+        if self.sampler is not None:
+            self.sampler.use(2)
+        else:
+            self.map.texture.use(2)
         self.quad.render()
+        if self.sampler is not None:
+            self.sampler.clear(2)
 
     def visibility(self) -> np.ndarray:
-        """Binary visibility read back from the lookup pass."""
+        """Visibility in [0, 1] from the lookup pass (fractional when filtered)."""
         return gl.read_texture(self.vis_tex, 1)[..., 0]
 
     def stats(self) -> dict:
-        """Shadow-map memory and passes."""
-        return {"memory_bytes": self.depth.nbytes, "passes": 2}
+        """Map memory (every layer) and passes per frame."""
+        layers = len(self.layers) if self.variant in ("midpoint", "dual") else 1
+        depth_passes = len(self.faces) * (2 if layers == 3 else 1)
+        return {"memory_bytes": sum(l.nbytes for l in self.layers), "faces": len(self.faces),
+                "passes": depth_passes + (1 if layers == 3 else 0) + 1}
 
     def release(self) -> None:
-        """Free the depth map, programs and visibility target."""
+        """Free the depth layers, programs and visibility target."""
         self.frame.target.use()  # moderngl re-binds its current framebuffer later: never leave a deleted one
-        self.frame.forget(self.depth_prog)
-        self.depth.release()
-        for obj in (self.quad, self.vis_fbo, self.vis_tex, self.depth_prog, self.lookup_prog):
+        progs = [self.depth_prog, self.lookup_prog]
+        if self.variant in ("midpoint", "dual"):
+            progs += [self.peel_prog, self.resolve_prog]
+            self.resolve_quad.release()
+        for prog in (self.depth_prog, getattr(self, "peel_prog", None)):
+            if prog is not None:
+                self.frame.forget(prog)
+        for layer in self.layers:
+            layer.release()
+        if self.sampler is not None:
+            self.sampler.release()
+        for obj in [self.quad, self.vis_fbo, self.vis_tex] + progs:
             obj.release()

@@ -172,6 +172,24 @@ class Frame:
         """Exact world positions, float64 (height, width, 3), NaN where nothing is visible."""
         return self.to_image(self.compact_position, dtype=np.float64)
 
+    def pixel_footprint(self) -> np.ndarray:
+        """World size of one pixel at each visible point (distance × pixel angle), float64
+        (height, width), NaN where nothing is visible."""
+        dist = np.linalg.norm(self.compact_position - self.camera.eye, axis=1)
+        per_unit = 2.0 * np.tan(np.radians(self.camera.fov_y) / 2.0) / self.height
+        return self.to_image(dist * per_unit, dtype=np.float64)
+
+    def contact_lines(self, light_index: int) -> np.ndarray:
+        """Evaluated receiver pixels where another object touches the receiver (cached)."""
+        key = ("contact", light_index)
+        cache = self.__dict__.setdefault("_cache", {})
+        if key not in cache:
+            from .metrics import contact_pixels
+
+            cache[key] = contact_pixels(self.object_id, self.position, self.pixel_footprint(),
+                                        self.evaluated(light_index))
+        return cache[key]
+
     # ------------------------------------------------------------------ evaluation mask
     def compact_evaluated(self, light_index: int) -> np.ndarray:
         """Compact bool (M,): receiving surface, facing the light (N·L > 0) and lit by its

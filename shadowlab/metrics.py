@@ -98,3 +98,37 @@ def error_classes(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) -> 
     out[ev & v_sh & ~g_sh] = 3
     out[ev & ~v_sh & g_sh] = 4
     return out
+
+
+def contact_pixels(object_id: np.ndarray, position: np.ndarray, footprint: np.ndarray,
+                   receivers: np.ndarray, touch: float = 3.0) -> np.ndarray:
+    """Receiver pixels on a contact line: a 4-neighbour shows another object whose surface
+    point is within ``touch`` pixel footprints in world space (the objects touch there, rather
+    than one hiding the other). ``object_id`` int (H, W), ``position`` float (H, W, 3),
+    ``footprint`` float (H, W): world size of a pixel; returns bool (H, W)."""
+    out = np.zeros(object_id.shape, bool)
+    for axis in (0, 1):
+        for shift in (1, -1):
+            nb_obj = np.roll(object_id, shift, axis=axis)
+            nb_pos = np.roll(position, shift, axis=axis)
+            valid = np.ones_like(out)
+            edge = [slice(None)] * 2
+            edge[axis] = slice(0, 1) if shift == 1 else slice(-1, None)
+            valid[tuple(edge)] = False  # no wrap-around
+            with np.errstate(invalid="ignore"):
+                close = np.linalg.norm(position - nb_pos, axis=-1) < touch * footprint
+            out |= valid & receivers & (nb_obj >= 0) & (nb_obj != object_id) & close
+    return out
+
+
+def contact_gap(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray,
+                band: int = 8) -> float:
+    """Peter-panning (HARD_CASES 'contact gap'): false-lit pixels within ``band`` pixels of the
+    contact lines, divided by the contact lines' length in pixels — the mean width, in pixels,
+    of the lit gap that opens between a caster and its shadow where they touch. 0 without
+    contact lines."""
+    if not contact.any():
+        return 0.0
+    near = ndimage.binary_dilation(contact, iterations=band)
+    false_lit = (truth < THRESHOLD) & (vis >= THRESHOLD) & evaluated & near
+    return float(false_lit.sum()) / float(contact.sum())

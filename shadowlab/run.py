@@ -238,6 +238,7 @@ def _row(scene, li, tech, frame, vis, truth, t, reference=False) -> dict:
            "reference": reference,
            "width": frame.width, "height": frame.height}
     row.update(metrics.compare(vis, truth, frame.evaluated(li)))
+    row["contact_gap_px"] = metrics.contact_gap(vis, truth, frame.evaluated(li), frame.contact_lines(li))
     row.update(t.columns())
     row.update({f"param_{k}": v for k, v in tech.params().items()})
     row.update(tech.stats())

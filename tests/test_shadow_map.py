@@ -55,4 +55,5 @@ def test_lower_resolution_is_worse_on_boundary():
 
 def test_cost_figures():
     _, tech = measure("box_on_plane", "shadow_map:resolution=512,depth_bits=16", size=(160, 120))
-    assert tech.stats() == {"memory_bytes": 512 * 512 * 2, "faces": 1, "passes": 2}
+    st = tech.stats()
+    assert (st["memory_bytes"], st["faces"], st["passes"]) == (512 * 512 * 2, 1, 2) and st["depth_range"] > 0

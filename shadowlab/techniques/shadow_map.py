@@ -26,8 +26,10 @@ bilinear PCF); ``pcf3`` / ``pcf5`` (texel-exact percentage-closer filtering, Ree
 Filtered visibility is fractional; the metrics report ``visibility_mae`` beside thresholded rates.
 
 Light frusta are fitted to what the scene and camera involve (DESIGN §11), never constants.
-The points to cover are the evaluated receiver points that can be in shadow at all — those
-whose segment to the light crosses a caster's bounding box (:func:`shadowable`); then
+The points to cover are (``fit=shadowable``, the default) the evaluated receiver points that can
+be in shadow at all — those whose segment to the light crosses a caster's bounding box
+(:func:`shadowable`) — or (``fit=receivers``, the classic fit) every evaluated receiver point;
+then
 - directional: orthographic along the light, x/y extent fitted to those points, depth range
   from the nearest caster to the farthest receiver;
 - target-direct: orthographic over the light's cylinder (radius R), clipped to those points;
@@ -112,15 +114,20 @@ class Face:
 
 
 def fit_light_faces(frame, light_index: int, resolution: int, projection: str = "auto",
-                    near_override: float = 0.0) -> tuple[list[Face], list[str]]:
-    """The map's faces (1, or 6 for a cube) fitted to the frame, and notes for the run."""
+                    near_override: float = 0.0, fit: str = "shadowable") -> tuple[list[Face], list[str]]:
+    """The map's faces (1, or 6 for a cube) fitted to the frame, and notes for the run.
+
+    ``fit='shadowable'`` covers the evaluated receiver points that can be in shadow at all;
+    ``fit='receivers'`` covers every evaluated receiver point (the classic fit to what the
+    camera sees: coarser texels, and acne wherever the receivers are)."""
     light = frame.scene.lights[light_index]
     evaluated = frame.compact_evaluated(light_index)
     casters = frame.caster_bounds()
     receivers = frame.compact_position[evaluated]
-    focus = shadowable(receivers, frame.compact_normal[evaluated], light, casters,
-                       eps=1e-5 * frame.scene.extent())
-    receivers = receivers[focus]
+    if fit == "shadowable":
+        focus = shadowable(receivers, frame.compact_normal[evaluated], light, casters,
+                           eps=1e-5 * frame.scene.extent())
+        receivers = receivers[focus]
     notes: list[str] = []
     if len(receivers) == 0:
         receivers = frame.scene.bounds()  # nothing to answer: any valid frustum will do
@@ -200,6 +207,8 @@ class ShadowMap(Technique):
         "projection": Param("auto", "point lights: cube (six faces), frustum (one), auto",
                             choices=("auto", "cube", "frustum")),
         "near": Param(0.0, "perspective maps: force this near plane (0 = fitted to the casters)", min=0.0),
+        "fit": Param("shadowable", "cover the receivers that can be shadowed (shadowable) or all visible "
+                                   "receivers (receivers, the classic fit)", choices=("shadowable", "receivers")),
     }
 
     # ------------------------------------------------------------------ setup
@@ -207,7 +216,8 @@ class ShadowMap(Technique):
         """Fit the faces, allocate the atlas layers and programs."""
         ctx = frame.ctx
         self.frame, self.light = frame, frame.scene.lights[light_index]
-        self.faces, notes = fit_light_faces(frame, light_index, self.resolution, self.projection, self.near)
+        self.faces, notes = fit_light_faces(frame, light_index, self.resolution, self.projection, self.near,
+                                            self.fit)
         self.notes.extend(notes)
         n = len(self.faces)
         cols, rows = (3, 2) if n == 6 else (1, 1)
@@ -329,8 +339,16 @@ class ShadowMap(Technique):
         """Map memory (every layer) and passes per frame."""
         layers = len(self.layers) if self.variant in ("midpoint", "dual") else 1
         depth_passes = len(self.faces) * (2 if layers == 3 else 1)
+        proj = self.faces[0].proj
+        if proj[3, 3] == 1.0:  # orthographic: depth = (z - near) / (far - near)
+            depth_range = 2.0 / abs(proj[2, 2])
+        else:  # perspective: far - near from the matrix
+            near, far = proj[2, 3] / (proj[2, 2] - 1.0), proj[2, 3] / (proj[2, 2] + 1.0)
+            depth_range = abs(far - near)
         return {"memory_bytes": sum(l.nbytes for l in self.layers), "faces": len(self.faces),
-                "passes": depth_passes + (1 if layers == 3 else 0) + 1}
+                "passes": depth_passes + (1 if layers == 3 else 0) + 1,
+                "depth_range": float(depth_range),
+                "texel_world": float(self.faces[0].texel_world) or None}
 
     def release(self) -> None:
         """Free the depth layers, programs and visibility target."""

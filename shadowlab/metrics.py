@@ -124,11 +124,13 @@ def contact_pixels(object_id: np.ndarray, position: np.ndarray, footprint: np.nd
 def contact_gap(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray,
                 band: int = 8) -> float:
     """Peter-panning (HARD_CASES 'contact gap'): false-lit pixels within ``band`` pixels of the
-    contact lines, divided by the contact lines' length in pixels — the mean width, in pixels,
-    of the lit gap that opens between a caster and its shadow where they touch. 0 without
-    contact lines."""
-    if not contact.any():
+    shadowed part of the contact lines (where the truth is in shadow beside the contact: only
+    there can a lit gap open), divided by that part's length in pixels — the mean width, in
+    pixels, of the lit gap between a caster and its shadow where they touch. 0 when no contact
+    line is in shadow."""
+    shadowed_contact = contact & (truth < THRESHOLD)
+    if not shadowed_contact.any():
         return 0.0
-    near = ndimage.binary_dilation(contact, iterations=band)
+    near = ndimage.binary_dilation(shadowed_contact, iterations=band)
     false_lit = (truth < THRESHOLD) & (vis >= THRESHOLD) & evaluated & near
-    return float(false_lit.sum()) / float(contact.sum())
+    return float(false_lit.sum()) / float(shadowed_contact.sum())

@@ -224,6 +224,30 @@ def _run(scene: Scene, techniques: list[Technique], size, tmp: Path, repeat: int
     frame.release()
 
 
+def measure_configs(scene_ref, specs: list[str], size: tuple[int, int] = (640, 480), repeat: int = 1,
+                    warmup: int = 0, light_index: int = 0, frame: Frame | None = None) -> pd.DataFrame:
+    """Metrics and cost rows (the metrics.csv columns) for several configurations on one scene
+    and light, sharing one frame and one ground truth; writes nothing. For sweeps and tests.
+    Pass ``frame`` to reuse a frame across calls."""
+    scene = frame.scene if frame is not None else load_scene(scene_ref)
+    techniques = [from_spec(s) for s in specs]
+    frame = frame or Frame(scene, *size)
+    bar = Progress(total=(1 + len(techniques)) * (repeat + warmup))
+    try:
+        truth = RayTraced()
+        gt_vis, t = _measure(truth, frame, light_index, repeat, warmup, bar)
+        rows = [_row(scene, light_index, truth, frame, gt_vis, gt_vis, t, reference=True)]
+        for tech in techniques:
+            vis, t = _measure(tech, frame, light_index, repeat, warmup, bar)
+            row = _row(scene, light_index, tech, frame, vis, gt_vis, t)
+            row["notes"] = "; ".join(dict.fromkeys(tech.notes))
+            rows.append(row)
+            tech.release()
+    finally:
+        bar.close()
+    return pd.DataFrame(rows)
+
+
 def _json_default(obj):
     if isinstance(obj, (np.integer, np.floating)):
         return obj.item()

@@ -82,3 +82,33 @@ def test_boundary_and_classes():
     vis = truth.copy(); vis[0, 0] = 0; vis[10, 15] = 1
     cls = error_classes(vis, truth, ev)
     assert cls[0, 0] == 3 and cls[10, 15] == 4 and cls[1, 1] == 1 and cls[6, 11] == 2
+
+
+def test_contact_pixels_need_touching_neighbours():
+    from shadowlab.metrics import contact_pixels
+
+    obj = np.zeros((6, 6), np.int32)
+    obj[:, 3:] = 1
+    pos = np.zeros((6, 6, 3))
+    pos[..., 0] = np.arange(6)[None, :] * 0.01
+    foot = np.full((6, 6), 0.01)
+    receivers = obj == 0
+    touching = contact_pixels(obj, pos, foot, receivers)
+    assert touching[:, 2].all() and touching.sum() == 6
+    pos[:, 3:, 2] = 5.0  # object 1 is far behind: it hides nothing, touches nothing
+    assert not contact_pixels(obj, pos, foot, receivers).any()
+
+
+def test_contact_gap_is_band_width_in_pixels():
+    from shadowlab.metrics import contact_gap
+
+    truth = np.ones((20, 20), np.float32)
+    truth[:, 5:15] = 0.0                    # shadow beside a contact line at column 5
+    contact = np.zeros((20, 20), bool)
+    contact[:, 5] = True
+    ev = np.ones((20, 20), bool)
+    vis = truth.copy()
+    assert contact_gap(vis, truth, ev, contact) == 0.0
+    vis[:, 5:8] = 1.0                       # a 3-pixel lit gap along the whole contact
+    assert contact_gap(vis, truth, ev, contact) == pytest.approx(3.0)
+    assert contact_gap(vis, truth, ev, np.zeros_like(contact)) == 0.0

@@ -110,6 +110,7 @@ class ShadowVolume(Technique):
         self.scene_ext = ctx.buffer(_flagged(corners, 1.0).tobytes())
         self.scene4_vao = ctx.vertex_array(self.vs_prog, [(self.scene4, "3f 1f", "in_pos", "in_extrude")])
         self.volume_vbo = None
+        self.indexed: dict[str, tuple] = {}
         self.gpu, self.gs_prog = {}, None
         if any(p.path == "gpu" for p in self.plans):
             self.gs_prog = gl.program("shadow_volume_gs.glsl")
@@ -191,15 +192,21 @@ class ShadowVolume(Technique):
             GL.glStencilOpSeparate(front, keep, dec, keep)
             GL.glStencilOpSeparate(back, keep, inc, keep)
 
-    def _draw_indexed(self, vbo, idx: np.ndarray) -> None:
-        """Triangles of ``vbo`` (the scene's corners, flagged) picked by vertex indices."""
-        ctx = self.frame.ctx
-        ibo = ctx.buffer(idx.astype("i4").tobytes())
-        vao = ctx.vertex_array(self.vs_prog, [(vbo, "3f 1f", "in_pos", "in_extrude")], index_buffer=ibo,
-                               index_element_size=4)
-        vao.render()
-        vao.release()
-        ibo.release()
+    def _draw_indexed(self, key: str, vbo, idx: np.ndarray) -> None:
+        """Triangles of ``vbo`` (the scene's corners, flagged) picked by vertex indices; the index
+        buffer and its vertex array are kept per ``key`` and only re-filled each frame."""
+        data = idx.astype("i4").tobytes()
+        entry = self.indexed.get(key)
+        if entry is None or entry[0].size < len(data):
+            if entry is not None:
+                entry[1].release()
+                entry[0].release()
+            ibo = self.frame.ctx.buffer(reserve=max(len(data), 1 << 16), dynamic=True)
+            vao = self.frame.ctx.vertex_array(self.vs_prog, [(vbo, "3f 1f", "in_pos", "in_extrude")],
+                                              index_buffer=ibo, index_element_size=4)
+            entry = self.indexed[key] = (ibo, vao)
+        entry[0].write(data)
+        entry[1].render(vertices=len(idx))
 
     def _draw_volumes(self, volume, cap_idx, flip_idx, far_idx) -> None:
         """All volume geometry, with the stencil state already set (used by render and stats)."""
@@ -214,11 +221,11 @@ class ShadowVolume(Technique):
             self.volume_vbo.write(volume.tobytes())
             self.volume_vao.render(vertices=len(volume))
         if len(far_idx):
-            self._draw_indexed(self.scene_ext, far_idx)
-        for idx, flipped in ((cap_idx, False), (flip_idx, True)):
+            self._draw_indexed("far", self.scene_ext, far_idx)
+        for key, idx, flipped in (("caps", cap_idx, False), ("flipped", flip_idx, True)):
             if len(idx):
                 self._stencil_ops(flipped)
-                self._draw_indexed(self.scene4, idx)
+                self._draw_indexed(key, self.scene4, idx)
         self._stencil_ops(False)
         for p in self.plans:
             if p.path != "gpu":
@@ -318,6 +325,9 @@ class ShadowVolume(Technique):
         if self.volume_vbo is not None:
             self.volume_vao.release()
             self.volume_vbo.release()
+        for ibo, vao in self.indexed.values():
+            vao.release()
+            ibo.release()
         self.target.release()
         for obj in (self.scene4_vao, self.scene4, self.scene_ext, self.vs_prog, self.quad, self.const_prog, self.vis_tex):
             obj.release()

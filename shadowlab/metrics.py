@@ -70,6 +70,12 @@ def compare(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) -> dict:
     else:
         boundary = hausdorff = p95 = 0.0
     mae = float(np.abs(vis[ev] - truth[ev]).mean()) if n else 0.0
+    umbra = vis[g_sh & v_sh]
+    # Spread of visibility inside the umbra (pixels both call shadowed, so that misplaced edges
+    # do not count): 0 for a uniform shadow; multiple modulation (planar shadows' double
+    # blending) makes it vary. On a receiver of constant albedo the shaded intensity is affine
+    # in visibility at fixed N·L, so this is the shading's spread inside the shadow.
+    umbra_std = float(umbra.std()) if umbra.size else 0.0
     return {
         "evaluated_pixels": n,
         "error_rate": _ratio(false_shadow + false_lit, n),
@@ -77,6 +83,7 @@ def compare(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) -> dict:
         "false_lit_rate": _ratio(false_lit, g_shadow),
         "boundary_error_px": boundary,
         "visibility_mae": mae,
+        "umbra_visibility_std": umbra_std,
         "truth_lit_pixels": g_lit,
         "truth_shadowed_pixels": g_shadow,
         "false_shadow_pixels": false_shadow,

@@ -76,7 +76,8 @@ def speed_error_plot(df: pd.DataFrame, path: Path) -> None:
 
 
 _TABLE_COLUMNS = ["short_label", "light", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
-                  "visibility_mae", "evaluated_pixels", "time_ms_median", "time_ms_iqr"]
+                  "visibility_mae", "umbra_visibility_std", "contact_gap_px", "evaluated_pixels", "time_ms_median",
+                  "time_ms_iqr"]
 
 
 def write_html(path: Path, run: dict, df: pd.DataFrame, images: list[dict]) -> None:
@@ -87,7 +88,8 @@ def write_html(path: Path, run: dict, df: pd.DataFrame, images: list[dict]) -> N
     table = df[cols].copy()
     for c in ("error_rate", "false_shadow_rate", "false_lit_rate"):
         table[c] = table[c].map(lambda x: f"{100 * x:.3f} %")
-    for c in ("boundary_error_px", "visibility_mae", "time_ms_median", "time_ms_iqr"):
+    for c in ("boundary_error_px", "visibility_mae", "umbra_visibility_std", "contact_gap_px", "time_ms_median",
+              "time_ms_iqr"):
         if c in table:
             table[c] = table[c].map(lambda x: f"{x:.3f}")
     legend = "".join(f'<span class="sw" style="background:rgb({",".join(str(int(255 * v)) for v in col)})"></span>'

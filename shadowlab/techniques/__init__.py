@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from .base import Param, Technique, TechniqueError, parse_spec
+from .planar import PlanarShadow
 from .raytrace import RayTraced
 from .shadow_map import ShadowMap
 from .shadow_volume import ShadowVolume
@@ -10,6 +11,7 @@ REGISTRY: dict[str, type[Technique]] = {
     RayTraced.name: RayTraced,
     ShadowMap.name: ShadowMap,
     ShadowVolume.name: ShadowVolume,
+    PlanarShadow.name: PlanarShadow,
 }
 
 

@@ -5,6 +5,7 @@ from .base import Param, Technique, TechniqueError, parse_spec
 from .planar import PlanarShadow
 from .raytrace import RayTraced
 from .shadow_map import ShadowMap
+from .shadow_polygons import ShadowPolygons
 from .shadow_volume import ShadowVolume
 
 REGISTRY: dict[str, type[Technique]] = {
@@ -12,6 +13,7 @@ REGISTRY: dict[str, type[Technique]] = {
     ShadowMap.name: ShadowMap,
     ShadowVolume.name: ShadowVolume,
     PlanarShadow.name: PlanarShadow,
+    ShadowPolygons.name: ShadowPolygons,
 }
 
 

@@ -24,6 +24,7 @@ from .frame import Frame
 from .scene import Scene, load_scene
 from .shading import Shader
 from .techniques import REGISTRY, Technique, TechniqueError, from_spec
+from .techniques.base import format_value
 from .techniques.raytrace import RayTraced
 
 #: Columns every metrics.csv has first, in this order (DESIGN §6).
@@ -290,5 +291,5 @@ def technique_listing() -> str:
         lines.append(f"{name}: {cls.summary}")
         for key, p in cls.PARAMS.items():
             extra = f" (one of {', '.join(map(str, p.choices))})" if p.choices else ""
-            lines.append(f"    {key}={p.default!r}  {p.doc}{extra}")
+            lines.append(f"    {key}={format_value(p.default)}  {p.doc}{extra}")
     return "\n".join(lines)

@@ -40,6 +40,13 @@ class Light:
         """λ in [0, 1] at (N, 3) points (1 for point and directional lights)."""
         return np.ones(len(points))
 
+    def homogeneous(self) -> np.ndarray:
+        """The light as a homogeneous point: (L, 1), or (−direction, 0) for lights at infinity
+        (the form planar projection and shadow-frustum construction use)."""
+        if self.at_infinity:
+            return np.append(-self.direction, 0.0)
+        return np.append(self.position, 1.0)
+
     def uniforms(self) -> dict:
         """Values for the ``light_*`` uniforms of ``shaders/lights.glsl``."""
         return {

@@ -11,7 +11,7 @@ import pytest
 from scipy.spatial import ConvexHull
 
 from shadowlab.frame import Frame
-from shadowlab.lights import DirectionalLight, PointLight
+from shadowlab.lights import PointLight
 from shadowlab.techniques.raytrace import RayTraced, occluded
 from shadowlab import transforms as tf
 

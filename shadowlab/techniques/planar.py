@@ -29,6 +29,7 @@ stencil attachment with the frame's camera.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,13 +64,6 @@ def fit_plane(vertices: np.ndarray) -> np.ndarray | None:
     return np.append(n, -n @ centre)
 
 
-def light_homogeneous(light) -> np.ndarray:
-    """The light as a homogeneous point: (L, 1), or (−direction, 0) for lights at infinity."""
-    if light.at_infinity:
-        return np.append(-light.direction, 0.0)
-    return np.append(light.position, 1.0)
-
-
 def planar_projection(plane: np.ndarray, light_h: np.ndarray) -> np.ndarray:
     """Blinn's projection onto ``plane`` from ``light_h``: M = (p·l) I − l pᵀ (4x4)."""
     return float(plane @ light_h) * np.eye(4) - np.outer(light_h, plane)
@@ -93,12 +87,10 @@ class PlanarShadow(Technique):
 
     def setup(self, frame, light_index: int) -> None:
         """Find planar receivers, build their projections, render the depth pre-pass."""
-        import time
-
         t0 = time.perf_counter()
         ctx = frame.ctx
         self.frame, self.light = frame, frame.scene.lights[light_index]
-        light_h = light_homogeneous(self.light)
+        light_h = self.light.homogeneous()
         self.receivers: list[PlanarReceiver] = []
         skipped = []
         for i, obj in enumerate(frame.scene.objects):

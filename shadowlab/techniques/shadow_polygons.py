@@ -24,7 +24,6 @@ from .. import adjacency as adj
 from .. import gl
 from .. import polygon_clipping as pc
 from .base import Param, Technique, TechniqueError
-from .planar import light_homogeneous
 
 #: Candidate pairs above which the technique refuses (a Python loop per pair: meant for
 #: polyhedral scenes of modest size, the static-light trade-off it exists to show).
@@ -50,7 +49,7 @@ class ShadowPolygons(Technique):
         self.frame = frame
         scene = frame.scene
         light = scene.lights[light_index]
-        light_h = light_homogeneous(light)
+        light_h = light.homogeneous()
         eps = self.epsilon * scene.extent()
         starts = np.cumsum([0] + [len(o.faces) for o in scene.objects])
         casters = []

@@ -82,8 +82,9 @@ _TABLE_COLUMNS = ["short_label", "light", "error_rate", "false_shadow_rate", "fa
 
 def write_html(path: Path, run: dict, df: pd.DataFrame, images: list[dict]) -> None:
     """Write ``report.html``: run facts, the metrics table, the speed/error plot and an image grid
-    (shaded | visibility | error map per configuration). ``images`` holds dicts with ``label``,
-    ``shaded``, ``visibility`` and optionally ``error`` (file names relative to the report)."""
+    (shaded | visibility | error map per configuration). ``images`` holds dicts with ``label``
+    (the full spec), ``title`` (a short heading), ``shaded``, ``visibility`` and optionally
+    ``error`` (file names relative to the report)."""
     cols = [c for c in _TABLE_COLUMNS if c in df.columns]
     table = df[cols].copy()
     for c in ("error_rate", "false_shadow_rate", "false_lit_rate"):
@@ -98,7 +99,9 @@ def write_html(path: Path, run: dict, df: pd.DataFrame, images: list[dict]) -> N
     for im in images:
         cells = [f'<figure><img src="{im[k]}" alt="{k}"><figcaption>{k}</figcaption></figure>'
                  for k in ("shaded", "visibility", "error") if im.get(k)]
-        rows.append(f'<h3>{html.escape(im["label"])}</h3><div class="row">{"".join(cells)}</div>')
+        title = im.get("title", im["label"])
+        rows.append(f'<h3>{html.escape(title)}</h3><p class="spec">{html.escape(im["label"])}</p>'
+                    f'<div class="row">{"".join(cells)}</div>')
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in run.get("notes", []))
     doc = f"""<!doctype html>
 <html><head><meta charset="utf-8"><title>shadowlab — {html.escape(run['scene']['name'])}</title>
@@ -107,7 +110,9 @@ body {{ font-family: system-ui, sans-serif; margin: 1.5em; color: #222; }}
 table {{ border-collapse: collapse; font-size: 0.85em; }}
 td, th {{ border: 1px solid #ccc; padding: 0.25em 0.5em; text-align: right; }}
 .row {{ display: flex; gap: 0.6em; flex-wrap: wrap; }}
-figure {{ margin: 0; }} img {{ max-width: 32vw; border: 1px solid #999; }}
+figure {{ margin: 0; }} .row img {{ width: calc((100vw - 6em) / 3); max-width: 640px; border: 1px solid #999; }}
+.spec {{ font-family: monospace; font-size: 0.75em; color: #555; word-break: break-all; margin: -0.6em 0 0.5em 0; }}
+.scroll {{ overflow-x: auto; }}
 figcaption {{ font-size: 0.8em; color: #555; }}
 .sw {{ display: inline-block; width: 1em; height: 1em; vertical-align: middle; margin-right: 0.3em; border: 1px solid #666; }}
 </style></head><body>
@@ -117,7 +122,7 @@ timing: {html.escape(run['timing_method'])}, {run['repeat']} repeats after {run[
 masks, metrics and error maps are for the first light; metrics.csv has every light.</p>
 {f'<h2>Notes</h2><ul>{notes}</ul>' if notes else ''}
 <h2>Metrics</h2>
-{table.to_html(index=False, escape=True)}
+<div class="scroll">{table.to_html(index=False, escape=True)}</div>
 <p><img src="speed_vs_error.png" alt="speed vs error plot"></p>
 <h2>Images</h2>
 <p>Error map legend: {legend} dimmed: not evaluated (not a receiver, facing away from the light, or outside its footprint)</p>

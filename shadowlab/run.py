@@ -195,9 +195,10 @@ def _run(scene: Scene, techniques: list[Technique], size, tmp: Path, repeat: int
         masks[tech.spec()] = np.where(ev0, vis_all[0], np.nan).astype(np.float32)
     np.savez_compressed(tmp / "masks.npz", **masks)
 
-    images = [_write_images(tmp, "ground_truth", GROUND_TRUTH_KEY + f" ({truth.spec()})", shader, frame, gt_vis, None)]
+    images = [_write_images(tmp, "ground_truth", truth.spec(), "ground truth", shader, frame, gt_vis, None)]
     for tech, vis_all in zip(techniques, per_tech_vis):
-        images.append(_write_images(tmp, _safe(tech.short_label()), tech.spec(), shader, frame, vis_all, gt_vis[0]))
+        images.append(_write_images(tmp, _safe(tech.short_label()), tech.spec(), tech.short_label(), shader, frame,
+                                    vis_all, gt_vis[0]))
     report.speed_error_plot(df, tmp / "speed_vs_error.png")
 
     run = {
@@ -270,11 +271,12 @@ def _row(scene, li, tech, frame, vis, truth, t, reference=False) -> dict:
     return row
 
 
-def _write_images(tmp: Path, stem: str, label: str, shader: Shader, frame: Frame, vis_all, truth0) -> dict:
+def _write_images(tmp: Path, stem: str, label: str, title: str, shader: Shader, frame: Frame, vis_all,
+                  truth0) -> dict:
     covered = frame.covered
     ev0 = frame.evaluated(0)
     shaded = report.to_display(shader.shade(vis_all), covered)
-    files = {"label": label, "shaded": f"images/{stem}_shaded.png", "visibility": f"images/{stem}_visibility.png"}
+    files = {"label": label, "title": title, "shaded": f"images/{stem}_shaded.png", "visibility": f"images/{stem}_visibility.png"}
     report.save_png(tmp / files["shaded"], shaded)
     report.save_png(tmp / files["visibility"], report.visibility_picture(vis_all[0], ev0, covered))
     if truth0 is not None:

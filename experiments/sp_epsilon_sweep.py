@@ -26,34 +26,14 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import linprog
-from scipy.spatial import ConvexHull, HalfspaceIntersection
+from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 from shadowlab import polygon_clipping as pc
+from shadowlab.convex_reference import overlap_area
 
 EPSILONS = 10.0 ** np.arange(-18, 0)
 RECEIVER = np.array([[-2, 0, -2], [2, 0, -2], [2, 0, 2], [-2, 0, 2.0]])
-
-
-def _halfspaces(poly2):
-    x, y = poly2[:, 0], poly2[:, 1]
-    if np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y) < 0:
-        poly2 = poly2[::-1]
-    e = np.roll(poly2, -1, axis=0) - poly2
-    n = np.stack([e[:, 1], -e[:, 0]], 1)
-    return np.concatenate([n, -(n * poly2).sum(1, keepdims=True)], 1)
-
-
-def overlap_area(p2, q2):
-    """Area of the intersection of two convex 2D polygons, independently (Qhull)."""
-    hs = np.concatenate([_halfspaces(p2), _halfspaces(q2)])
-    norm = np.linalg.norm(hs[:, :2], axis=1)
-    res = linprog([0, 0, -1], A_ub=np.concatenate([hs[:, :2], norm[:, None]], 1), b_ub=-hs[:, 2],
-                  bounds=[(None, None), (None, None), (0, None)])
-    if not res.success or res.x[2] < 1e-12:
-        return 0.0
-    return float(ConvexHull(HalfspaceIntersection(hs, res.x[:2]).intersections).volume)
 
 
 def case(family, param, rng):

@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
-from scipy.optimize import linprog
-from scipy.spatial import ConvexHull, HalfspaceIntersection
+from scipy.spatial import ConvexHull
 
 from shadowlab import polygon_clipping as pc
+from shadowlab.convex_reference import ccw, overlap_area
 
 EPS = 1e-12
 
@@ -41,31 +41,9 @@ def configurations(draw):
     return receiver, caster, light
 
 
-def halfspaces_2d(poly):
-    """Half-spaces A x + b <= 0 of a counter-clockwise convex polygon (K, 2)."""
-    a, b = poly, np.roll(poly, -1, axis=0)
-    e = b - a
-    normal = np.stack([e[:, 1], -e[:, 0]], 1)  # outward for CCW
-    return np.concatenate([normal, -(normal * a).sum(1, keepdims=True)], 1)
-
-
 def intersection_area(p, q):
-    """Area of the intersection of two convex 2D polygons (Qhull), 0 when it is (nearly) empty."""
-    hs = np.concatenate([halfspaces_2d(p), halfspaces_2d(q)])
-    norm = np.linalg.norm(hs[:, :2], axis=1)
-    res = linprog([0, 0, -1], A_ub=np.concatenate([hs[:, :2], norm[:, None]], 1), b_ub=-hs[:, 2],
-                  bounds=[(None, None), (None, None), (0, None)])
-    if not res.success or res.x[2] < 1e-10:
-        return 0.0  # empty, or a sliver thinner than 1e-10 (its area is below the tolerance)
-    pts = HalfspaceIntersection(hs, res.x[:2]).intersections
-    return float(ConvexHull(pts).volume)
-
-
-def ccw(poly2):
-    """The polygon (K, 2) in counter-clockwise order (signed area > 0)."""
-    x, y = poly2[:, 0], poly2[:, 1]
-    signed_area = np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)
-    return poly2 if signed_area > 0 else poly2[::-1]
+    """Area of the intersection of two convex 2D polygons (Qhull, independent of the clipper)."""
+    return overlap_area(p, q)
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])

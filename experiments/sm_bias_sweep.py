@@ -7,7 +7,8 @@ is swept over its own parameter — constant ``bias``, ``slope_scale`` (bias 0),
 reference lines. Reports false-shadow rate (acne), false-lit rate (leaks) and the contact gap.
 Writes results/sm_bias_sweep.csv and results/sm_bias_sweep.png.
 
-    python experiments/sm_bias_sweep.py [--size 640x480] [--resolution 2048]
+    python experiments/sm_bias_sweep.py [--size 320x240] [--resolution 2048]
+    (the figures in earlier notes used --size 640x480; a JSON record of provenance is written beside the CSV)
 """
 from __future__ import annotations
 
@@ -17,9 +18,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from shadowlab import gl
+from shadowlab import gl, provenance
 from shadowlab.frame import Frame
-from shadowlab.run import measure_configs, parse_size
+from shadowlab.cli import parse_size
+from shadowlab.pipeline import measure_configs
 from shadowlab.scene import load_scene
 
 SWEEPS = {  # variant: (parameter, values, fixed parameters)
@@ -34,7 +36,7 @@ SCENES = ["sm_grazing", "sm_contact"]
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--size", default="640x480")
+    ap.add_argument("--size", default="320x240")
     ap.add_argument("--resolution", type=int, default=2048)
     ap.add_argument("--out", default="results/sm_bias_sweep")
     args = ap.parse_args()
@@ -60,6 +62,7 @@ def main():
     out.parent.mkdir(parents=True, exist_ok=True)
     all_rows = pd.concat(frames)
     all_rows.to_csv(out.with_suffix(".csv"), index=False)
+    provenance.write_record(out, {"size": list(size), "resolution": args.resolution})
     plot(all_rows, out.with_suffix(".png"), args.resolution, size)
     cols = ["scene", "variant", "swept", "value", "false_shadow_rate", "false_lit_rate", "contact_gap_px"]
     with pd.option_context("display.width", 200, "display.max_rows", 200):

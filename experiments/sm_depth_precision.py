@@ -5,7 +5,8 @@ plane fitted to the casters or forced to 10^-2 and 10^-3; slope-scaled bias only
 depth format itself is what is measured. Writes results/sm_depth_precision.csv and a markdown
 table results/sm_depth_precision.md.
 
-    python experiments/sm_depth_precision.py [--size 640x480]
+    python experiments/sm_depth_precision.py [--size 320x240]
+    (the figures in earlier notes used --size 640x480; a JSON record of provenance is written beside the CSV)
 """
 from __future__ import annotations
 
@@ -14,9 +15,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from shadowlab import gl
+from shadowlab import gl, provenance
 from shadowlab.frame import Frame
-from shadowlab.run import measure_configs, parse_size
+from shadowlab.cli import parse_size
+from shadowlab.pipeline import measure_configs
 from shadowlab.scene import load_scene
 
 NEARS = [0.0, 0.01, 0.001]
@@ -26,7 +28,7 @@ SCENES = ["spot_scene", "sm_far_origin"]
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--size", default="640x480")
+    ap.add_argument("--size", default="320x240")
     ap.add_argument("--out", default="results/sm_depth_precision")
     args = ap.parse_args()
     size = parse_size(args.size)
@@ -40,6 +42,7 @@ def main():
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     df.to_csv(out.with_suffix(".csv"), index=False)
+    provenance.write_record(out, {"size": list(size)})
     lines = [f"# Shadow-map depth precision ({size[0]}x{size[1]}, 2048², slope-scaled bias only; {gl.renderer()})", "",
              "false-shadow rate (acne) / false-lit rate, % — near = 'fitted' is the nearest caster's distance", ""]
     for scene in SCENES:

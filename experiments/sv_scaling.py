@@ -1,30 +1,34 @@
 """Shadow-volume cost against triangle count: silhouette extraction (CPU and GPU) and the whole technique.
 
 One torus (10k … 1M triangles) over a floor, a point light, 640x480. For each size:
-- ``edge_table_ms``: building the edge table (once per mesh; cached afterwards);
+- ``edge_table_ms``: building the edge table (once per mesh; kept with the mesh afterwards);
 - ``cpu_silhouette_ms``: per light, face facing + edge multiplicities + silhouette list (numpy);
 - ``cpu_geometry_ms``: the above plus building the volume's vertex arrays;
 - ``gpu_silhouette_ms``: the geometry-shader pass alone (rasteriser discard: no fill);
 - ``cpu_total_ms`` / ``gpu_total_ms``: the technique's whole timed render (z-fail);
 plus silhouette edges, volume triangles and fill per pixel. Timings: wall clock (with
-``ctx.finish()`` around GL work), median of ``--repeat``. Writes CSV and a plot into results/.
+``ctx.finish()`` around GL work), median of ``--repeat``. Writes CSV, plot and provenance (.json).
 
-    python experiments/sv_scaling.py [--sizes 10000,30000,100000,300000,1000000] [--repeat 5]
+    python experiments/sv_scaling.py [--sizes 10000,100000] [--repeat 5]
+    (the figures in the notes: --sizes 10000,30000,100000,300000,1000000)
 """
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from OpenGL import GL
 
-from shadowlab import adjacency as adj
-from shadowlab import gl
+from shadowlab import gl, provenance
 from shadowlab.frame import Frame
+from shadowlab.geometry import adjacency as adj
+from shadowlab.pipeline import measure as measure_technique
 from shadowlab.scene import parse_scene
 from shadowlab.techniques import from_spec
+from shadowlab.techniques.shadow_volume import GS_STAGE_VOLUME
+from shadowlab.timing import time_passes
 
 
 def torus_scene(triangles: int):
@@ -40,54 +44,49 @@ def torus_scene(triangles: int):
                      "rotate": [60.0, 0.0, 0.0]}]})
 
 
-def median_ms(fn, repeat, gpu=False):
-    ctx = gl.context()
-    fn()
-    if gpu:
-        ctx.finish()
-    ts = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        if gpu:
-            ctx.finish()
-        ts.append(time.perf_counter() - t0)
-    return 1e3 * float(np.median(ts))
+def gs_only_timer(frame, table, light, repeat):
+    """Median ms of the silhouette geometry shader over the torus with the rasteriser off:
+    the program of the GPU path, drawn through the public GL helpers."""
+    ctx = frame.ctx
+    prog = gl.program("shadow_volume_gs.glsl")
+    gl.set_uniforms(prog, light.uniforms())
+    prog["u_view"].write(gl.mat_bytes(frame.view))
+    prog["u_proj"].write(gl.mat_bytes(frame.projection))
+    gl.set_uniforms(prog, {"u_two_sided": False, "u_caps": True, "u_far_cap": not light.at_infinity,
+                           "u_stage": GS_STAGE_VOLUME})
+    vbo = ctx.buffer(table.vertices.astype("f4").tobytes())
+    ibo = ctx.buffer(table.adjacency_indices().tobytes())
+    vao = ctx.vertex_array(prog, [(vbo, "3f", "in_pos")], index_buffer=ibo, index_element_size=4)
+
+    def gs_only():
+        GL.glEnable(GL.GL_RASTERIZER_DISCARD)
+        vao.render(ctx.TRIANGLES_ADJACENCY)
+        GL.glDisable(GL.GL_RASTERIZER_DISCARD)
+
+    ms = time_passes(gs_only, repeat=repeat, warmup=1).median_ms
+    for obj in (vao, ibo, vbo, prog):
+        obj.release()
+    return ms
 
 
 def measure(n, repeat):
-    from OpenGL import GL
-
     scene = torus_scene(n)
     torus = scene.objects[1]
-    t0 = time.perf_counter()
-    table = adj.edge_table(torus.vertices, torus.faces)
-    edge_ms = 1e3 * (time.perf_counter() - t0)
-    torus.__dict__["_edge_table"] = table
-    light = scene.lights[0]
-    cpu_sil = median_ms(lambda: adj.silhouette_edges(table, adj.facing(table, light), False), repeat)
+    edge_ms = time_passes(lambda: torus.edges, repeat=1, warmup=0, gpu=False).median_ms  # built once, then kept
+    table, light = torus.edges, scene.lights[0]
+    cpu_sil = time_passes(lambda: adj.silhouette_edges(table, adj.facing(table, light), False), repeat=repeat,
+                          gpu=False).median_ms
     frame = Frame(scene, 640, 480)
     row = {"triangles": len(torus.faces), "edge_table_ms": edge_ms, "cpu_silhouette_ms": cpu_sil}
     for path in ("cpu", "gpu"):
         tech = from_spec(f"shadow_volume:silhouette={path}")
-        tech.setup(frame, 0)
-        row[f"{path}_total_ms"] = median_ms(tech.render, repeat, gpu=True)
-        stats = tech.stats()
+        m = measure_technique(tech, frame, 0, repeat=repeat, warmup=1, release=False)
+        row[f"{path}_total_ms"] = m.timing.median_ms
         if path == "cpu":
-            row["cpu_geometry_ms"] = median_ms(tech._cpu_geometry, repeat)
-        else:
-            plan = [p for p in tech.plans if p.path == "gpu" and p.index == 1][0]
-            vao = tech.gpu[plan.index][2]
-
-            def gs_only():
-                GL.glEnable(GL.GL_RASTERIZER_DISCARD)
-                tech.gs_prog["u_two_sided"].value = plan.two_sided
-                tech.gs_prog["u_stage"].value = 1
-                vao.render(frame.ctx.TRIANGLES_ADJACENCY)
-                GL.glDisable(GL.GL_RASTERIZER_DISCARD)
-            row["gpu_silhouette_ms"] = median_ms(gs_only, repeat, gpu=True)
-        row.update({k: stats[k] for k in ("silhouette_edges", "volume_triangles", "fill_per_pixel")})
+            row["cpu_geometry_ms"] = time_passes(tech.cpu_volume_geometry, repeat=repeat, gpu=False).median_ms
+        row.update({k: m.stats[k] for k in ("silhouette_edges", "volume_triangles", "fill_per_pixel")})
         tech.release()
+    row["gpu_silhouette_ms"] = gs_only_timer(frame, table, light, repeat)
     frame.release()
     return row
 
@@ -115,7 +114,7 @@ def plot(df, path):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", default="10000,30000,100000,300000,1000000")
+    ap.add_argument("--sizes", default="10000,100000")
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--out", default="results/sv_scaling")
     args = ap.parse_args()
@@ -127,10 +126,11 @@ def main():
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     df.to_csv(out.with_suffix(".csv"), index=False)
+    provenance.write_record(out, {"timing": f"wall clock around ctx.finish(), median of {args.repeat}"})
     plot(df, out.with_suffix(".png"))
     with pd.option_context("display.width", 250):
         print(df.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
-    print(f"renderer: {gl.renderer()}; wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
+    print(f"renderer: {gl.renderer()}; wrote {out.with_suffix('.csv')}, .png and .json")
 
 
 if __name__ == "__main__":

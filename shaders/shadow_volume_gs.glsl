@@ -5,11 +5,11 @@
 //   two-sided (open meshes, light inside): every face, turned to face the light, extrudes each
 //   edge whose neighbour faces the other way (a boundary edge's "neighbour" is the face itself
 //   walked backwards, so boundary edges are always extruded).
-// u_stage: STAGE_PREPASS emits every triangle as is (depth pre-pass, bit-identical to the caps);
-// STAGE_VOLUME emits sides, near caps of lit faces and far caps; STAGE_FLIPPED_CAPS emits the
-// near caps of unlit faces in two-sided mode, in their stored order (drawn with swapped ops).
+// u_stage: STAGE_VOLUME emits sides, near caps of lit faces and far caps; STAGE_FLIPPED_CAPS
+// emits the near caps of unlit faces in two-sided mode, in their stored order (drawn with
+// swapped stencil ops). The depth pre-pass is drawn by the CPU path's program (shared vertex
+// stage). Python twin of the stage ids: shadowlab/techniques/shadow_volume.py (GS_STAGE_*).
 #include "shadow_volume_common.glsl"
-#define STAGE_PREPASS 0
 #define STAGE_VOLUME 1
 #define STAGE_FLIPPED_CAPS 2
 
@@ -54,10 +54,6 @@ void main() {
     vec4 s[3] = vec4[3](v_surface[0], v_surface[2], v_surface[4]);
     vec4 e[3] = vec4[3](v_extruded[0], v_extruded[2], v_extruded[4]);
     bool lit = faces_light(v[0], v[1], v[2]);
-    if (u_stage == STAGE_PREPASS) {
-        emit_tri(s[0], s[1], s[2]);
-        return;
-    }
     if (u_stage == STAGE_FLIPPED_CAPS) {
         if (u_two_sided && u_caps && !lit) emit_tri(s[0], s[1], s[2]);
         return;

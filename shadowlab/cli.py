@@ -6,12 +6,59 @@ culprit, before any GL work; a missing GL driver exits with status 3.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 
 from .validation import SceneError
 
 EXIT_BAD_INPUT = 2
 EXIT_NO_GL = 3
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """``'800x600'`` → (800, 600); RunError on anything else or on absurd sizes."""
+    from .run import RunError, check_size
+
+    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text or "")
+    if not m:
+        raise RunError(f"--size must look like WIDTHxHEIGHT (e.g. 800x600), got {text!r}")
+    return check_size((int(m.group(1)), int(m.group(2))))
+
+
+class Progress:
+    """A progress bar on a terminal (tqdm), silent when stderr is not a terminal; its
+    :meth:`step` is a pipeline ``on_step(what, total)`` callback."""
+
+    def __init__(self, enabled: bool | None = None, unit: str = "pass"):
+        from tqdm import tqdm
+
+        enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.bar = tqdm(total=None, disable=not enabled, unit=unit, leave=False, file=sys.stderr)
+
+    def step(self, what: str, total: int) -> None:
+        """Advance by one; ``what`` becomes the bar's description, ``total`` its length."""
+        if self.bar.total != total:
+            self.bar.total = total
+        self.bar.set_description(what, refresh=False)
+        self.bar.update(1)
+
+    def close(self) -> None:
+        """Remove the bar."""
+        self.bar.close()
+
+
+def technique_listing() -> str:
+    """Registered techniques with their parameters and defaults, for ``shadowlab techniques``."""
+    from .techniques import REGISTRY
+    from .techniques.base import format_value
+
+    lines = []
+    for name, cls in REGISTRY.items():
+        lines.append(f"{name}: {cls.summary}")
+        for key, p in cls.PARAMS.items():
+            extra = f" (one of {', '.join(map(str, p.choices))})" if p.choices else ""
+            lines.append(f"    {key}={format_value(p.default)}  {p.doc}{extra}")
+    return "\n".join(lines)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -46,20 +93,23 @@ def _cmd_scenes() -> int:
 def _cmd_compare(args) -> int:
     from . import run as runmod
     from .gl import GLContextError
+    from .metrics import format_table
 
-    size = runmod.parse_size(args.size)
+    size = parse_size(args.size)
+    bar = Progress()
     try:
         out = runmod.compare(args.scene, args.technique or ["shadow_map"], size=size, out=args.out,
-                             repeat=args.repeat, warmup=args.warmup)
+                             repeat=args.repeat, warmup=args.warmup, on_step=bar.step)
     except GLContextError as exc:
         print(f"shadowlab: {exc}", file=sys.stderr)
         return EXIT_NO_GL
+    finally:
+        bar.close()
     import pandas as pd
 
-    df = pd.read_csv(out / "metrics.csv")
-    cols = ["short_label", "light", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px", "time_ms_median"]
+    table = format_table(pd.read_csv(out / "metrics.csv"), "summary")
     with pd.option_context("display.width", 200, "display.max_colwidth", 60):
-        print(df[cols].to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+        print(table.to_string(index=False))
     print(f"run directory: {out.resolve()}")
     print(f"report: {(out / 'report.html').resolve()}")
     return 0
@@ -75,8 +125,6 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "scenes":
             return _cmd_scenes()
         if args.command == "techniques":
-            from .run import technique_listing
-
             print(technique_listing())
             return 0
         return _cmd_compare(args)

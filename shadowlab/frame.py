@@ -6,6 +6,13 @@ holds the exact surface point of every covered pixel: the pixel-centre camera ra
 in float64 with the triangle the G-buffer saw there (DESIGN §9). Arrays are (height, width, ...)
 with row 0 at the top of the image; "compact" arrays hold only covered pixels, in the order of
 ``np.flatnonzero(covered)``.
+
+What techniques may do with a frame (the stage contract, DESIGN §2): read everything — the
+G-buffer textures, the vertex buffers (through :meth:`Frame.draw`), the exact points and the
+evaluated masks — and modify nothing, with one declared exception: the G-buffer's depth-stencil
+attachment, whose contents nobody reads after the G-buffer pass, is lent to the techniques that
+list ``"depth_stencil"`` in their ``MODIFIES_FRAME`` (:meth:`Frame.depth_stencil_for`); they
+clear it before use. The frame's own caches (evaluated masks) live on the frame.
 """
 from __future__ import annotations
 
@@ -14,6 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import gl
+from .geometry.rays import ray_plane_hits
+from .geometry.triangles import triangle_normals
 from .lights import Light
 from .scene import Scene
 
@@ -39,7 +48,7 @@ class Frame:
         self.ctx = gl.context()
         self._upload()
         self._render_gbuffer()
-        self._exact_points()
+        self.compute_exact_points()
         self._evaluated: dict[int, np.ndarray] = {}
 
     # ------------------------------------------------------------------ upload
@@ -50,12 +59,8 @@ class Frame:
         self.triangle_object = np.concatenate([np.full(len(t), i, np.int32) for i, t in enumerate(tris)])
         starts = np.cumsum([0] + [len(t) for t in tris])
         self.object_ranges = [DrawRange(int(3 * a), int(3 * (b - a))) for a, b in zip(starts[:-1], starts[1:])]
-        e1 = self.triangles[:, 1] - self.triangles[:, 0]
-        e2 = self.triangles[:, 2] - self.triangles[:, 0]
-        normals = np.cross(e1, e2)
-        length = np.linalg.norm(normals, axis=1, keepdims=True)
-        self.degenerate_triangles = int(np.sum(length[:, 0] == 0))
-        self.triangle_normals = np.divide(normals, length, out=np.zeros_like(normals), where=length > 0)
+        self.triangle_normals, twice_area = triangle_normals(self.triangles)  # (T, 3) unit, zero if degenerate
+        self.degenerate_triangles = int(np.sum(twice_area == 0))
         verts = self.triangles.reshape(-1, 3).astype("f4")
         nrm = np.repeat(self.triangle_normals, 3, axis=0).astype("f4")
         obj = np.repeat(self.triangle_object, 3).astype("i4")
@@ -140,25 +145,18 @@ class Frame:
         self.triangle_id = ids[..., 1].copy()
         self.covered = self.triangle_id >= 0
 
-    def _exact_points(self) -> None:
-        """Float64 hit points of the pixel-centre rays with the triangles the G-buffer saw."""
+    def compute_exact_points(self) -> None:
+        """(Re)compute the float64 hit points of the pixel-centre rays with the triangles the
+        G-buffer saw (``compact_position``, ``compact_normal`` turned to the camera,
+        ``compact_valid``: False where a degenerate triangle or a grazing ray gives no point)."""
         self.pixel_index = np.flatnonzero(self.covered)
         tri = self.triangle_id.ravel()[self.pixel_index]
         rays = self.camera.pixel_rays(self.width, self.height).reshape(-1, 3)[self.pixel_index]
-        eye = self.camera.eye
-        v0 = self.triangles[tri, 0]
-        n = self.triangle_normals[tri]
-        denom = np.einsum("ij,ij->i", rays, n)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.einsum("ij,ij->i", v0 - eye, n) / denom
-        pts = eye + t[:, None] * rays
-        # Surfaces are two-sided: turn the geometric normal towards the camera (DESIGN §7).
-        n = np.where((denom > 0)[:, None], -n, n)
-        good = np.isfinite(t) & (t > 0) & np.any(n != 0, axis=1)
+        pts, normals, valid = ray_plane_hits(self.camera.eye, rays, self.triangles[tri, 0], self.triangle_normals[tri])
         self.compact_position = pts  # (M, 3) float64
-        self.compact_normal = n  # (M, 3) float64, unit, facing the camera
+        self.compact_normal = normals  # (M, 3) float64, unit, facing the camera (two-sided surfaces, DESIGN §7)
         self.compact_object = self.object_id.ravel()[self.pixel_index]
-        self.compact_valid = good  # degenerate triangles / grazing rays give no point
+        self.compact_valid = valid
 
     def to_image(self, compact: np.ndarray, fill=np.nan, dtype=np.float32) -> np.ndarray:
         """Scatter a compact per-pixel array (M,) or (M, C) into a (height, width[, C]) image."""
@@ -179,16 +177,15 @@ class Frame:
         per_unit = 2.0 * np.tan(np.radians(self.camera.fov_y) / 2.0) / self.height
         return self.to_image(dist * per_unit, dtype=np.float64)
 
-    def contact_lines(self, light_index: int) -> np.ndarray:
-        """Evaluated receiver pixels where another object touches the receiver (cached)."""
-        key = ("contact", light_index)
-        cache = self.__dict__.setdefault("_cache", {})
-        if key not in cache:
-            from .metrics import contact_pixels
-
-            cache[key] = contact_pixels(self.object_id, self.position, self.pixel_footprint(),
-                                        self.evaluated(light_index))
-        return cache[key]
+    def depth_stencil_for(self, technique) -> gl.ScreenTarget:
+        """The G-buffer's depth-stencil attachment, lent to ``technique`` (to share with its own
+        colour targets: ``gl.ScreenTarget.create(..., share_depth_stencil=...)``). Only techniques
+        that declare ``"depth_stencil"`` in ``MODIFIES_FRAME`` may have it: its contents are
+        theirs to clear and overwrite, and nothing after the G-buffer pass reads them."""
+        if "depth_stencil" not in getattr(technique, "MODIFIES_FRAME", ()):
+            raise RuntimeError(f"{type(technique).__name__} uses the frame's depth-stencil without declaring "
+                               f"'depth_stencil' in MODIFIES_FRAME")
+        return self.target
 
     # ------------------------------------------------------------------ evaluation mask
     def compact_evaluated(self, light_index: int) -> np.ndarray:
@@ -209,6 +206,7 @@ class Frame:
 
     def release(self) -> None:
         """Free the frame's GL objects."""
+        gl.park()
         for _, vao in self._vaos.values():
             vao.release()
         self.target.release()

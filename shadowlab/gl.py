@@ -49,6 +49,21 @@ def context():
     return _CONTEXT
 
 
+_PARKING = None
+
+
+def park() -> None:
+    """Bind a 1x1 framebuffer that lives as long as the context. moderngl re-binds its current
+    framebuffer after creating or using others, so whoever deletes framebuffers calls this
+    first: the current one is then never a deleted name (INVALID_OPERATION on the next
+    moderngl framebuffer otherwise). EGL standalone contexts have no default framebuffer."""
+    global _PARKING
+    ctx = context()
+    if _PARKING is None:
+        _PARKING = ctx.framebuffer(color_attachments=[ctx.renderbuffer((1, 1))])
+    _PARKING.use()
+
+
 def renderer() -> str:
     """The GL_RENDERER string of the lab's context (e.g. 'llvmpipe (LLVM 15.0.6, 256 bits)')."""
     return context().info["GL_RENDERER"]
@@ -305,10 +320,6 @@ class ScreenTarget:
     def read_stencil(self) -> np.ndarray:
         """The stencil buffer as uint8 (height, width), row 0 = top."""
         return _read_pixels(self.fbo_glo, self.size, "stencil")
-
-    def read_depth(self) -> np.ndarray:
-        """Window depth in [0, 1] as float32 (height, width), row 0 = top."""
-        return _read_pixels(self.fbo_glo, self.size, "depth")
 
     def release(self) -> None:
         """Free the framebuffer and its own depth-stencil renderbuffer (not colour textures, not a shared one)."""

@@ -1,8 +1,18 @@
 """Light sources: point, directional, spot and target-direct (DESIGN §4, §8).
 
-Each light has one definition in two languages that must agree: the numpy methods here (used by
-the ground truth and the evaluated-pixel mask) and ``shaders/lights.glsl`` (used by the GL
-passes), fed by :meth:`Light.uniforms`. ``tests/test_lights.py`` checks the two on random points.
+Each light owns its geometry, so techniques never ask which type a light is:
+
+- :meth:`Light.to_light` and :meth:`Light.footprint`: directions, distances and λ at points
+  (evaluated-pixel mask, N·L);
+- :meth:`Light.shadow_rays`: the ground truth's shadow rays from given points;
+- :meth:`Light.shadow_views`: the views a shadow map of this light is rendered through, fitted
+  to the points it must cover;
+- :meth:`Light.uniforms`: the ``light_*`` uniforms of ``shaders/lights.glsl``;
+- :meth:`Light.homogeneous`: the light as a homogeneous point (planar projection, clipping).
+
+Each light has one definition in two languages that must agree: the numpy methods here and
+``shaders/lights.glsl``; ``tests/test_lights.py`` checks the two on random points. Adding a
+light type is one class here, its entry in :data:`LIGHT_TYPES` and its branch in lights.glsl.
 
 Footprint λ (DESIGN §8): spot — 1 inside the hotspot half-angle β/2, falling linearly in cos φ
 to 0 at the cone half-angle α/2; target-direct (a cylinder of parallel rays of outer radius R,
@@ -14,10 +24,30 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .geometry import frusta
+from .geometry import transforms as tf
 from .validation import SceneError, TableReader
 
-#: Integer ids shared with ``shaders/lights.glsl`` (``LIGHT_POINT`` ...); a test checks both agree.
-LIGHT_TYPE_IDS = {"point": 0, "directional": 1, "spot": 2, "target_direct": 3}
+#: Where a shadow ray towards a light at a finite position stops, as a fraction of the way: the
+#: rays are unnormalised (light − origin), so no normalisation is spent per ray, and they stop
+#: just short of the light itself.
+T_LIGHT = 1.0 - 2.0 ** -20
+#: "Infinity" for rays towards lights at infinity (finite: Embree's tfar is a float32).
+T_INFINITE = np.float32(1e30)
+
+#: Values of the ``light_*`` uniforms that a light type does not use (lights.glsl ignores them).
+_UNUSED_UNIFORMS = {
+    "light_position": (0.0, 0.0, 0.0),
+    "light_direction": (0.0, -1.0, 0.0),
+    "light_cos_outer": 1.0,
+    "light_cos_inner": 1.0,
+    "light_radius_outer": 0.0,
+    "light_radius_inner": 0.0,
+}
+
+
+def _vec(v) -> tuple:
+    return tuple(map(float, v))
 
 
 @dataclass
@@ -28,6 +58,8 @@ class Light:
     ambient: float = 0.15
 
     type_name = "light"
+    #: The integer id of ``LIGHT_*`` in shaders/lights.glsl (a test checks both agree).
+    type_id = -1
     #: True when the light is at infinity (rays are parallel): orthographic shadow maps, w = 0.
     at_infinity = False
 
@@ -47,19 +79,28 @@ class Light:
             return np.append(-self.direction, 0.0)
         return np.append(self.position, 1.0)
 
+    def shadow_rays(self, origins: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Shadow rays for Embree from ``origins`` (N, 3) float32 (the offset ray origins of the
+        surface ``points`` (N, 3) float64): directions (N, 3) float32 and ``tfar`` (N,) float32,
+        the ray parameter at which the light is reached."""
+        raise NotImplementedError
+
+    def shadow_views(self, points: np.ndarray, caster_bounds: np.ndarray, resolution: int, *,
+                     projection: str = "auto", near: float = 0.0) -> tuple[list[frusta.LightView], list[str]]:
+        """The views (1, or 6 for a point light's cube) of a ``resolution``² shadow map that
+        covers ``points`` (N, 3) with casters inside ``caster_bounds`` (K, 2, 3), and notes for
+        the run. ``projection`` (auto | cube | frustum) and ``near`` (force a near plane if > 0)
+        apply to the perspective maps of lights at a position."""
+        raise NotImplementedError
+
+    def _shape_uniforms(self) -> dict:
+        """The type's own ``light_*`` uniforms (position, direction, cone, radii)."""
+        return {}
+
     def uniforms(self) -> dict:
         """Values for the ``light_*`` uniforms of ``shaders/lights.glsl``."""
-        return {
-            "light_type": LIGHT_TYPE_IDS[self.type_name],
-            "light_color": tuple(map(float, self.color)),
-            "light_ambient": float(self.ambient),
-            "light_position": tuple(map(float, getattr(self, "position", np.zeros(3)))),
-            "light_direction": tuple(map(float, getattr(self, "direction", np.array([0.0, -1.0, 0.0])))),
-            "light_cos_outer": float(np.cos(np.radians(getattr(self, "alpha", 0.0) / 2))),
-            "light_cos_inner": float(np.cos(np.radians(getattr(self, "beta", 0.0) / 2))),
-            "light_radius_outer": float(getattr(self, "R", 0.0)),
-            "light_radius_inner": float(getattr(self, "r", 0.0)),
-        }
+        return {"light_type": self.type_id, "light_color": _vec(self.color), "light_ambient": float(self.ambient),
+                **_UNUSED_UNIFORMS, **self._shape_uniforms()}
 
     def describe(self) -> dict:
         """The light's parameters as plain JSON-able values (for run.json)."""
@@ -75,6 +116,7 @@ class PointLight(Light):
 
     position: np.ndarray = field(default_factory=lambda: np.zeros(3))
     type_name = "point"
+    type_id = 0
 
     def to_light(self, points):
         """Unit directions from ``points`` to the light position, and distances."""
@@ -83,6 +125,39 @@ class PointLight(Light):
         with np.errstate(invalid="ignore", divide="ignore"):
             return v / d[:, None], d
 
+    def shadow_rays(self, origins, points):
+        """Unnormalised rays (light − origin), stopping at :data:`T_LIGHT` of the way."""
+        return self.position.astype(np.float32) - origins, np.full(len(origins), T_LIGHT, np.float32)
+
+    def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):
+        """``projection=frustum``: one frustum around the points; ``cube``: six faces; ``auto``:
+        the frustum when the points fit in a cone of MAX_POINT_HALF_ANGLE, else the cube."""
+        p = self.position
+        near, far = frusta.perspective_range(p, points, caster_bounds, near)
+        dirs = (points - p) / np.linalg.norm(points - p, axis=1)[:, None]
+        axis = tf.normalize(dirs.mean(axis=0))
+        angles = np.degrees(np.arccos(np.clip(dirs @ axis, -1, 1)))
+        half = float(angles.max()) * (1 + frusta.PAD)
+        limit = frusta.MAX_POINT_HALF_ANGLE
+        if projection == "cube" or (projection == "auto" and half > limit):
+            return frusta.cube_views(p, near, far, resolution), []
+        notes = []
+        if half > limit:
+            outside = int(np.sum(angles > limit))
+            notes.append(f"point light: receivers span {half:.1f} degrees around the light, more than one "
+                         f"frustum's {limit}; {outside} shadowable pixels lie outside the shadow "
+                         f"map and are treated as lit (use projection=cube)")
+            half = limit
+        return [frusta.perspective_view(p, axis, 2 * half, near, far, resolution)], notes
+
+    def _shape_uniforms(self):
+        return {"light_position": _vec(self.position)}
+
+    @classmethod
+    def parse(cls, rd: TableReader, common: dict) -> "PointLight":
+        """From a ``[[lights]]`` table of this type (the common keys already read)."""
+        return cls(position=rd.vector("position", 3), **common)
+
 
 @dataclass
 class DirectionalLight(Light):
@@ -90,12 +165,32 @@ class DirectionalLight(Light):
 
     direction: np.ndarray = field(default_factory=lambda: np.array([0.0, -1.0, 0.0]))
     type_name = "directional"
+    type_id = 1
     at_infinity = True
 
     def to_light(self, points):
         """−direction everywhere; distance ∞."""
         n = len(points)
         return np.broadcast_to(-self.direction, (n, 3)).copy(), np.full(n, np.inf)
+
+    def shadow_rays(self, origins, points):
+        """Along −direction, to :data:`T_INFINITE`."""
+        dirs = np.broadcast_to((-self.direction).astype(np.float32), origins.shape).copy()
+        return dirs, np.full(len(origins), T_INFINITE, np.float32)
+
+    def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):
+        """Orthographic along the light, sideways fitted to the points, in depth from the
+        nearest caster to the farthest point."""
+        view = tf.look_along(points.mean(axis=0), self.direction)
+        return [frusta.orthographic_fit(view, points, caster_bounds, resolution)], []
+
+    def _shape_uniforms(self):
+        return {"light_direction": _vec(self.direction)}
+
+    @classmethod
+    def parse(cls, rd: TableReader, common: dict) -> "DirectionalLight":
+        """From a ``[[lights]]`` table of this type (the common keys already read)."""
+        return cls(direction=_unit(rd, "direction"), **common)
 
 
 @dataclass
@@ -107,6 +202,7 @@ class SpotLight(PointLight):
     alpha: float = 60.0
     beta: float = 40.0
     type_name = "spot"
+    type_id = 2
 
     def footprint(self, points):
         """1 inside the hotspot, linear in cos φ to 0 at the cone edge."""
@@ -121,6 +217,29 @@ class SpotLight(PointLight):
             return np.clip((cos_phi - cos_o) / width, 0.0, 1.0)
         return (cos_phi >= cos_o).astype(np.float64)
 
+    def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):
+        """One perspective view along the cone's axis with the cone's full angle α."""
+        near, far = frusta.perspective_range(self.position, points, caster_bounds, near)
+        fov = min(self.alpha * (1 + frusta.PAD), frusta.MAX_FOV)
+        return [frusta.perspective_view(self.position, self.direction, fov, near, far, resolution)], []
+
+    def _shape_uniforms(self):
+        return {"light_position": _vec(self.position), "light_direction": _vec(self.direction),
+                "light_cos_outer": float(np.cos(np.radians(self.alpha / 2))),
+                "light_cos_inner": float(np.cos(np.radians(self.beta / 2)))}
+
+    @classmethod
+    def parse(cls, rd: TableReader, common: dict) -> "SpotLight":
+        """From a ``[[lights]]`` table of this type; rejects beta > alpha and alpha ≥ 180."""
+        alpha = rd.number("alpha", min=0.0, min_open=True)
+        beta = rd.number("beta", min=0.0, min_open=True)
+        if alpha >= 180.0:
+            raise rd.error("alpha", f"full cone angle must be < 180 degrees, got {alpha}")
+        if beta > alpha:
+            raise rd.error("beta", f"hotspot angle must be <= alpha ({alpha}), got {beta}")
+        return cls(position=rd.vector("position", 3), direction=_unit(rd, "direction"),
+                   alpha=alpha, beta=beta, **common)
+
 
 @dataclass
 class TargetDirectLight(Light):
@@ -132,6 +251,7 @@ class TargetDirectLight(Light):
     R: float = 1.0
     r: float = 0.5
     type_name = "target_direct"
+    type_id = 3
     at_infinity = True
 
     def axial(self, points) -> tuple[np.ndarray, np.ndarray]:
@@ -153,11 +273,42 @@ class TargetDirectLight(Light):
         lam = np.clip((self.R - rho) / width, 0.0, 1.0) if width > 0 else (rho <= self.R).astype(np.float64)
         return np.where(t > 0, lam, 0.0)
 
+    def shadow_rays(self, origins, points):
+        """Along −direction, back to the light's plane (nothing behind the disc casts)."""
+        dirs = np.broadcast_to((-self.direction).astype(np.float32), origins.shape).copy()
+        return dirs, ((points - self.position) @ self.direction).astype(np.float32)
+
+    def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):
+        """Orthographic from the light's disc along its axis, sideways within radius R of the
+        axis, near plane not behind the disc."""
+        view = tf.look_along(self.position, self.direction)
+        return [frusta.orthographic_fit(view, points, caster_bounds, resolution, radius=self.R, near_min=0.0)], []
+
+    def _shape_uniforms(self):
+        return {"light_position": _vec(self.position), "light_direction": _vec(self.direction),
+                "light_radius_outer": float(self.R), "light_radius_inner": float(self.r)}
+
+    @classmethod
+    def parse(cls, rd: TableReader, common: dict) -> "TargetDirectLight":
+        """From a ``[[lights]]`` table of this type; rejects r > R."""
+        R = rd.number("R", min=0.0, min_open=True)
+        r = rd.number("r", min=0.0, min_open=True)
+        if r > R:
+            raise rd.error("r", f"inner radius must be <= R ({R}), got {r}")
+        return cls(position=rd.vector("position", 3), direction=_unit(rd, "direction"), R=R, r=r, **common)
+
+
+#: The light types a scene file may name (``type = "..."``).
+LIGHT_TYPES: dict[str, type[Light]] = {cls.type_name: cls for cls in
+                                       (PointLight, DirectionalLight, SpotLight, TargetDirectLight)}
+#: Integer ids shared with ``shaders/lights.glsl`` (``LIGHT_POINT`` ...); a test checks both agree.
+LIGHT_TYPE_IDS = {name: cls.type_id for name, cls in LIGHT_TYPES.items()}
+
 
 def parse_light(table, where: str, file: str) -> Light:
     """Build a Light from one ``[[lights]]`` table, rejecting impossible values."""
     rd = TableReader(table, where, file)
-    kind = rd.string("type", choices=list(LIGHT_TYPE_IDS) + ["area"])
+    kind = rd.string("type", choices=list(LIGHT_TYPES) + ["area"])
     if kind == "area":
         raise rd.error("type", "area lights are not implemented yet (they come with the soft-shadow work); "
                                "use point, directional, spot or target_direct")
@@ -165,26 +316,7 @@ def parse_light(table, where: str, file: str) -> Light:
     if np.any(color < 0):
         raise rd.error("color", "entries must be >= 0")
     common = dict(color=color, ambient=rd.number("ambient", 0.15, min=0.0))
-    if kind == "point":
-        light = PointLight(position=rd.vector("position", 3), **common)
-    elif kind == "directional":
-        light = DirectionalLight(direction=_unit(rd, "direction"), **common)
-    elif kind == "spot":
-        alpha = rd.number("alpha", min=0.0, min_open=True)
-        beta = rd.number("beta", min=0.0, min_open=True)
-        if alpha >= 180.0:
-            raise rd.error("alpha", f"full cone angle must be < 180 degrees, got {alpha}")
-        if beta > alpha:
-            raise rd.error("beta", f"hotspot angle must be <= alpha ({alpha}), got {beta}")
-        light = SpotLight(position=rd.vector("position", 3), direction=_unit(rd, "direction"),
-                          alpha=alpha, beta=beta, **common)
-    else:
-        R = rd.number("R", min=0.0, min_open=True)
-        r = rd.number("r", min=0.0, min_open=True)
-        if r > R:
-            raise rd.error("r", f"inner radius must be <= R ({R}), got {r}")
-        light = TargetDirectLight(position=rd.vector("position", 3), direction=_unit(rd, "direction"),
-                                  R=R, r=r, **common)
+    light = LIGHT_TYPES[kind].parse(rd, common)
     rd.finish()
     return light
 
@@ -194,5 +326,5 @@ def _unit(rd: TableReader, name: str) -> np.ndarray:
     return vec / np.linalg.norm(vec)
 
 
-__all__ = ["Light", "PointLight", "DirectionalLight", "SpotLight", "TargetDirectLight",
-           "parse_light", "LIGHT_TYPE_IDS", "SceneError"]
+__all__ = ["Light", "PointLight", "DirectionalLight", "SpotLight", "TargetDirectLight", "LIGHT_TYPES",
+           "parse_light", "LIGHT_TYPE_IDS", "SceneError", "T_LIGHT", "T_INFINITE"]

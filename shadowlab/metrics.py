@@ -1,9 +1,16 @@
-"""Per-pixel and boundary metrics of a visibility image against the ground truth (DESIGN §7).
+"""Per-pixel and boundary metrics of a visibility image against the ground truth (DESIGN §7),
+and the one table of metrics.csv columns (:data:`COLUMNS`) that drives the CSV, the HTML report
+and the CLI summary: adding a metric is one entry there.
 
 Pure numpy/scipy, no GL: inputs are float arrays (height, width) of visibility in [0, 1]
-(1 = lit) and a bool mask of evaluated pixels. Thresholding is at 0.5: V < 0.5 is shadowed.
+(1 = lit), row 0 = top, and a bool mask of evaluated pixels. Thresholding is at 0.5: V < 0.5
+is shadowed.
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any, Callable
 
 import numpy as np
 from scipy import ndimage
@@ -41,57 +48,61 @@ def boundary_distances(v_boundary: np.ndarray, g_boundary: np.ndarray) -> np.nda
     return dist[v_boundary]
 
 
-def compare(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) -> dict:
-    """All metrics of ``vis`` against ``truth`` over ``evaluated`` pixels.
+class Evaluation:
+    """One visibility image judged against the truth over the evaluated pixels: the masks and
+    counts every metric is computed from, each computed once.
 
-    Returns the contract columns (error_rate, false_shadow_rate, false_lit_rate,
-    boundary_error_px, evaluated_pixels, visibility_mae) and their counts, plus the symmetric
-    boundary figures (Hausdorff and 95th percentile, in pixels). When only one of the two
-    images has a shadow boundary, the boundary error is the image diagonal (the worst case).
+    ``vis``, ``truth``: float (H, W) in [0, 1]; ``evaluated``: bool (H, W); ``contact``: bool
+    (H, W) contact-line pixels (see :func:`contact_pixels`), or None when not known.
     """
-    if vis.shape != truth.shape or vis.shape != evaluated.shape:
-        raise ValueError(f"shape mismatch: {vis.shape}, {truth.shape}, {evaluated.shape}")
-    ev = evaluated.astype(bool)
-    v_sh = (vis < THRESHOLD) & ev
-    g_sh = (truth < THRESHOLD) & ev
-    n = int(ev.sum())
-    g_lit, g_shadow = int((ev & ~g_sh).sum()), int(g_sh.sum())
-    false_shadow = int((v_sh & ~g_sh).sum())
-    false_lit = int((g_sh & ~v_sh & ev).sum())
-    vb, gb = shadow_boundary(v_sh, ev), shadow_boundary(g_sh, ev)
-    diag = float(np.hypot(*vis.shape))
-    if vb.any() and gb.any():
-        d_vg = boundary_distances(vb, gb)
-        d_gv = boundary_distances(gb, vb)
-        both = np.concatenate([d_vg, d_gv])
-        boundary, hausdorff, p95 = float(d_vg.mean()), float(both.max()), float(np.percentile(both, 95))
-    elif vb.any() or gb.any():
-        boundary = hausdorff = p95 = diag
-    else:
-        boundary = hausdorff = p95 = 0.0
-    mae = float(np.abs(vis[ev] - truth[ev]).mean()) if n else 0.0
-    umbra = vis[g_sh & v_sh]
+
+    def __init__(self, vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray | None = None):
+        if vis.shape != truth.shape or vis.shape != evaluated.shape:
+            raise ValueError(f"shape mismatch: {vis.shape}, {truth.shape}, {evaluated.shape}")
+        self.vis, self.truth, self.contact = vis, truth, contact
+        self.ev = ev = evaluated.astype(bool)
+        self.v_sh = (vis < THRESHOLD) & ev
+        self.g_sh = (truth < THRESHOLD) & ev
+        self.n = int(ev.sum())
+        self.g_lit, self.g_shadow = int((ev & ~self.g_sh).sum()), int(self.g_sh.sum())
+        self.false_shadow = int((self.v_sh & ~self.g_sh).sum())
+        self.false_lit = int((self.g_sh & ~self.v_sh & ev).sum())
+
+    @cached_property
+    def boundaries(self) -> tuple[np.ndarray, np.ndarray]:
+        """Shadow boundaries of V and G, bool (H, W) each."""
+        return shadow_boundary(self.v_sh, self.ev), shadow_boundary(self.g_sh, self.ev)
+
+    @cached_property
+    def boundary_figures(self) -> tuple[float, float, float]:
+        """(mean distance V → G, symmetric Hausdorff, symmetric 95th percentile), pixels. When
+        only one of the two images has a shadow boundary: the image diagonal (the worst case)."""
+        vb, gb = self.boundaries
+        if vb.any() and gb.any():
+            d_vg = boundary_distances(vb, gb)
+            both = np.concatenate([d_vg, boundary_distances(gb, vb)])
+            return float(d_vg.mean()), float(both.max()), float(np.percentile(both, 95))
+        if vb.any() or gb.any():
+            diag = float(np.hypot(*self.vis.shape))
+            return diag, diag, diag
+        return 0.0, 0.0, 0.0
+
+
+def _visibility_mae(e: Evaluation) -> float:
+    return float(np.abs(e.vis[e.ev] - e.truth[e.ev]).mean()) if e.n else 0.0
+
+
+def _umbra_visibility_std(e: Evaluation) -> float:
     # Spread of visibility inside the umbra (pixels both call shadowed, so that misplaced edges
     # do not count): 0 for a uniform shadow; multiple modulation (planar shadows' double
     # blending) makes it vary. On a receiver of constant albedo the shaded intensity is affine
     # in visibility at fixed N·L, so this is the shading's spread inside the shadow.
-    umbra_std = float(umbra.std()) if umbra.size else 0.0
-    return {
-        "evaluated_pixels": n,
-        "error_rate": _ratio(false_shadow + false_lit, n),
-        "false_shadow_rate": _ratio(false_shadow, g_lit),
-        "false_lit_rate": _ratio(false_lit, g_shadow),
-        "boundary_error_px": boundary,
-        "visibility_mae": mae,
-        "umbra_visibility_std": umbra_std,
-        "truth_lit_pixels": g_lit,
-        "truth_shadowed_pixels": g_shadow,
-        "false_shadow_pixels": false_shadow,
-        "false_lit_pixels": false_lit,
-        "boundary_pixels": int(vb.sum()),
-        "boundary_hausdorff_px": hausdorff,
-        "boundary_p95_px": p95,
-    }
+    umbra = e.vis[e.g_sh & e.v_sh]
+    return float(umbra.std()) if umbra.size else 0.0
+
+
+def _contact_gap_px(e: Evaluation) -> float:
+    return contact_gap(e.vis, e.truth, e.ev, e.contact)
 
 
 def error_classes(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) -> np.ndarray:
@@ -141,3 +152,119 @@ def contact_gap(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, conta
     near = ndimage.binary_dilation(shadowed_contact, iterations=band)
     false_lit = (truth < THRESHOLD) & (vis >= THRESHOLD) & evaluated & near
     return float(false_lit.sum()) / float(shadowed_contact.sum())
+
+
+# --------------------------------------------------------------------------- the column table
+
+@dataclass(frozen=True)
+class Column:
+    """One metrics.csv column: its meaning, how it is shown, and — for metrics — how it is
+    computed from an :class:`Evaluation`.
+
+    ``fmt``: 'percent' (a rate), 'px', 'ms', 'count', 'value' or 'text'; ``contract``: required
+    by DESIGN §6 (these come first in the CSV, in table order); ``summary``: shown in the CLI's
+    summary; ``report``: shown in the HTML metrics table; ``needs``: inputs of the evaluation the
+    metric cannot do without (a metric whose input is missing is left out).
+    """
+
+    name: str
+    doc: str
+    fmt: str = "value"
+    compute: Callable[[Evaluation], Any] | None = None
+    contract: bool = False
+    summary: bool = False
+    report: bool = False
+    needs: tuple[str, ...] = ()
+
+    def format(self, value) -> str:
+        """``value`` as shown in the report and the CLI."""
+        if value is None or (isinstance(value, float) and np.isnan(value)):
+            return ""
+        if self.fmt == "percent":
+            return f"{100 * value:.3f} %"
+        if self.fmt in ("px", "ms"):
+            return f"{value:.3f}"
+        if self.fmt == "count":
+            return f"{int(value)}"
+        if self.fmt == "value" and isinstance(value, float):
+            return f"{value:.4g}"
+        return str(value)
+
+
+def _metric(name, doc, compute, fmt="value", **kw) -> Column:
+    return Column(name, doc, fmt, compute, **kw)
+
+
+#: Every column metrics.csv has, in CSV order (then ``param_<name>`` per parameter, then the
+#: technique's own cost columns). The contract columns of DESIGN §6 are marked.
+COLUMNS: tuple[Column, ...] = (
+    Column("scene", "scene name", "text", contract=True),
+    Column("light", "index of the light in the scene file", "count", contract=True, summary=True, report=True),
+    Column("technique", "technique name", "text", contract=True),
+    Column("params", "every parameter, key=value,...", "text", contract=True),
+    Column("width", "image width, pixels", "count", contract=True),
+    Column("height", "image height, pixels", "count", contract=True),
+    _metric("evaluated_pixels", "pixels evaluated: visible receivers facing the light inside its footprint",
+            lambda e: e.n, "count", contract=True, report=True),
+    _metric("error_rate", "wrong / evaluated pixels (V, G thresholded at 0.5)",
+            lambda e: _ratio(e.false_shadow + e.false_lit, e.n), "percent", contract=True, summary=True, report=True),
+    _metric("false_shadow_rate", "wrongly shadowed / truly lit pixels (acne, over-darkening)",
+            lambda e: _ratio(e.false_shadow, e.g_lit), "percent", contract=True, summary=True, report=True),
+    _metric("false_lit_rate", "wrongly lit / truly shadowed pixels (leaks, peter-panning, missing shadows)",
+            lambda e: _ratio(e.false_lit, e.g_shadow), "percent", contract=True, summary=True, report=True),
+    _metric("boundary_error_px", "mean distance from V's shadow boundary to G's, pixels",
+            lambda e: e.boundary_figures[0], "px", contract=True, summary=True, report=True),
+    Column("time_ms_median", "median time of the technique's timed passes, ms", "ms", contract=True, summary=True,
+           report=True),
+    Column("time_ms_iqr", "interquartile range of those times, ms", "ms", contract=True, report=True),
+    Column("light_type", "point, directional, spot or target_direct", "text"),
+    Column("label", "the full spec, name:key=value,...", "text"),
+    Column("short_label", "name and the parameters that differ from their defaults", "text"),
+    Column("reference", "True on the ground truth's own row", "text"),
+    _metric("visibility_mae", "mean |V - G| over evaluated pixels, without thresholding",
+            _visibility_mae, report=True),
+    _metric("umbra_visibility_std", "spread of V inside the shadow (multiple modulation)",
+            _umbra_visibility_std, report=True),
+    _metric("truth_lit_pixels", "evaluated pixels the truth has lit", lambda e: e.g_lit, "count"),
+    _metric("truth_shadowed_pixels", "evaluated pixels the truth has shadowed", lambda e: e.g_shadow, "count"),
+    _metric("false_shadow_pixels", "wrongly shadowed pixels", lambda e: e.false_shadow, "count"),
+    _metric("false_lit_pixels", "wrongly lit pixels", lambda e: e.false_lit, "count"),
+    _metric("boundary_pixels", "pixels on V's shadow boundary", lambda e: int(e.boundaries[0].sum()), "count"),
+    _metric("boundary_hausdorff_px", "symmetric Hausdorff distance between the boundaries, pixels",
+            lambda e: e.boundary_figures[1], "px"),
+    _metric("boundary_p95_px", "95th percentile of the symmetric boundary distances, pixels",
+            lambda e: e.boundary_figures[2], "px"),
+    _metric("contact_gap_px", "peter-panning: mean width of the false-lit band along shadowed contact lines, pixels",
+            _contact_gap_px, "px", report=True, needs=("contact",)),
+    Column("time_repeats", "timed runs behind the median", "count"),
+    Column("gpu_time_ms_median", "median GL_TIME_ELAPSED of the timed passes, ms (real GPUs only)", "ms"),
+)
+COLUMN_BY_NAME = {c.name: c for c in COLUMNS}
+#: The DESIGN §6 columns every metrics.csv starts with, in order.
+CONTRACT_COLUMNS = [c.name for c in COLUMNS if c.contract]
+METRIC_COLUMNS = [c for c in COLUMNS if c.compute is not None]
+
+
+def compare(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray | None = None) -> dict:
+    """Every metric column of ``vis`` against ``truth`` over ``evaluated`` pixels (those that
+    need contact lines only when ``contact`` is given), as {column: value}."""
+    e = Evaluation(vis, truth, evaluated, contact)
+    have = {"contact": contact is not None}
+    return {c.name: c.compute(e) for c in METRIC_COLUMNS if all(have[k] for k in c.needs)}
+
+
+def order_columns(names) -> list[str]:
+    """Column names in CSV order: the table's columns in table order, then the rest as given."""
+    names = list(dict.fromkeys(names))
+    known = [c.name for c in COLUMNS if c.name in names]
+    return known + [n for n in names if n not in COLUMN_BY_NAME]
+
+
+def format_table(df, which: str, first: str = "short_label"):
+    """The rows of ``df`` as strings for display: ``first`` (the configuration), then the table
+    columns marked ``which`` ('summary' or 'report') that ``df`` has, each in its format."""
+    cols = [c for c in COLUMNS if getattr(c, which) and c.name in df.columns and c.name != first]
+    out = df[[first] + [c.name for c in cols]].copy()
+    for c in cols:
+        out[c.name] = out[c.name].map(c.format)
+    return out

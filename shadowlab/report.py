@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .metrics import format_table
+
 BACKGROUND = np.array([0.16, 0.18, 0.22])
 NOT_EVALUATED = np.array([0.30, 0.32, 0.40])
 #: Error-map legend: class id (metrics.error_classes) → (label, RGB in [0, 1]).
@@ -23,9 +25,16 @@ ERROR_COLORS = {
 }
 
 
+def srgb_encode(linear: np.ndarray) -> np.ndarray:
+    """The sRGB transfer function (IEC 61966-2-1): linear values in [0, 1] → encoded values in
+    [0, 1], linear below 0.0031308, a 1/2.4 power above (what PNG viewers assume)."""
+    c = np.clip(linear, 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1.0 / 2.4) - 0.055)
+
+
 def to_display(linear: np.ndarray, covered: np.ndarray) -> np.ndarray:
-    """Linear RGB (H, W, 3) → display RGB float in [0, 1] (gamma 2.2), background where uncovered."""
-    rgb = np.clip(linear, 0.0, 1.0) ** (1.0 / 2.2)
+    """Linear RGB (H, W, 3) → sRGB-encoded RGB float in [0, 1], background where uncovered."""
+    rgb = srgb_encode(linear)
     rgb[~covered] = BACKGROUND
     return rgb
 
@@ -75,24 +84,12 @@ def speed_error_plot(df: pd.DataFrame, path: Path) -> None:
     plt.close(fig)
 
 
-_TABLE_COLUMNS = ["short_label", "light", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
-                  "visibility_mae", "umbra_visibility_std", "contact_gap_px", "evaluated_pixels", "time_ms_median",
-                  "time_ms_iqr"]
-
-
 def write_html(path: Path, run: dict, df: pd.DataFrame, images: list[dict]) -> None:
     """Write ``report.html``: run facts, the metrics table, the speed/error plot and an image grid
     (shaded | visibility | error map per configuration). ``images`` holds dicts with ``label``
     (the full spec), ``title`` (a short heading), ``shaded``, ``visibility`` and optionally
     ``error`` (file names relative to the report)."""
-    cols = [c for c in _TABLE_COLUMNS if c in df.columns]
-    table = df[cols].copy()
-    for c in ("error_rate", "false_shadow_rate", "false_lit_rate"):
-        table[c] = table[c].map(lambda x: f"{100 * x:.3f} %")
-    for c in ("boundary_error_px", "visibility_mae", "umbra_visibility_std", "contact_gap_px", "time_ms_median",
-              "time_ms_iqr"):
-        if c in table:
-            table[c] = table[c].map(lambda x: f"{x:.3f}")
+    table = format_table(df, "report")
     legend = "".join(f'<span class="sw" style="background:rgb({",".join(str(int(255 * v)) for v in col)})"></span>'
                      f"{html.escape(name)} &nbsp; " for name, col in ERROR_COLORS.values())
     rows = []
@@ -117,7 +114,8 @@ figcaption {{ font-size: 0.8em; color: #555; }}
 .sw {{ display: inline-block; width: 1em; height: 1em; vertical-align: middle; margin-right: 0.3em; border: 1px solid #666; }}
 </style></head><body>
 <h1>shadowlab: {html.escape(run['scene']['name'])}</h1>
-<p>{run['size'][0]}×{run['size'][1]} pixels · renderer: {html.escape(run['renderer'])} · {html.escape(run['date'])}<br>
+<p>{run['size'][0]}×{run['size'][1]} pixels · renderer: {html.escape(run['renderer'])} · {html.escape(run['date'])}
+· revision {html.escape(run.get('revision', ''))}<br>
 timing: {html.escape(run['timing_method'])}, {run['repeat']} repeats after {run['warmup']} warm-up<br>
 masks, metrics and error maps are for the first light; metrics.csv has every light.</p>
 {f'<h2>Notes</h2><ul>{notes}</ul>' if notes else ''}

@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import sys
 from dataclasses import dataclass, field
+from functools import cached_property
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
-from . import transforms as tf
+from .geometry import transforms as tf
 from .lights import Light, parse_light
 from .validation import SceneError, TableReader
 
@@ -92,6 +93,14 @@ class SceneObject:
     def bounds(self) -> np.ndarray:
         """Axis-aligned bounds [[min xyz], [max xyz]] (2, 3)."""
         return np.stack([self.vertices.min(0), self.vertices.max(0)])
+
+    @cached_property
+    def edges(self):
+        """The mesh's edge table (:class:`shadowlab.geometry.adjacency.EdgeTable`): built on first
+        use and kept with the object whose geometry it describes."""
+        from .geometry.adjacency import edge_table
+
+        return edge_table(self.vertices, self.faces)
 
 
 @dataclass
@@ -234,9 +243,7 @@ def _parse_object(table, i: int, file: str, base: Path) -> SceneObject:
     rd.finish()
     # Scale, then rotate, then translate (DESIGN §4).
     verts = (np.asarray(mesh.vertices, np.float64) * scale) @ rot.T + trans
-    faces = np.asarray(mesh.faces, np.int64)
-    if np.linalg.det(np.diag(scale)) < 0:  # pragma: no cover - positive scales only
-        faces = faces[:, ::-1]
+    faces = np.asarray(mesh.faces, np.int64)  # scales are positive: no mirroring, winding kept
     welded = trimesh.Trimesh(verts, faces, process=False)
     welded.merge_vertices()
     if not np.all(np.isfinite(welded.vertices)):

@@ -63,5 +63,6 @@ class Shader:
 
     def release(self) -> None:
         """Free GL objects."""
+        gl.park()
         for obj in (self.quad, self.prog, self.materials, self.vis_tex, self.out_fbo, self.out_tex):
             obj.release()

@@ -40,10 +40,6 @@ class TableReader:
         """A SceneError about key ``name`` of this table."""
         return SceneError(self.file, self.key(name), reason)
 
-    def has(self, name: str) -> bool:
-        """True if the table holds ``name``."""
-        return name in self.table
-
     def raw(self, name: str, default=_REQUIRED):
         """The untyped value of ``name`` (marks it used); a missing required key is an error."""
         self.used.add(name)

@@ -1,11 +1,16 @@
-"""Shared fixtures: the GL context, and a check that no test leaves a GL error behind."""
+"""Shared fixtures: the GL context, a check that no test leaves a GL error behind, and one
+session-wide cache of frames and ground truths (``lab``) that every test module measures through."""
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from shadowlab import gl
-from shadowlab.scene import parse_scene
+from shadowlab.frame import Frame
+from shadowlab.pipeline import Evaluator, Measurement, measure, measure_configs
+from shadowlab.scene import Scene, load_scene, parse_scene
+from shadowlab.techniques import from_spec
 
 
 @pytest.fixture(autouse=True)
@@ -22,11 +27,82 @@ def ctx():
     return gl.context()
 
 
+class Lab:
+    """Frames and ground truths shared by the whole session: one frame per (scene, size), its
+    truth measured once per light. Scenes are shipped names or Scene objects (kept by identity).
+    Frames are read-only to tests and techniques alike (the stage contract)."""
+
+    def __init__(self):
+        self._evaluators: dict = {}
+
+    def evaluator(self, scene: str | Scene, size: tuple[int, int]) -> Evaluator:
+        """The evaluator (frame + truth per light) of a scene at a size."""
+        key = (scene if isinstance(scene, str) else id(scene), tuple(size))
+        if key not in self._evaluators:
+            s = load_scene(scene) if isinstance(scene, str) else scene
+            self._evaluators[key] = (s, Evaluator(Frame(s, *size)))  # the scene is kept alive with its key
+        return self._evaluators[key][1]
+
+    def frame(self, scene, size) -> Frame:
+        """The shared frame of a scene at a size."""
+        return self.evaluator(scene, size).frame
+
+    def truth(self, scene, size, light: int = 0) -> np.ndarray:
+        """The ground truth's visibility (float32 (H, W), row 0 = top) of one light."""
+        return self.evaluator(scene, size).truth(light).visibility
+
+    def measure(self, scene, spec: str, size, light: int = 0) -> Measurement:
+        """One configuration measured on the shared frame (one untimed-in-effect render)."""
+        return measure(from_spec(spec), self.frame(scene, size), light, repeat=1, warmup=0)
+
+    def rows(self, scene, specs, size, light: int = 0) -> pd.DataFrame:
+        """Metrics rows of several configurations (ground truth row dropped), indexed by the specs."""
+        df = measure_configs(None, specs, light_index=light, evaluator=self.evaluator(scene, size))
+        df = df[~df["reference"]].copy()
+        df.index = list(specs)
+        return df
+
+
+@pytest.fixture(scope="session")
+def lab() -> Lab:
+    """The session's shared frames and ground truths."""
+    return Lab()
+
+
 def make_scene(objects, lights, eye=(4.0, 6.0, 7.0), target=(0.0, 0.0, 0.0), fov_y=50.0, name="test"):
     """A Scene from plain dicts, as a scene file would hold them."""
     data = {"name": name, "camera": {"eye": list(eye), "target": list(target), "fov_y": fov_y},
             "lights": lights, "objects": objects}
     return parse_scene(data, f"<{name}>")
+
+
+def pixel_centre_rays(eye, target, up, fov_y, width, height) -> np.ndarray:
+    """Unit world directions through every pixel centre, (height, width, 3), row 0 = top —
+    written from DESIGN §5 for the tests, independently of shadowlab's camera code."""
+    eye, target, up = (np.asarray(v, np.float64) for v in (eye, target, up))
+    forward = (target - eye) / np.linalg.norm(target - eye)
+    right = np.cross(forward, up)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, forward)
+    half_h = np.tan(np.radians(fov_y) / 2.0)
+    half_w = half_h * width / height
+    cols = (np.arange(width) + 0.5) / width * 2.0 - 1.0     # left → right
+    rows = 1.0 - (np.arange(height) + 0.5) / height * 2.0   # top → bottom
+    d = (forward[None, None] + cols[None, :, None] * half_w * right[None, None]
+         + rows[:, None, None] * half_h * true_up[None, None])
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def floor_points(scene_camera, width, height) -> np.ndarray:
+    """World points where each pixel-centre ray meets the plane y = 0, (height, width, 3);
+    NaN where the ray does not go down to it."""
+    cam = scene_camera
+    d = pixel_centre_rays(cam.eye, cam.target, cam.up, cam.fov_y, width, height)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -cam.eye[1] / d[..., 1]
+    pts = cam.eye + t[..., None] * d
+    pts[~(t > 0)] = np.nan
+    return pts
 
 
 @pytest.fixture

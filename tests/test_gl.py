@@ -73,3 +73,23 @@ def test_depth_formats_quantise(ctx, bits, step):
     GL.glClearDepth(1.0)
     ctx.finish()
     tex.release()
+
+
+def test_releasing_the_current_framebuffer_leaves_moderngl_usable(ctx):
+    """A frame and its shading pass released while one of their framebuffers is current: the
+    next moderngl framebuffer must still be created without a GL error (moderngl re-binds its
+    current framebuffer, which must never be a deleted name)."""
+    from shadowlab.frame import Frame
+    from shadowlab.scene import load_scene
+    from shadowlab.shading import Shader
+
+    frame = Frame(load_scene("box_on_plane"), 32, 24)
+    shader = Shader(frame)
+    shader.shade([np.ones((24, 32), np.float32)])  # leaves its own framebuffer current
+    shader.release()
+    frame.release()
+    fbo = ctx.framebuffer(color_attachments=[ctx.texture((4, 4), 4)])
+    gl.check_errors("new framebuffer after releases")
+    fbo.color_attachments[0].release()
+    fbo.release()
+    gl.park()

@@ -18,23 +18,13 @@ LIGHTS = [
 ]
 
 
-_TARGET = []
-
-
-def _probe_target(ctx):
-    """A 1x1 framebuffer kept for the session (moderngl re-binds its last one, so never release it)."""
-    if not _TARGET:
-        _TARGET.append(ctx.framebuffer(color_attachments=[ctx.texture((1, 1), 4)]))
-    return _TARGET[0]
-
-
 def glsl_eval(ctx, light, points):
     prog = gl.program("light_probe.glsl", varyings=("out_footprint", "out_dir"))
     gl.set_uniforms(prog, light.uniforms())
     vbo = ctx.buffer(points.astype("f4").tobytes())
     out = ctx.buffer(reserve=len(points) * 16)
     vao = ctx.vertex_array(prog, [(vbo, "3f", "in_pos")])
-    _probe_target(ctx).use()  # EGL standalone contexts have no default framebuffer
+    gl.park()  # EGL standalone contexts have no default framebuffer
     vao.transform(out, vertices=len(points))
     res = np.frombuffer(out.read(), "f4").reshape(-1, 4)
     for obj in (vao, vbo, out, prog):
@@ -75,3 +65,22 @@ def test_target_direct_footprint_values():
     td = TargetDirectLight(position=np.zeros(3), direction=np.array([0.0, -1.0, 0.0]), R=2.0, r=1.0)
     pts = np.array([[0.5, -1, 0], [1.5, -1, 0], [2.5, -1, 0], [0.0, 1.0, 0.0]])
     assert td.footprint(pts).tolist() == [1.0, 0.5, 0.0, 0.0]  # last: behind the light
+
+
+@pytest.mark.parametrize("light", LIGHTS, ids=lambda l: l.type_name)
+def test_shadow_rays_end_at_the_light(light, rng):
+    """origin + tfar · direction is the light (point, spot), a point of the light's plane
+    (target-direct), or unbounded (directional)."""
+    pts = rng.uniform([-2, -0.5, -2], [2, 0.5, 2], size=(500, 3))
+    origins = pts.astype(np.float32)
+    dirs, tfar = light.shadow_rays(origins, pts)
+    assert dirs.dtype == np.float32 and tfar.dtype == np.float32 and dirs.shape == origins.shape
+    end = origins.astype(np.float64) + tfar[:, None].astype(np.float64) * dirs
+    if light.type_name in ("point", "spot"):
+        assert np.allclose(end, light.position, atol=1e-5 * np.linalg.norm(light.position - pts, axis=1).max())
+    elif light.type_name == "target_direct":
+        assert np.allclose((end - light.position) @ light.direction, 0, atol=1e-5)
+    else:
+        assert (tfar > 1e20).all()
+    to_light, _ = light.to_light(pts)
+    assert (np.einsum("ij,ij->i", dirs, to_light) > 0).all()

@@ -33,14 +33,36 @@ def test_rates_by_hand():
     assert m["error_rate"] == pytest.approx(30 / 600)
 
 
-def test_shifted_boundary_distance():
+def brute_force_boundary(shadowed):
+    """Boundary pixels by DESIGN §7's words, with plain loops: a pixel with a 4-neighbour on the
+    other side (every pixel evaluated)."""
+    h, w = shadowed.shape
+    out = set()
+    for r in range(h):
+        for c in range(w):
+            for dr, dc in ((0, 1), (1, 0), (0, -1), (-1, 0)):
+                rr, cc = r + dr, c + dc
+                if 0 <= rr < h and 0 <= cc < w and shadowed[rr, cc] != shadowed[r, c]:
+                    out.add((r, c))
+    return out
+
+
+def nearest(p, pixels):
+    return min(np.hypot(p[0] - q[0], p[1] - q[1]) for q in pixels)
+
+
+def test_shifted_boundary_distance_equals_brute_force():
     truth, ev = masks()
     vis = np.ones_like(truth)
     vis[5:15, 13:23] = 0.0  # the same square moved 3 px right
     m = compare(vis, truth, ev)
-    # vertical edges are 3 px apart; horizontal edges overlap partly (distance 0 or up to 3)
-    assert 1.0 < m["boundary_error_px"] <= 3.0
-    assert m["boundary_hausdorff_px"] == pytest.approx(3.0)
+    vb, gb = brute_force_boundary(vis < 0.5), brute_force_boundary(truth < 0.5)
+    d_vg = [nearest(p, gb) for p in vb]
+    both = d_vg + [nearest(p, vb) for p in gb]
+    assert m["boundary_pixels"] == len(vb)
+    assert m["boundary_error_px"] == pytest.approx(np.mean(d_vg), rel=1e-12)
+    assert m["boundary_hausdorff_px"] == pytest.approx(max(both), rel=1e-12) == 3.0
+    assert m["boundary_p95_px"] == pytest.approx(np.percentile(both, 95), rel=1e-12)
 
 
 def test_not_evaluated_pixels_do_not_count():

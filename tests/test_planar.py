@@ -4,69 +4,42 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from shadowlab.frame import Frame
-from shadowlab.run import measure_configs
-from shadowlab.scene import load_scene
-from shadowlab.techniques import from_spec
 from shadowlab.techniques.planar import fit_plane, planar_projection
-from shadowlab.techniques.raytrace import RayTraced
 
 SIZE = (640, 480)
-_FRAMES: dict = {}
 
 
-def frame_of(scene):
-    if scene not in _FRAMES:
-        _FRAMES[scene] = Frame(load_scene(scene), *SIZE)
-    return _FRAMES[scene]
-
-
-def rows(scene, specs):
-    df = measure_configs(scene, specs, frame=frame_of(scene))
-    df = df[~df["reference"]].copy()
-    df.index = list(specs)
-    return df
-
-
-def visibilities(scene, spec):
-    frame = frame_of(scene)
-    gt = RayTraced()
-    gt.setup(frame, 0)
-    gt.render()
-    tech = from_spec(spec)
-    tech.setup(frame, 0)
-    tech.render()
-    vis = tech.visibility()
-    tech.release()
-    return frame, vis, gt.visibility()
+def visibilities(lab, scene, spec):
+    """(frame, visibility, truth) of one configuration on the shared frame."""
+    return lab.frame(scene, SIZE), lab.measure(scene, spec, SIZE).visibility, lab.truth(scene, SIZE)
 
 
 @pytest.mark.parametrize("scene", ["box_on_plane", "pp_overlap", "pp_table_edge", "pp_light_plane", "pp_far_low"])
-def test_all_fixes_on_match_ground_truth(scene):
-    df = rows(scene, ["planar"])
+def test_all_fixes_on_match_ground_truth(lab, scene):
+    df = lab.rows(scene, ["planar"], SIZE)
     assert df.loc["planar", "truth_shadowed_pixels"] > 1000
     assert df.loc["planar", "error_rate"] <= 0.005
 
 
-def test_without_offset_the_shadow_z_fights():
-    df = rows("pp_far_low", ["planar", "planar:offset=false"])
+def test_without_offset_the_shadow_z_fights(lab):
+    df = lab.rows("pp_far_low", ["planar", "planar:offset=false"], SIZE)
     assert df.loc["planar:offset=false", "false_lit_rate"] > 0.02
     assert df.loc["planar:offset=false", "false_lit_rate"] > 20 * df.loc["planar", "false_lit_rate"]
 
 
-def test_without_stencil_overlaps_darken_twice():
-    df = rows("pp_overlap", ["planar", "planar:stencil=false"])
+def test_without_stencil_overlaps_darken_twice(lab):
+    df = lab.rows("pp_overlap", ["planar", "planar:stencil=false"], SIZE)
     assert df.loc["planar", "umbra_visibility_std"] == 0.0  # one darkening everywhere in the umbra
     assert df.loc["planar:stencil=false", "umbra_visibility_std"] > 0.01
     assert df.loc["planar:stencil=false", "error_rate"] <= 0.005  # thresholding cannot see it
 
 
-def test_without_clip_the_shadow_hangs_off_the_table():
+def test_without_clip_the_shadow_hangs_off_the_table(lab):
     """Out-of-receiver area: shadowed pixels off the table top that the truth has lit, over the
     true shadow area on the table."""
     ratios = {}
     for spec in ("planar", "planar:clip=false"):
-        frame, vis, truth = visibilities("pp_table_edge", spec)
+        frame, vis, truth = visibilities(lab, "pp_table_edge", spec)
         ev = frame.evaluated(0)
         table = frame.object_id == [o.name for o in frame.scene.objects].index("table_top")
         off = (vis < 0.5) & (truth >= 0.5) & ev & ~table
@@ -74,14 +47,14 @@ def test_without_clip_the_shadow_hangs_off_the_table():
     assert ratios["planar"] < 0.01 and ratios["planar:clip=false"] > 0.1, ratios
 
 
-def test_without_light_clip_geometry_behind_the_receiver_casts():
-    df = rows("pp_light_plane", ["planar", "planar:clip_light=false"])
+def test_without_light_clip_geometry_behind_the_receiver_casts(lab):
+    df = lab.rows("pp_light_plane", ["planar", "planar:clip_light=false"], SIZE)
     assert df.loc["planar:clip_light=false", "false_shadow_pixels"] > 100
     assert df.loc["planar", "false_shadow_pixels"] < 20
 
 
-def test_non_planar_receivers_are_reported():
-    df = rows("sun_scene", ["planar"])
+def test_non_planar_receivers_are_reported(lab):
+    df = lab.rows("sun_scene", ["planar"], SIZE)
     assert "not planar" in df.loc["planar", "notes"] and "ramp" in df.loc["planar", "notes"]
 
 

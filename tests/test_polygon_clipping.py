@@ -1,8 +1,10 @@
 """Exact shadow polygons: property tests against an independent computation (hypothesis).
 
 The independent answer: project the caster polygon onto the receiver's plane from the light
-(central projection, closed form) and intersect it with the receiver with scipy's half-space
-intersection (Qhull) — no code shared with shadowlab.polygon_clipping.
+(central projection for point lights, parallel for directional ones, closed form) and
+intersect it with the receiver with scipy's half-space intersection (Qhull) — no code shared
+with shadowlab.geometry.polygon_clipping. Configurations are built with the receiver on y = 0
+and then turned to any orientation and moved, so receivers and casters are tilted every way.
 """
 from __future__ import annotations
 
@@ -11,8 +13,8 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import ConvexHull
 
-from shadowlab import polygon_clipping as pc
-from shadowlab.convex_reference import ccw, overlap_area
+from shadowlab.geometry import polygon_clipping as pc
+from convex_reference import ccw, overlap_area
 
 EPS = 1e-12
 
@@ -27,53 +29,77 @@ def convex_polygon_2d(draw, n, radius, centre):
     return pts[hull.vertices]  # counter-clockwise, strictly convex
 
 
+def rotation(draw):
+    """A rotation matrix from three Euler angles (any orientation: receivers are tilted too)."""
+    ax, ay, az = (np.radians(draw(st.floats(-180, 180))) for _ in range(3))
+    cx, sx, cy, sy, cz, sz = np.cos(ax), np.sin(ax), np.cos(ay), np.sin(ay), np.cos(az), np.sin(az)
+    return (np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]) @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+            @ np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]]))
+
+
 @st.composite
 def configurations(draw):
-    """A convex receiver on y = 0, a convex caster between it and a point light above."""
+    """A convex receiver, a convex tilted caster between it and a point or directional light,
+    built with the receiver on y = 0 and then rotated and moved as a whole.
+
+    Returns (receiver, caster, light_h) in world space, the expected shadow area (computed in
+    the unrotated frame by projecting the caster onto y = 0 from the light: central or
+    parallel projection, then Qhull), and the world rotation/offset (to find the plane)."""
     rec2 = convex_polygon_2d(draw, draw(st.integers(3, 7)), 2.0, np.zeros(2))
     cas2 = convex_polygon_2d(draw, draw(st.integers(3, 7)), draw(st.floats(0.2, 1.2)),
                              np.array([draw(st.floats(-1.5, 1.5)), draw(st.floats(-1.5, 1.5))]))
     height = draw(st.floats(0.2, 2.0))
     tilt = np.array([draw(st.floats(-0.2, 0.2)), draw(st.floats(-0.2, 0.2))])
-    light = np.array([draw(st.floats(-2, 2)), draw(st.floats(3.5, 8.0)), draw(st.floats(-2, 2)), 1.0])
     receiver = np.stack([rec2[:, 0], np.zeros(len(rec2)), rec2[:, 1]], 1)
     caster = np.stack([cas2[:, 0], height + cas2 @ tilt, cas2[:, 1]], 1)
-    return receiver, caster, light
+    if draw(st.booleans()):  # point light above
+        L = np.array([draw(st.floats(-2, 2)), draw(st.floats(3.5, 8.0)), draw(st.floats(-2, 2))])
+        assume(np.all(caster[:, 1] < L[1] - 0.5) and np.all(caster[:, 1] > 0.05))
+        s = L[1] / (L[1] - caster[:, 1])
+        shadow = L + (caster - L) * s[:, None]
+        light = np.append(L, 1.0)
+    else:  # directional, travelling downwards
+        d = np.array([draw(st.floats(-1, 1)), -1.0, draw(st.floats(-1, 1))])
+        d /= np.linalg.norm(d)
+        assume(np.all(caster[:, 1] > 0.05))
+        shadow = caster - d * (caster[:, 1] / d[1])[:, None]
+        light = np.append(-d, 0.0)
+    expected = overlap_area(ccw(receiver[:, [0, 2]]), ccw(shadow[:, [0, 2]]))
+    rot, shift = rotation(draw), np.array([draw(st.floats(-3, 3)) for _ in range(3)])
+    world_light = np.append(rot @ light[:3] + (shift * light[3]), light[3])
+    return receiver @ rot.T + shift, caster @ rot.T + shift, world_light, expected, rot, shift
 
 
-def intersection_area(p, q):
-    """Area of the intersection of two convex 2D polygons (Qhull, independent of the clipper)."""
-    return overlap_area(p, q)
+def in_plane(points, rot, shift):
+    """World points → the receiver's own (x, z) coordinates and height above its plane."""
+    local = (points - shift) @ rot
+    return local[:, [0, 2]], local[:, 1]
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(configurations())
 def test_fragment_is_the_projected_caster_clipped_to_the_receiver(config):
-    receiver, caster, light = config
-    assume(np.all(caster[:, 1] < light[1] - 0.5) and np.all(caster[:, 1] > 0.05))
-    L = light[:3]
-    s = L[1] / (L[1] - caster[:, 1])                 # central projection onto y = 0
-    shadow2 = ccw((L + (caster - L) * s[:, None])[:, [0, 2]])
-    expected = intersection_area(ccw(receiver[:, [0, 2]]), shadow2)
+    receiver, caster, light, expected, _, _ = config
     frag, pieces = pc.shadow_fragment(receiver, caster, light, EPS)
-    got = pc.area(frag)
-    scale = pc.area(receiver)
-    assert abs(got - expected) <= 1e-9 * scale, (got, expected)
+    assert abs(pc.area(frag) - expected) <= 1e-9 * pc.area(receiver), (pc.area(frag), expected)
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(configurations())
 def test_fragment_and_lit_pieces_tile_the_receiver(config):
-    receiver, caster, light = config
+    receiver, caster, light, _, rot, shift = config
     frag, pieces = pc.shadow_fragment(receiver, caster, light, EPS)
-    parts = ([frag] if len(frag) else []) + pieces
+    parts = [p for p in ([frag] if len(frag) else []) + pieces if len(p) >= 3]
     total = pc.area(receiver)
     assert abs(sum(pc.area(p) for p in parts) - total) <= 1e-9 * total
-    flat = [ccw(p[:, [0, 2]]) for p in parts if len(p) >= 3]
+    flat = []
+    for p in parts:
+        xz, height = in_plane(p, rot, shift)
+        assert np.all(np.abs(height) < 1e-12 * (1 + np.abs(shift).max()))  # on the receiver's plane
+        flat.append(ccw(xz))
     for i in range(len(flat)):
-        assert np.all(np.abs(parts[i][:, 1]) < 1e-12)  # on the receiver's plane
         for j in range(i + 1, len(flat)):
-            assert intersection_area(flat[i], flat[j]) <= 1e-9 * total  # no overlaps
+            assert overlap_area(flat[i], flat[j]) <= 1e-9 * total  # no overlaps
 
 
 def test_no_shadow_when_the_caster_is_behind_the_receiver_or_edge_on():

@@ -3,8 +3,16 @@
 A technique is built from a spec string ``name`` or ``name:key=value,...``. Its parameters are
 declared (:class:`Param`) with defaults; an unknown or ill-typed parameter is an error (pbrt's
 unused-parameter report), and :meth:`Technique.spec` round-trips: ``from_spec(t.spec())``
-rebuilds ``t``. The run calls, per (frame, light): :meth:`setup` once (untimed allocation and
-fitting), :meth:`render` repeatedly (the timed passes), then :meth:`visibility`.
+rebuilds ``t``. The pipeline (:mod:`shadowlab.pipeline`) calls, per (frame, light):
+:meth:`setup` once (untimed allocation and fitting), :meth:`render` repeatedly (the timed
+passes), then :meth:`visibility`, :meth:`stats` and :meth:`release`.
+
+Inputs and outputs (the stage contract of DESIGN §2): a technique reads the frame (G-buffer
+textures, vertex buffers, exact points, evaluated masks, the scene) and writes only its own GL
+objects and its visibility image. The one shared resource it may overwrite is the G-buffer's
+depth-stencil attachment, and only if it says so in :attr:`Technique.MODIFIES_FRAME` (see
+:meth:`shadowlab.frame.Frame.depth_stencil_for`). Its notes (fallbacks, skipped objects) go
+to :attr:`Technique.notes`, which the run reports.
 """
 from __future__ import annotations
 
@@ -81,10 +89,10 @@ class Technique:
     name = "technique"
     summary = ""
     PARAMS: dict[str, Param] = {}
-    #: True when visibility can be fractional (filtering, area lights): metrics add visibility_mae.
-    fractional = False
     #: True when the work is on the CPU (no GL finish needed around it when timing).
     cpu = False
+    #: Shared frame resources this technique overwrites: empty, or {"depth_stencil"}.
+    MODIFIES_FRAME: frozenset[str] = frozenset()
 
     def __init__(self, **params):
         unknown = sorted(set(params) - set(self.PARAMS))

@@ -74,7 +74,6 @@ class PlanarShadow(Technique):
 
     name = "planar"
     summary = "projected planar shadows (Blinn 1988) with stencil fixes"
-    fractional = True
     PARAMS = {
         "offset": Param(True, "polygon offset against z-fighting with the receiver"),
         "stencil": Param(True, "darken each pixel once (no double blending)"),
@@ -84,6 +83,8 @@ class PlanarShadow(Technique):
         "offset_factor": Param(-1.0, "glPolygonOffset factor of the offset fix", min=-1e3, max=0.0),
         "offset_units": Param(-4.0, "glPolygonOffset units of the offset fix", min=-1e6, max=0.0),
     }
+    #: Its own depth pre-pass and the stencil of the fixes live in the G-buffer's depth-stencil.
+    MODIFIES_FRAME = frozenset({"depth_stencil"})
 
     def setup(self, frame, light_index: int) -> None:
         """Find planar receivers, build their projections, render the depth pre-pass."""
@@ -120,7 +121,7 @@ class PlanarShadow(Technique):
         self.depth_prog["u_view_proj"].write(gl.mat_bytes(frame.view_projection))
         self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
         self.target = gl.ScreenTarget.create((frame.width, frame.height), [self.vis_tex],
-                                             share_depth_stencil=frame.target)
+                                             share_depth_stencil=frame.depth_stencil_for(self))
         self.target.use()
         self.target.clear_depth_stencil()
         ctx.enable(ctx.DEPTH_TEST)
@@ -199,7 +200,7 @@ class PlanarShadow(Technique):
 
     def release(self) -> None:
         """Free GL objects."""
-        self.frame.target.use()
+        gl.park()
         for prog in (self.prog, self.depth_prog):
             self.frame.forget(prog)
             prog.release()

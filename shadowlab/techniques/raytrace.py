@@ -14,36 +14,52 @@ large near it (skips thin occluders, RT3). With the default 2^-18 (≈ 32 float3
 offset exceeds the float32 rounding of P (½ ulp) and Embree's own error, which is relative to
 the scene's extent, by an order of magnitude, yet stays below 1e-5 of the scene's size.
 Embree runs in robust (watertight) mode, so shadow rays through shared edges and vertices do
-not leak (Woop, Benthin & Wald 2013; hard case RT2).
+not leak (Woop, Benthin & Wald 2013; hard case RT2). Each light type says which rays reach it
+(:meth:`shadowlab.lights.Light.shadow_rays`).
 
-Rays towards point and spot lights are unnormalised (light − origin) and stop at t = 1 − 2^-20,
-so no normalisation is spent per light; directional rays travel along −direction to infinity,
-target-direct rays to the light's plane.
+The Embree scene and the offset origins depend only on the frame (and the offset scale): they
+are built once per frame and kept here, keyed weakly by the frame, so they go with it.
 """
 from __future__ import annotations
+
+import weakref
 
 import numpy as np
 
 from .base import Param, Technique
 
-#: Where a point-light shadow ray stops, as a fraction of the way to the light.
-_T_LIGHT = 1.0 - 2.0 ** -20
-#: "Infinity" for rays towards directional lights (finite: Embree's tfar is a float32).
-_T_INFINITE = np.float32(1e30)
+#: Per frame: the Embree scene of its casters (and the meshes that must outlive it).
+_EMBREE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+#: Per frame: {offset_scale: float32 origins (M, 3)}.
+_ORIGINS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def embree_scene(frame):
-    """The frame's casters as one robust Embree scene (built once per frame, then cached)."""
-    cache = frame.__dict__.setdefault("_cache", {})
-    if "embree" not in cache:
+    """The frame's casters as one robust Embree scene (built once per frame)."""
+    if frame not in _EMBREE:
         from embreex import rtcore_scene as rtcs
         from embreex.mesh_construction import TriangleMesh
 
         scene = rtcs.EmbreeScene(robust=True)
         meshes = [TriangleMesh(scene, o.vertices.astype(np.float32), o.faces.astype(np.int32))
                   for o in frame.scene.objects if o.casts]
-        cache["embree"] = (scene, meshes)
-    return cache["embree"][0]
+        _EMBREE[frame] = (scene, meshes)
+    return _EMBREE[frame][0]
+
+
+def offset_origins(frame, offset_scale: float, cached: bool = True) -> np.ndarray:
+    """Shadow-ray origins of every covered pixel, float32 (M, 3) in compact order: the exact
+    point moved ``offset_scale · max(‖P‖∞, scene extent)`` along the camera-facing normal.
+    ``cached=False`` recomputes (for timing) without touching the cache."""
+    per_frame = _ORIGINS.setdefault(frame, {})
+    if cached and offset_scale in per_frame:
+        return per_frame[offset_scale]
+    p, n = frame.compact_position, frame.compact_normal
+    scale = np.maximum(np.abs(p).max(axis=1), frame.scene.extent())
+    origins = (p + (offset_scale * scale)[:, None] * n).astype(np.float32)
+    if cached:
+        per_frame[offset_scale] = origins
+    return origins
 
 
 def occluded(scene, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray) -> np.ndarray:
@@ -69,36 +85,18 @@ class RayTraced(Technique):
         """Offset origins (per frame) and the evaluated pixels of this light."""
         self.frame, self.light = frame, frame.scene.lights[light_index]
         self.scene = embree_scene(frame) if frame.has_casters else None
-        self.origins = self._origins(frame)
+        self.origins = offset_origins(frame, self.offset_scale)
         self.evaluated = frame.compact_evaluated(light_index)
         self.eval_origins = np.ascontiguousarray(self.origins[self.evaluated])
         self.eval_points = frame.compact_position[self.evaluated]
         self.blocked = np.zeros(len(self.eval_origins), bool)
 
-    def _origins(self, frame) -> np.ndarray:
-        cache = frame.__dict__.setdefault("_cache", {})
-        key = ("raytrace_origins", self.offset_scale)
-        if key not in cache:
-            p, n = frame.compact_position, frame.compact_normal
-            scale = np.maximum(np.abs(p).max(axis=1), frame.scene.extent())
-            cache[key] = (p + (self.offset_scale * scale)[:, None] * n).astype(np.float32)
-        return cache[key]
-
     def render(self) -> None:
         """Trace one shadow ray per evaluated pixel."""
         if self.scene is None:
             return
-        light, org = self.light, self.eval_origins
-        if light.type_name in ("point", "spot"):
-            dirs = light.position.astype(np.float32) - org
-            tfar = np.full(len(org), _T_LIGHT, np.float32)
-        elif light.type_name == "directional":
-            dirs = np.broadcast_to((-light.direction).astype(np.float32), org.shape).copy()
-            tfar = np.full(len(org), _T_INFINITE, np.float32)
-        else:  # target_direct: along -direction back to the light's plane
-            dirs = np.broadcast_to((-light.direction).astype(np.float32), org.shape).copy()
-            tfar = ((self.eval_points - light.position) @ light.direction).astype(np.float32)
-        self.blocked = occluded(self.scene, org, dirs, tfar)
+        dirs, tfar = self.light.shadow_rays(self.eval_origins, self.eval_points)
+        self.blocked = occluded(self.scene, self.eval_origins, dirs, tfar)
 
     def visibility(self) -> np.ndarray:
         """1 where the shadow ray reached the light (and on pixels that are not evaluated)."""

@@ -25,8 +25,9 @@ Filters (``filter=``): ``nearest``; ``hw2x2`` (sampler2DShadow with linear filte
 bilinear PCF); ``pcf3`` / ``pcf5`` (texel-exact percentage-closer filtering, Reeves et al. 1987).
 Filtered visibility is fractional; the metrics report ``visibility_mae`` beside thresholded rates.
 
-Light frusta are fitted to what the scene and camera involve (DESIGN §11), never constants.
-The points to cover are (``fit=shadowable``, the default) the evaluated receiver points that can
+Light frusta are fitted to what the scene and camera involve (DESIGN §11), never constants;
+each light type fits its own (:meth:`shadowlab.lights.Light.shadow_views`,
+:mod:`shadowlab.geometry.frusta`). The points to cover are (``fit=shadowable``, the default) the evaluated receiver points that can
 be in shadow at all — those whose segment to the light crosses a caster's bounding box
 (:func:`shadowable`) — or (``fit=receivers``, the classic fit) every evaluated receiver point;
 then
@@ -36,43 +37,32 @@ then
   near plane at the light's disc (nothing behind the light casts);
 - spot: perspective with the cone's full angle α;
 - point: ``projection=frustum`` — one frustum around those points; ``cube`` — six faces;
-  ``auto`` — the frustum when the points fit in a cone of ``MAX_POINT_HALF_ANGLE``, else the cube.
+  ``auto`` — the frustum when the points fit in a cone of
+  ``geometry.frusta.MAX_POINT_HALF_ANGLE``, else the cube.
 Near planes sit at the nearest caster bounding box (a caster in front of near would be clipped
 and lose its shadow), unless ``near`` forces one (to show what a too-close near plane does to
 depth precision); far planes just past the farthest receiver.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from .. import gl
-from .. import transforms as tf
+from ..geometry.bounds import segments_hit_boxes
+from ..geometry.frusta import LightView
+from ..geometry.transforms import BIAS
 from .base import Param, Technique, TechniqueError
 
-#: Widest half-angle of the single point-light frustum (degrees): beyond it texels blow up.
-MAX_POINT_HALF_ANGLE = 80.0
-#: Relative padding of fitted ranges, so that fitted points do not sit exactly on a clip plane.
-_PAD = 1e-3
-#: Cube faces: look direction and up vector, in the order the lookup shader's face_of() uses.
-CUBE_FACES = [((1, 0, 0), (0, -1, 0)), ((-1, 0, 0), (0, -1, 0)), ((0, 1, 0), (0, 0, 1)),
-              ((0, -1, 0), (0, 0, -1)), ((0, 0, 1), (0, -1, 0)), ((0, 0, -1), (0, -1, 0))]
 VARIANTS = ("none", "constant", "slope", "normal_offset", "second_depth", "midpoint", "dual")
 FILTERS = {"nearest": 0, "pcf3": 1, "pcf5": 2, "hw2x2": None}
-
-
-def _aabb_distance(p: np.ndarray, bounds: np.ndarray) -> np.ndarray:
-    """Distance from point p to each box in ``bounds`` (K, 2, 3); 0 inside."""
-    gap = np.maximum(0.0, np.maximum(bounds[:, 0] - p, p - bounds[:, 1]))
-    return np.linalg.norm(gap, axis=1)
-
-
-def _corners(bounds: np.ndarray) -> np.ndarray:
-    """The 8 corners of each box in ``bounds`` (K, 2, 3) → (8K, 3)."""
-    idx = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
-    return np.concatenate([np.stack([b[idx[:, 0], 0], b[idx[:, 1], 1], b[idx[:, 2], 2]], 1) for b in bounds]) \
-        if len(bounds) else np.zeros((0, 3))
+#: The shadowable test starts each segment this far off its surface (× the scene's extent), so
+#: that a flat receiver's own bounding box does not count as a caster in its way.
+SHADOWABLE_OFFSET = 1e-5
+#: One step of each depth format: what "the same surface" means when peeling the second layer.
+#: Fixed point: 1 / (2^bits − 1). Float: depths of perspective maps crowd into [0.5, 1), where a
+#: float32 ulp is 2^-24; the rasteriser's interpolated depth of the same surface varies by a few
+#: ulps between passes, so a layer must lie 4 ulps behind the first to count as a new surface.
+DEPTH_STEP = {16: 1.0 / 65535, 24: 1.0 / 16777215, 32: 2.0 ** -22}
 
 
 def shadowable(points: np.ndarray, normals: np.ndarray, light, bounds: np.ndarray, eps: float) -> np.ndarray:
@@ -84,104 +74,28 @@ def shadowable(points: np.ndarray, normals: np.ndarray, light, bounds: np.ndarra
     """
     origin = points + eps * normals
     dirs, dist = light.to_light(origin)
-    dist = np.minimum(dist, 1e30)
-    hit = np.zeros(len(points), bool)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / dirs
-        for lo, hi in bounds:  # slab test (Kay & Kajiya 1986), one box at a time over all points
-            t1, t2 = (lo - origin) * inv, (hi - origin) * inv
-            t_near = np.nanmax(np.minimum(t1, t2), axis=1)
-            t_far = np.nanmin(np.maximum(t1, t2), axis=1)
-            hit |= (t_near <= t_far) & (t_far >= 0) & (t_near <= dist)
-    return hit
+    return segments_hit_boxes(origin, dirs, np.minimum(dist, 1e30), bounds)
 
 
-@dataclass
-class Face:
-    """One face of the map: light view and projection (float64 4x4); ``texel_world`` is the
-    world size of a texel (orthographic) and ``texel_angle`` its size per unit distance
-    (perspective), at the map's resolution."""
-
-    view: np.ndarray
-    proj: np.ndarray
-    texel_world: float = 0.0
-    texel_angle: float = 0.0
-
-    @property
-    def view_proj(self) -> np.ndarray:
-        """Projection · view."""
-        return self.proj @ self.view
-
-
-def fit_light_faces(frame, light_index: int, resolution: int, projection: str = "auto",
-                    near_override: float = 0.0, fit: str = "shadowable") -> tuple[list[Face], list[str]]:
-    """The map's faces (1, or 6 for a cube) fitted to the frame, and notes for the run.
+def fit_light_views(frame, light_index: int, resolution: int, projection: str = "auto",
+                    near_override: float = 0.0, fit: str = "shadowable") -> tuple[list[LightView], list[str]]:
+    """The map's views (1, or 6 for a cube) fitted to the frame, and notes for the run.
 
     ``fit='shadowable'`` covers the evaluated receiver points that can be in shadow at all;
     ``fit='receivers'`` covers every evaluated receiver point (the classic fit to what the
-    camera sees: coarser texels, and acne wherever the receivers are)."""
+    camera sees: coarser texels, and acne wherever the receivers are). The light decides the
+    projection (:meth:`shadowlab.lights.Light.shadow_views`)."""
     light = frame.scene.lights[light_index]
     evaluated = frame.compact_evaluated(light_index)
     casters = frame.caster_bounds()
     receivers = frame.compact_position[evaluated]
     if fit == "shadowable":
         focus = shadowable(receivers, frame.compact_normal[evaluated], light, casters,
-                           eps=1e-5 * frame.scene.extent())
+                           eps=SHADOWABLE_OFFSET * frame.scene.extent())
         receivers = receivers[focus]
-    notes: list[str] = []
     if len(receivers) == 0:
         receivers = frame.scene.bounds()  # nothing to answer: any valid frustum will do
-    if light.type_name in ("directional", "target_direct"):
-        if light.type_name == "directional":
-            view = tf.look_along(receivers.mean(axis=0), light.direction)
-        else:
-            view = tf.look_along(light.position, light.direction)
-        rv = tf.transform_points(view, receivers)
-        lo, hi = rv[:, :2].min(0), rv[:, :2].max(0)
-        if light.type_name == "target_direct":
-            lo, hi = np.maximum(lo, -light.R), np.minimum(hi, light.R)
-        pad = _PAD * max(float(np.max(hi - lo)), 1e-9)
-        lo, hi = lo - pad, hi + pad
-        depth_r = -rv[:, 2]
-        far = float(depth_r.max())
-        near = float(min(depth_r.min(), (-tf.transform_points(view, _corners(casters))[:, 2]).min()
-                         if len(casters) else depth_r.min()))
-        if light.type_name == "target_direct":
-            near = max(near, 0.0)
-        span = max(far - near, 1e-9)
-        near, far = near - _PAD * span, far + _PAD * span
-        proj = tf.orthographic(lo[0], hi[0], lo[1], hi[1], near, far)
-        return [Face(view, proj, texel_world=float(max(hi - lo)) / resolution)], notes
-    # point and spot: perspective from the light's position
-    p = light.position
-    dist = np.linalg.norm(receivers - p, axis=1)
-    far = float(dist.max()) * (1 + _PAD)
-    nearest = float(_aabb_distance(p, casters).min()) if len(casters) else far * 0.5
-    near = min(max(nearest * (1 - _PAD), far * 1e-4), far * 0.5)
-    if near_override > 0:
-        near = near_override
-    if light.type_name == "spot":
-        fov = min(light.alpha * (1 + _PAD), 179.0)
-        return [Face(tf.look_along(p, light.direction), tf.perspective(fov, 1.0, near, far),
-                     texel_angle=2 * np.tan(np.radians(fov) / 2) / resolution)], notes
-    dirs = (receivers - p) / dist[:, None]
-    axis = tf.normalize(dirs.mean(axis=0))
-    angles = np.degrees(np.arccos(np.clip(dirs @ axis, -1, 1)))
-    half = float(angles.max()) * (1 + _PAD)
-    if projection == "cube" or (projection == "auto" and half > MAX_POINT_HALF_ANGLE):
-        proj = tf.perspective(90.0, 1.0, near, far)
-        faces = [Face(tf.look_at(p, p + np.array(d, float), np.array(u, float)), proj,
-                      texel_angle=2.0 / resolution) for d, u in CUBE_FACES]
-        return faces, notes
-    if half > MAX_POINT_HALF_ANGLE:
-        outside = int(np.sum(angles > MAX_POINT_HALF_ANGLE))
-        notes.append(f"point light: receivers span {half:.1f} degrees around the light, more than one "
-                     f"frustum's {MAX_POINT_HALF_ANGLE}; {outside} shadowable pixels lie outside the shadow "
-                     f"map and are treated as lit (use projection=cube)")
-        half = MAX_POINT_HALF_ANGLE
-    fov = 2 * half
-    return [Face(tf.look_along(p, axis), tf.perspective(fov, 1.0, near, far),
-                 texel_angle=2 * np.tan(np.radians(fov) / 2) / resolution)], notes
+    return light.shadow_views(receivers, casters, resolution, projection=projection, near=near_override)
 
 
 class ShadowMap(Technique):
@@ -189,7 +103,6 @@ class ShadowMap(Technique):
 
     name = "shadow_map"
     summary = "depth-buffer shadow maps (Williams 1978): bias variants, second-depth, midpoint, dual, PCF"
-    fractional = True
     PARAMS = {
         "resolution": Param(2048, "shadow map width and height in texels (per cube face)", min=16, max=16384),
         "bias": Param(0.002, "constant depth bias in window-depth units [0, 1] (dual: the offset cap)",
@@ -216,7 +129,7 @@ class ShadowMap(Technique):
         """Fit the faces, allocate the atlas layers and programs."""
         ctx = frame.ctx
         self.frame, self.light = frame, frame.scene.lights[light_index]
-        self.faces, notes = fit_light_faces(frame, light_index, self.resolution, self.projection, self.near,
+        self.faces, notes = fit_light_views(frame, light_index, self.resolution, self.projection, self.near,
                                             self.fit)
         self.notes.extend(notes)
         n = len(self.faces)
@@ -236,7 +149,7 @@ class ShadowMap(Technique):
             self.peel_prog = gl.program("shadow_depth.glsl", defines={"PEEL": 1})
             self.resolve_prog = gl.program("shadow_resolve.glsl")
             self.resolve_quad = gl.fullscreen_quad(self.resolve_prog)
-            gl.set_uniforms(self.peel_prog, {"u_first_layer": 0, "u_peel_epsilon": self._depth_step()})
+            gl.set_uniforms(self.peel_prog, {"u_first_layer": 0, "u_peel_epsilon": DEPTH_STEP[self.depth_bits]})
             gl.set_uniforms(self.resolve_prog, {"u_first_layer": 0, "u_second_layer": 1,
                                                 "u_resolve": 1 if self.variant == "dual" else 0,
                                                 "u_dual_offset": float(self.bias)})
@@ -246,7 +159,7 @@ class ShadowMap(Technique):
         if hw:
             self.sampler = ctx.sampler(texture=self.map.texture, filter=(ctx.LINEAR, ctx.LINEAR),
                                        compare_func="<=", repeat_x=False, repeat_y=False)
-        mats = np.concatenate([tf.BIAS @ f.view_proj for f in self.faces] +
+        mats = np.concatenate([BIAS @ f.view_proj for f in self.faces] +
                               [np.eye(4)] * (6 - n))
         gl.set_uniforms(self.lookup_prog, self.light.uniforms())
         self.lookup_prog["u_light_matrix"].write(
@@ -266,10 +179,6 @@ class ShadowMap(Technique):
         self.quad = gl.fullscreen_quad(self.lookup_prog)
         self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
         self.vis_fbo = ctx.framebuffer(color_attachments=[self.vis_tex])
-
-    def _depth_step(self) -> float:
-        """One step of the depth format (what 'the same surface' means when peeling)."""
-        return {16: 1.0 / 65535, 24: 1.0 / 16777215, 32: 2.0 ** -22}[self.depth_bits]
 
     # ------------------------------------------------------------------ passes
     def _depth_pass(self, layer: gl.DepthTexture, prog, cull_front: bool = False) -> None:
@@ -339,20 +248,14 @@ class ShadowMap(Technique):
         """Map memory (every layer) and passes per frame."""
         layers = len(self.layers) if self.variant in ("midpoint", "dual") else 1
         depth_passes = len(self.faces) * (2 if layers == 3 else 1)
-        proj = self.faces[0].proj
-        if proj[3, 3] == 1.0:  # orthographic: depth = (z - near) / (far - near)
-            depth_range = 2.0 / abs(proj[2, 2])
-        else:  # perspective: far - near from the matrix
-            near, far = proj[2, 3] / (proj[2, 2] - 1.0), proj[2, 3] / (proj[2, 2] + 1.0)
-            depth_range = abs(far - near)
         return {"memory_bytes": sum(l.nbytes for l in self.layers), "faces": len(self.faces),
                 "passes": depth_passes + (1 if layers == 3 else 0) + 1,
-                "depth_range": float(depth_range),
+                "depth_range": self.faces[0].depth_range,
                 "texel_world": float(self.faces[0].texel_world) or None}
 
     def release(self) -> None:
         """Free the depth layers, programs and visibility target."""
-        self.frame.target.use()  # moderngl re-binds its current framebuffer later: never leave a deleted one
+        gl.park()
         progs = [self.depth_prog, self.lookup_prog]
         if self.variant in ("midpoint", "dual"):
             progs += [self.peel_prog, self.resolve_prog]

@@ -2,7 +2,7 @@
 
 For every convex receiver polygon (a receiver triangle) and every convex caster polygon (a
 caster triangle; only the light-facing ones of a closed mesh, whose shadows already make up the
-whole shadow), :func:`shadowlab.polygon_clipping.shadow_fragment` computes the receiver's
+whole shadow), :func:`shadowlab.geometry.polygon_clipping.shadow_fragment` computes the receiver's
 shadowed part exactly, in float64, with the tolerance ``epsilon`` (× the scene's size). Pairs are
 culled first, all pairs at once in numpy: the light must see the receiver, some receiver vertex
 must lie behind the caster's plane, and no side plane of the caster's frustum may have the whole
@@ -20,9 +20,11 @@ import time
 
 import numpy as np
 
-from .. import adjacency as adj
 from .. import gl
-from .. import polygon_clipping as pc
+from ..geometry import adjacency as adj
+from ..geometry import polygon_clipping as pc
+from ..geometry.frusta import side_planes
+from ..geometry.triangles import triangle_normals, triangle_planes
 from .base import Param, Technique, TechniqueError
 
 #: Candidate pairs above which the technique refuses (a Python loop per pair: meant for
@@ -57,7 +59,7 @@ class ShadowPolygons(Technique):
             if not obj.casts:
                 continue
             tris = obj.triangles
-            table = adj.cached_edge_table(obj)
+            table = obj.edges
             if table.closed:  # a closed mesh's light-facing faces cast its whole shadow
                 tris = tris[adj.facing(table, light)]
             casters.append(tris)
@@ -107,8 +109,7 @@ class ShadowPolygons(Technique):
             return np.ones(len(obj.faces), bool)
         tris = obj.triangles
         centre = tris.mean(axis=1)
-        normal = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-        normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+        normal, _ = triangle_normals(tris)
         contrib = []
         for light in lights:
             dirs, _ = light.to_light(centre)
@@ -126,22 +127,10 @@ class ShadowPolygons(Technique):
         plane of the caster's frustum with every receiver vertex outside it."""
         if len(rec) == 0 or len(cas) == 0:
             return np.zeros((0, 2), np.int64)
-        n = np.cross(cas[:, 1] - cas[:, 0], cas[:, 2] - cas[:, 0])
-        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-        d = -np.einsum("ij,ij->i", n, cas[:, 0])
+        n, d = triangle_planes(cas)
         sign = np.where(n @ light_h[:3] + d * light_h[3] >= 0, 1.0, -1.0)  # light on the positive side
-        # Frustum side planes through the light and each caster edge, inward (C, 3, 4).
-        a, b = cas, np.roll(cas, -1, axis=1)
-        if light_h[3] != 0:
-            L = light_h[:3] / light_h[3]
-            sn = np.cross(a - L, b - L)
-        else:
-            sn = np.cross(b - a, np.broadcast_to(light_h[:3], a.shape))
-        sn /= np.maximum(np.linalg.norm(sn, axis=2, keepdims=True), 1e-300)
-        sd = -np.einsum("cek,cek->ce", sn, a)
-        centre = cas.mean(axis=1)
-        inward = np.where(np.einsum("cek,ck->ce", sn, centre) + sd >= 0, 1.0, -1.0)
-        sn, sd = sn * inward[..., None], sd * inward
+        planes = side_planes(cas, light_h)  # (C, 3, 4): the frustum's side planes, inward
+        sn, sd = planes[..., :3], planes[..., 3]
         out = []
         for c0 in range(0, len(cas), chunk):
             c = slice(c0, c0 + chunk)
@@ -177,6 +166,6 @@ class ShadowPolygons(Technique):
 
     def release(self) -> None:
         """Free GL objects."""
-        self.frame.target.use()
+        gl.park()
         for obj in (self.vao, self.vbo, self.ibo_ids, self.prog, self.vis_fbo, self.vis_tex):
             obj.release()

@@ -1,7 +1,7 @@
 """Stencil shadow volumes (Crow 1977; Heidmann 1991), z-pass and z-fail, with real 8-bit stencil.
 
 Per light and caster: silhouette edges from edge adjacency (``silhouette=cpu``: numpy over the
-edge table of :mod:`shadowlab.adjacency`; ``silhouette=gpu``: a geometry shader over
+edge table of :mod:`shadowlab.geometry.adjacency`; ``silhouette=gpu``: a geometry shader over
 ``GL_TRIANGLES_ADJACENCY``), extruded to infinity as w = 0 points. Counting happens in the
 stencil of the G-buffer's depth-stencil attachment, two-sided (``glStencilOpSeparate``) with
 wrapping increments and decrements; colour and depth writes are off. A pixel is lit where
@@ -26,7 +26,7 @@ operations of the other face instead, for the same reason.
 
 Open meshes, non-manifold edges, inconsistent winding and a light inside a closed caster are
 detected per object and handled with the two-sided multiplicity scheme (see
-:mod:`shadowlab.adjacency`); the run notes say which objects needed it. The GPU path cannot
+:mod:`shadowlab.geometry.adjacency`); the run notes say which objects needed it. The GPU path cannot
 describe non-manifold edges in an adjacency buffer: such objects fall back to the CPU path,
 and the notes say so.
 """
@@ -36,13 +36,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import adjacency as adj
 from .. import gl
-from .. import transforms as tf
+from ..geometry import adjacency as adj
+from ..geometry import transforms as tf
 from .base import Param, Technique
 
 #: Everitt & Kilgard's ε for the infinite projection: keeps w = 0 points just inside the far plane.
 INFINITE_EPSILON = 2.4e-7
+#: Smallest size of the per-frame vertex and index buffers (bytes): the silhouette changes size
+#: from frame to frame, and this headroom keeps small changes from reallocating GL buffers.
+MIN_DYNAMIC_BUFFER_BYTES = 1 << 16
+#: u_stage values of shaders/shadow_volume_gs.glsl (STAGE_VOLUME, STAGE_FLIPPED_CAPS there).
+GS_STAGE_VOLUME, GS_STAGE_FLIPPED_CAPS = 1, 2
 
 
 @dataclass
@@ -69,6 +74,8 @@ class ShadowVolume(Technique):
         "far": Param("infinite", "far plane: infinite projection, clamp (GL_DEPTH_CLAMP), or finite (SV2 artefact)",
                      choices=("infinite", "clamp", "finite")),
     }
+    #: Counts in the G-buffer's stencil, after its own depth pre-pass into the same attachment.
+    MODIFIES_FRAME = frozenset({"depth_stencil"})
 
     # ------------------------------------------------------------------ setup
     def setup(self, frame, light_index: int) -> None:
@@ -86,7 +93,7 @@ class ShadowVolume(Technique):
         for i, obj in enumerate(frame.scene.objects):
             if not obj.casts:
                 continue
-            table = adj.cached_edge_table(obj)
+            table = obj.edges
             inside = (not self.light.at_infinity and table.closed
                       and adj.light_inside_closed_mesh(table, self.light.position))
             two_sided = not table.closed or inside
@@ -127,7 +134,7 @@ class ShadowVolume(Technique):
                     self.gpu[p.index] = (vbo, ibo, vao)
         self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
         self.target = gl.ScreenTarget.create((frame.width, frame.height), [self.vis_tex],
-                                             share_depth_stencil=frame.target)
+                                             share_depth_stencil=frame.depth_stencil_for(self))
         self.const_prog = gl.program("constant.glsl")
         self.quad = gl.fullscreen_quad(self.const_prog)
         self._depth_prepass()
@@ -151,7 +158,7 @@ class ShadowVolume(Technique):
         gl.check_errors("shadow volume depth pre-pass")
 
     # ------------------------------------------------------------------ per-frame work
-    def _cpu_geometry(self):
+    def cpu_volume_geometry(self):
         """Volume vertices (sides and far caps, vec4) and near-cap triangle indices for the CPU path."""
         zfail = self.mode == "zfail"
         verts, caps, flipped, far = [], [], [], []
@@ -201,7 +208,7 @@ class ShadowVolume(Technique):
             if entry is not None:
                 entry[1].release()
                 entry[0].release()
-            ibo = self.frame.ctx.buffer(reserve=max(len(data), 1 << 16), dynamic=True)
+            ibo = self.frame.ctx.buffer(reserve=max(len(data), MIN_DYNAMIC_BUFFER_BYTES), dynamic=True)
             vao = self.frame.ctx.vertex_array(self.vs_prog, [(vbo, "3f 1f", "in_pos", "in_extrude")],
                                               index_buffer=ibo, index_element_size=4)
             entry = self.indexed[key] = (ibo, vao)
@@ -216,7 +223,7 @@ class ShadowVolume(Technique):
                 if self.volume_vbo is not None:
                     self.volume_vao.release()
                     self.volume_vbo.release()
-                self.volume_vbo = ctx.buffer(reserve=max(volume.nbytes, 1 << 16), dynamic=True)
+                self.volume_vbo = ctx.buffer(reserve=max(volume.nbytes, MIN_DYNAMIC_BUFFER_BYTES), dynamic=True)
                 self.volume_vao = ctx.vertex_array(self.vs_prog, [(self.volume_vbo, "3f 1f", "in_pos", "in_extrude")])
             self.volume_vbo.write(volume.tobytes())
             self.volume_vao.render(vertices=len(volume))
@@ -232,11 +239,11 @@ class ShadowVolume(Technique):
                 continue
             vao = self.gpu[p.index][2]
             self.gs_prog["u_two_sided"].value = p.two_sided
-            self.gs_prog["u_stage"].value = 1
+            self.gs_prog["u_stage"].value = GS_STAGE_VOLUME
             vao.render(ctx.TRIANGLES_ADJACENCY)
             if p.two_sided and self.mode == "zfail":
                 self._stencil_ops(True)
-                self.gs_prog["u_stage"].value = 2
+                self.gs_prog["u_stage"].value = GS_STAGE_FLIPPED_CAPS
                 vao.render(ctx.TRIANGLES_ADJACENCY)
                 self._stencil_ops(False)
 
@@ -245,7 +252,7 @@ class ShadowVolume(Technique):
         from OpenGL import GL
 
         ctx = self.frame.ctx
-        self._geometry = self._cpu_geometry()
+        self._geometry = self.cpu_volume_geometry()
         self.target.use()
         GL.glStencilMask(0xFF)
         GL.glClearStencil(0)
@@ -318,7 +325,7 @@ class ShadowVolume(Technique):
 
     def release(self) -> None:
         """Free GL objects (the shared depth-stencil stays with the frame)."""
-        self.frame.target.use()
+        gl.park()
         for vbo, ibo, vao in self.gpu.values():
             for obj in (vao, ibo, vbo):
                 obj.release()

@@ -1,6 +1,6 @@
 """Reference areas for checking the exact shadow polygons: intersection of convex 2D polygons
 computed with Qhull (scipy's half-space intersection). It shares no code with
-:mod:`shadowlab.polygon_clipping`, so tests and experiments can judge that module by it.
+:mod:`shadowlab.geometry.polygon_clipping`, so tests and experiments can judge that module by it.
 """
 from __future__ import annotations
 

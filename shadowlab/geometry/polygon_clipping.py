@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .frusta import side_planes
+
 
 def plane_of(poly: np.ndarray) -> np.ndarray:
     """The plane (n, d), unit n, of a convex polygon (K, 3) (Newell's method, robust to
@@ -96,26 +98,11 @@ def area(poly: np.ndarray) -> float:
     return 0.5 * float(np.linalg.norm(np.cross(poly, nxt).sum(axis=0)))
 
 
-def frustum_planes(caster: np.ndarray, light_h: np.ndarray) -> list[np.ndarray]:
-    """Side planes of the shadow frustum from the light through the caster's edges, each
-    oriented so that the frustum's inside is positive."""
-    centre = caster.mean(axis=0)
-    planes = []
-    for a, b in zip(caster, np.roll(caster, -1, axis=0)):
-        if light_h[3] != 0:  # point light: the plane through L, a and b
-            L = light_h[:3] / light_h[3]
-            n = np.cross(a - L, b - L)
-        else:  # directional: the plane through a and b containing the light's direction
-            n = np.cross(b - a, light_h[:3])
-        length = np.linalg.norm(n)
-        if length == 0:
-            continue  # degenerate edge, or an edge pointing at the light
-        n = n / length
-        plane = np.append(n, -n @ a)
-        if signed(plane, centre[None])[0] < 0:
-            plane = -plane
-        planes.append(plane)
-    return planes
+def frustum_planes(caster: np.ndarray, light_h: np.ndarray) -> np.ndarray:
+    """Side planes (K, 4) of the shadow frustum from the light through the caster's edges, each
+    oriented so that the frustum's inside is positive (:func:`shadowlab.geometry.frusta.side_planes`,
+    the definition the bulk pair culling shares)."""
+    return side_planes(np.asarray(caster, np.float64)[None], light_h)[0]
 
 
 def oriented_to_light(plane: np.ndarray, light_h: np.ndarray) -> np.ndarray:

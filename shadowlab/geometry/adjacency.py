@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .triangles import triangle_cross
+
 
 @dataclass
 class EdgeTable:
@@ -130,19 +132,10 @@ def edge_table(vertices: np.ndarray, faces: np.ndarray) -> EdgeTable:
     face_count = np.bincount(inverse, minlength=len(uniq))
     signed_sum = np.bincount(inverse, weights=sign, minlength=len(uniq)).astype(np.int64)
     tri = np.asarray(vertices, np.float64)[faces]
-    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normals = triangle_cross(tri)
     plane_d = np.einsum("ij,ij->i", normals, tri[:, 0])
     return EdgeTable(np.asarray(vertices, np.float64), faces, edges, inc_face, inverse, sign,
                      face_count, signed_sum, normals, plane_d)
-
-
-def cached_edge_table(obj) -> EdgeTable:
-    """The edge table of a SceneObject, built on first use and kept on the object."""
-    table = obj.__dict__.get("_edge_table")
-    if table is None:
-        table = edge_table(obj.vertices, obj.faces)
-        obj.__dict__["_edge_table"] = table
-    return table
 
 
 def facing(table: EdgeTable, light) -> np.ndarray:

@@ -1,0 +1,130 @@
+"""Light-space frusta: the side planes of a polygon's shadow frustum, and the views a shadow
+map is rendered through, fitted to the points it must cover (DESIGN §11: model only what the
+scene needs). The light classes (:mod:`shadowlab.lights`) choose which fit applies to them.
+
+Every fit keeps the points it covers strictly inside the clip volume (relative padding
+:data:`PAD`) and puts near planes at the nearest caster's bounding box, never past it: a caster
+in front of the near plane would be clipped and lose its shadow.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import transforms as tf
+from .bounds import box_corners, box_distance
+from .vectors import dot
+
+#: Relative padding of fitted ranges, so that fitted points do not sit exactly on a clip plane.
+PAD = 1e-3
+#: Smallest width given to a fitted range (world units): a single point still gets a valid frustum.
+MIN_EXTENT = 1e-9
+#: Perspective maps: near ≥ far · this. Window depth resolves Δz ≈ z² · 2⁻²⁴ / near at distance z
+#: in a 24-bit map, so at the far plane the step stays below 6e-4 · far.
+MIN_NEAR_OVER_FAR = 1e-4
+#: Perspective maps: near ≤ far · this, so the frustum keeps a depth range when casters are far.
+MAX_NEAR_OVER_FAR = 0.5
+#: Widest full field of view of a perspective map (degrees): at 180 the projection is singular.
+MAX_FOV = 179.0
+#: Widest half-angle of a point light's single frustum (degrees): beyond it texels blow up.
+MAX_POINT_HALF_ANGLE = 80.0
+#: Cube faces: look direction and up vector, in the order the lookup shader's face_of() uses.
+CUBE_FACES = [((1, 0, 0), (0, -1, 0)), ((-1, 0, 0), (0, -1, 0)), ((0, 1, 0), (0, 0, 1)),
+              ((0, -1, 0), (0, 0, -1)), ((0, 0, 1), (0, -1, 0)), ((0, 0, -1), (0, -1, 0))]
+
+
+def side_planes(polys: np.ndarray, light_h: np.ndarray) -> np.ndarray:
+    """Side planes of the shadow frusta of convex polygons ``polys`` (C, K, 3) from the
+    homogeneous light ``light_h`` ((L, 1) or (−direction, 0)): one plane (n, d) per edge,
+    (C, K, 4), through the light (or containing its direction) and the edge, unit n, oriented
+    so that the frustum's inside (the polygon's centre) is positive. A degenerate edge, or one
+    pointing at the light, gives the zero plane, which classifies every point as *on* it."""
+    polys = np.asarray(polys, np.float64)
+    a, b = polys, np.roll(polys, -1, axis=1)
+    if light_h[3] != 0:  # point light: the plane through L, a and b
+        L = light_h[:3] / light_h[3]
+        n = np.cross(a - L, b - L)
+    else:  # directional: the plane through a and b containing the light's direction
+        n = np.cross(b - a, np.broadcast_to(light_h[:3], a.shape))
+    length = np.linalg.norm(n, axis=2, keepdims=True)
+    n = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
+    d = -dot(n, a)
+    centre = polys.mean(axis=1)
+    inward = np.where(dot(n, centre[:, None, :]) + d < 0, -1.0, 1.0)
+    return np.concatenate([n * inward[..., None], (d * inward)[..., None]], axis=2)
+
+
+@dataclass
+class LightView:
+    """One view a shadow map is rendered through: view and projection (float64 4x4, row-major);
+    ``texel_world`` is the world size of a texel (orthographic) and ``texel_angle`` its size per
+    unit distance (perspective), at the map's resolution."""
+
+    view: np.ndarray
+    proj: np.ndarray
+    texel_world: float = 0.0
+    texel_angle: float = 0.0
+
+    @property
+    def view_proj(self) -> np.ndarray:
+        """Projection · view."""
+        return self.proj @ self.view
+
+    @property
+    def depth_range(self) -> float:
+        """far − near of the projection (world units along the view axis)."""
+        p = self.proj
+        if p[3, 3] == 1.0:  # orthographic: depth = (z - near) / (far - near)
+            return float(2.0 / abs(p[2, 2]))
+        near, far = p[2, 3] / (p[2, 2] - 1.0), p[2, 3] / (p[2, 2] + 1.0)
+        return float(abs(far - near))
+
+
+def orthographic_fit(view: np.ndarray, points: np.ndarray, caster_bounds: np.ndarray, resolution: int,
+                     radius: float | None = None, near_min: float | None = None) -> LightView:
+    """An orthographic view along ``view``'s −z covering ``points`` (N, 3) sideways (clipped to
+    ``radius`` of the axis if given) and in depth from the nearest caster box (but not in front
+    of ``near_min``) to the farthest point."""
+    rv = tf.transform_points(view, points)
+    lo, hi = rv[:, :2].min(0), rv[:, :2].max(0)
+    if radius is not None:
+        lo, hi = np.maximum(lo, -radius), np.minimum(hi, radius)
+    pad = PAD * max(float(np.max(hi - lo)), MIN_EXTENT)
+    lo, hi = lo - pad, hi + pad
+    depth = -rv[:, 2]
+    far = float(depth.max())
+    caster_depth = -tf.transform_points(view, box_corners(caster_bounds))[:, 2]
+    near = float(min(depth.min(), caster_depth.min() if len(caster_bounds) else depth.min()))
+    if near_min is not None:
+        near = max(near, near_min)
+    span = max(far - near, MIN_EXTENT)
+    near, far = near - PAD * span, far + PAD * span
+    proj = tf.orthographic(lo[0], hi[0], lo[1], hi[1], near, far)
+    return LightView(view, proj, texel_world=float(max(hi - lo)) / resolution)
+
+
+def perspective_range(position: np.ndarray, points: np.ndarray, caster_bounds: np.ndarray,
+                      near_override: float = 0.0) -> tuple[float, float]:
+    """(near, far) of a perspective map from ``position``: far just past the farthest point,
+    near at the nearest caster box within [far · MIN_NEAR_OVER_FAR, far · MAX_NEAR_OVER_FAR],
+    unless ``near_override`` > 0 forces it."""
+    dist = np.linalg.norm(points - position, axis=1)
+    far = float(dist.max()) * (1 + PAD)
+    nearest = float(box_distance(position, caster_bounds).min()) if len(caster_bounds) else far * MAX_NEAR_OVER_FAR
+    near = min(max(nearest * (1 - PAD), far * MIN_NEAR_OVER_FAR), far * MAX_NEAR_OVER_FAR)
+    return (near_override if near_override > 0 else near), far
+
+
+def perspective_view(position: np.ndarray, direction: np.ndarray, fov: float, near: float, far: float,
+                     resolution: int) -> LightView:
+    """A square perspective view from ``position`` along ``direction`` with full angle ``fov``."""
+    return LightView(tf.look_along(position, direction), tf.perspective(fov, 1.0, near, far),
+                     texel_angle=2 * np.tan(np.radians(fov) / 2) / resolution)
+
+
+def cube_views(position: np.ndarray, near: float, far: float, resolution: int) -> list[LightView]:
+    """The six 90° faces of a cube map around ``position``, in :data:`CUBE_FACES` order."""
+    proj = tf.perspective(90.0, 1.0, near, far)
+    return [LightView(tf.look_at(position, position + np.array(d, float), np.array(u, float)), proj,
+                      texel_angle=2.0 / resolution) for d, u in CUBE_FACES]

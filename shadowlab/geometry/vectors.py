@@ -1,0 +1,17 @@
+"""Row-wise vector products with one rounding behaviour everywhere.
+
+numpy's ``a @ b`` on two 3-vectors and ``np.einsum`` over rows round differently in the last
+bit (different summation kernels). Code that must give bit-identical planes whether it handles
+one polygon or a batch (the exact shadow polygons and their bulk culling) uses :func:`dot`,
+whose batched ``matmul`` rounds exactly like the 1-D ``@``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot products over the last axis of broadcastable float64 arrays (..., 3) → (...),
+    rounded like ``a[i] @ b[i]``."""
+    a, b = np.broadcast_arrays(np.asarray(a, np.float64), np.asarray(b, np.float64))
+    return (a[..., None, :] @ b[..., :, None])[..., 0, 0]

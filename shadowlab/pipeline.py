@@ -1,0 +1,189 @@
+"""The one measurement loop (DESIGN §3): setup → timed render → visibility → metrics row.
+
+Everything that measures a technique goes through here — the ``shadowlab compare`` run, the
+experiments and the tests — so a figure means the same wherever it was taken:
+
+- :func:`measure`: one technique on one light of a frame (the only place a technique is timed);
+- :class:`Evaluator`: judges visibility images of one frame against its ground truth (measured
+  once per light) and turns a :class:`Measurement` into a metrics.csv row;
+- :func:`compare_frame`: the ground truth and N configurations on every light of a frame;
+- :func:`measure_configs`: a table of rows for several configurations on one light (sweeps,
+  tests), sharing one frame and one truth.
+
+Progress is reported through ``on_step(what, total)``, called after every warm-up and timed
+render with a description and the total number of such steps; writing results (masks, images,
+run.json, the report) is :mod:`shadowlab.run`'s job, not this loop's.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+import pandas as pd
+
+from . import gl, metrics, timing
+from .frame import Frame
+from .scene import load_scene
+from .techniques import Technique, TechniqueError, from_spec
+from .techniques.raytrace import RayTraced
+
+#: ``on_step(what, total)``: called after each render run (warm-up or timed).
+StepCallback = Callable[[str, int], None]
+
+
+@dataclass
+class Measurement:
+    """One technique configuration measured on one light: visibility float32 (height, width),
+    row 0 = top, 1 = lit; its timing; its cost figures (``Technique.stats``); its notes."""
+
+    technique: Technique
+    light: int
+    visibility: np.ndarray
+    timing: timing.Timing
+    stats: dict
+    notes: list[str] = field(default_factory=list)
+
+
+def measure(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, warmup: int = 1,
+            on_step: Callable[[], None] | None = None, release: bool = True) -> Measurement:
+    """Set ``tech`` up for one light, time ``warmup`` + ``repeat`` renders of its passes, read its
+    visibility and cost figures, check GL errors, and (``release``) free its GL objects."""
+    before = len(tech.notes)
+    tech.setup(frame, light_index)
+    t = timing.time_passes(tech.render, repeat=repeat, warmup=warmup, gpu=not tech.cpu, on_step=on_step)
+    vis = tech.visibility()
+    stats = tech.stats()
+    gl.check_errors(f"{tech.name} on light {light_index}")
+    if release:
+        tech.release()
+    return Measurement(tech, light_index, vis, t, stats, list(dict.fromkeys(tech.notes[before:])))
+
+
+class Evaluator:
+    """Judges visibility images of one frame against its ground truth.
+
+    The truth of each light is measured once, on first use, with ``truth`` (default: the
+    default :class:`RayTraced`), as are each light's contact lines (for the contact-gap metric).
+    """
+
+    def __init__(self, frame: Frame, truth: Technique | None = None, repeat: int = 1, warmup: int = 0):
+        self.frame = frame
+        self.truth_technique = truth or RayTraced()
+        self.repeat, self.warmup = repeat, warmup
+        self._truth: dict[int, Measurement] = {}
+        self._contact: dict[int, np.ndarray] = {}
+
+    def truth(self, light_index: int, on_step: Callable[[], None] | None = None) -> Measurement:
+        """The ground truth's measurement of one light (measured on first use)."""
+        if light_index not in self._truth:
+            self._truth[light_index] = measure(self.truth_technique, self.frame, light_index, self.repeat,
+                                               self.warmup, on_step)
+        return self._truth[light_index]
+
+    def contact_lines(self, light_index: int) -> np.ndarray:
+        """Bool (height, width): evaluated receiver pixels where another object touches the
+        receiver (:func:`shadowlab.metrics.contact_pixels`)."""
+        if light_index not in self._contact:
+            f = self.frame
+            self._contact[light_index] = metrics.contact_pixels(f.object_id, f.position, f.pixel_footprint(),
+                                                                f.evaluated(light_index))
+        return self._contact[light_index]
+
+    def row(self, m: Measurement, reference: bool = False) -> dict:
+        """The metrics.csv row of a measurement (columns: :data:`shadowlab.metrics.COLUMNS`, then
+        ``param_<name>`` per parameter, then the technique's cost figures)."""
+        frame, tech, li = self.frame, m.technique, m.light
+        row = {"scene": frame.scene.name, "light": li, "light_type": frame.scene.lights[li].type_name,
+               "technique": tech.name, "params": tech.params_string(), "label": tech.spec(),
+               "short_label": tech.short_label(), "reference": reference,
+               "width": frame.width, "height": frame.height}
+        truth = m.visibility if reference else self.truth(li).visibility
+        row.update(metrics.compare(m.visibility, truth, frame.evaluated(li), self.contact_lines(li)))
+        row.update(m.timing.columns())
+        row.update({f"param_{k}": v for k, v in tech.params().items()})
+        row.update(m.stats)
+        return row
+
+
+@dataclass
+class Comparison:
+    """What :func:`compare_frame` measured: per light the truth, per technique and light its
+    measurement, the metrics rows (DataFrame, CSV column order) and the run notes."""
+
+    frame: Frame
+    truth: list[Measurement]
+    results: list[list[Measurement]]
+    rows: pd.DataFrame
+    notes: list[str]
+
+
+def total_steps(lights: int, configurations: int, repeat: int, warmup: int) -> int:
+    """Render runs :func:`compare_frame` makes (the truth counted as a configuration)."""
+    return lights * (1 + configurations) * (repeat + warmup)
+
+
+def _stepper(on_step: StepCallback | None, total: int, what: str) -> Callable[[], None] | None:
+    return None if on_step is None else (lambda: on_step(what, total))
+
+
+def compare_frame(frame: Frame, techniques: Sequence[Technique], repeat: int = 5, warmup: int = 1,
+                  on_step: StepCallback | None = None, truth: Technique | None = None) -> Comparison:
+    """The ground truth and every technique on every light of ``frame``."""
+    lights = range(len(frame.scene.lights))
+    total = total_steps(len(lights), len(techniques), repeat, warmup)
+    evaluator = Evaluator(frame, truth, repeat, warmup)
+    notes = []
+    if frame.degenerate_triangles:
+        notes.append(f"{frame.degenerate_triangles} degenerate (zero-area) triangles in the scene")
+    truths = [evaluator.truth(li, _stepper(on_step, total, f"{evaluator.truth_technique.name} light {li}"))
+              for li in lights]
+    rows = [evaluator.row(m, reference=True) for m in truths]
+    results = []
+    for tech in techniques:
+        ms = [measure(tech, frame, li, repeat, warmup, _stepper(on_step, total, f"{tech.name} light {li}"))
+              for li in lights]
+        rows.extend(evaluator.row(m) for m in ms)
+        notes.extend(f"{tech.spec()}: {n}" for n in dict.fromkeys(tech.notes))
+        results.append(ms)
+    df = pd.DataFrame(rows)
+    return Comparison(frame, truths, results, df[metrics.order_columns(df.columns)], notes)
+
+
+def build_techniques(specs: Sequence[str], truth: Technique | None = None) -> list[Technique]:
+    """Techniques from spec strings; duplicates and the ground truth itself are rejected
+    (TechniqueError), before any GL work."""
+    techs = [from_spec(s) for s in specs]
+    seen: set[str] = set()
+    reference = (truth or RayTraced()).spec()
+    for t in techs:
+        if t.spec() == reference:
+            raise TechniqueError(f"'{t.spec()}' is the ground truth itself, which every run computes; "
+                                 f"give raytrace other parameters to compare against it")
+        if t.spec() in seen:
+            raise TechniqueError(f"configuration given twice: {t.spec()}")
+        seen.add(t.spec())
+    return techs
+
+
+def measure_configs(scene_ref, specs: Sequence[str], size: tuple[int, int] = (640, 480), repeat: int = 1,
+                    warmup: int = 0, light_index: int = 0, frame: Frame | None = None,
+                    evaluator: Evaluator | None = None, on_step: StepCallback | None = None) -> pd.DataFrame:
+    """Rows (the metrics.csv columns, plus ``notes``) for several configurations on one scene
+    and light, the ground truth's first (``reference`` = True); writes nothing. For sweeps and
+    tests. Pass ``frame`` (or an ``evaluator`` of a frame, which also keeps its truth) to reuse
+    them across calls."""
+    if evaluator is not None:
+        frame = evaluator.frame
+    scene = frame.scene if frame is not None else load_scene(scene_ref)
+    techniques = [from_spec(s) for s in specs]
+    frame = frame or Frame(scene, *size)
+    evaluator = evaluator or Evaluator(frame, repeat=repeat, warmup=warmup)
+    total = (1 + len(techniques)) * (repeat + warmup)
+    truth = evaluator.truth(light_index, _stepper(on_step, total, "ground truth"))
+    rows = [dict(evaluator.row(truth, reference=True), notes="")]
+    for tech in techniques:
+        m = measure(tech, frame, light_index, repeat, warmup, _stepper(on_step, total, tech.short_label()))
+        rows.append(dict(evaluator.row(m), notes="; ".join(m.notes)))
+    df = pd.DataFrame(rows)
+    return df[metrics.order_columns(df.columns)]

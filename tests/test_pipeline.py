@@ -1,0 +1,65 @@
+"""The stage contract (DESIGN §2–3): techniques read the frame and change nothing of it but what
+they declare; the metric table is the DESIGN §6 contract; the one loop's rows are consistent."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from shadowlab import gl
+from shadowlab.metrics import COLUMNS, CONTRACT_COLUMNS, compare
+from shadowlab.pipeline import compare_frame, measure
+from shadowlab.techniques import REGISTRY, from_spec
+
+SIZE = (160, 120)
+
+
+def gbuffer_bytes(frame):
+    return [t.read() for t in (frame.tex_position, frame.tex_normal, frame.tex_ids)]
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_techniques_leave_the_gbuffer_untouched(lab, name):
+    """Every registered technique, run on a frame, leaves its G-buffer textures, exact points
+    and evaluated masks bit for bit as they were (the next technique reads them)."""
+    frame = lab.frame("multi_light", SIZE)
+    before = gbuffer_bytes(frame), frame.compact_position.copy(), frame.evaluated(1).copy()
+    for light in range(len(frame.scene.lights)):
+        measure(from_spec(name), frame, light, repeat=1, warmup=0)
+    after = gbuffer_bytes(frame), frame.compact_position, frame.evaluated(1)
+    assert before[0] == after[0]
+    assert np.array_equal(before[1], after[1]) and np.array_equal(before[2], after[2])
+
+
+def test_only_declared_techniques_get_the_depth_stencil(lab):
+    frame = lab.frame("box_on_plane", SIZE)
+    for name, cls in REGISTRY.items():
+        if "depth_stencil" in cls.MODIFIES_FRAME:
+            assert frame.depth_stencil_for(cls()) is frame.target
+        else:
+            with pytest.raises(RuntimeError, match="MODIFIES_FRAME"):
+                frame.depth_stencil_for(cls())
+
+
+def test_metric_table_holds_the_design_contract():
+    assert CONTRACT_COLUMNS == ["scene", "light", "technique", "params", "width", "height", "evaluated_pixels",
+                                "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
+                                "time_ms_median", "time_ms_iqr"]
+    names = [c.name for c in COLUMNS]
+    assert len(names) == len(set(names))
+    metric_names = {c.name for c in COLUMNS if c.compute is not None}
+    ones = np.ones((4, 4), np.float32)
+    assert set(compare(ones, ones, ones > 0, contact=ones < 0)) == metric_names
+
+
+def test_comparison_rows_follow_the_table_and_judge_against_the_truth(lab):
+    frame = lab.frame("multi_light", SIZE)
+    result = compare_frame(frame, [from_spec("shadow_map:resolution=256")], repeat=1, warmup=0)
+    df = result.rows
+    assert list(df.columns[: len(CONTRACT_COLUMNS)]) == CONTRACT_COLUMNS
+    assert len(df) == 2 * len(frame.scene.lights) and df["reference"].sum() == len(frame.scene.lights)
+    for li, m in enumerate(result.results[0]):
+        row = df[(df["light"] == li) & ~df["reference"]].iloc[0]
+        truth = result.truth[li].visibility
+        assert row["error_rate"] == compare(m.visibility, truth, frame.evaluated(li))["error_rate"]
+    assert (df.loc[df["reference"], "error_rate"] == 0).all()
+    gl.check_errors()

@@ -133,13 +133,14 @@ class PointLight(Light):
         """``projection=frustum``: one frustum around the points; ``cube``: six faces; ``auto``:
         the frustum when the points fit in a cone of MAX_POINT_HALF_ANGLE, else the cube."""
         p = self.position
-        near, far = frusta.perspective_range(p, points, caster_bounds, near)
         dirs = (points - p) / np.linalg.norm(points - p, axis=1)[:, None]
         axis = tf.normalize(dirs.mean(axis=0))
         angles = np.degrees(np.arccos(np.clip(dirs @ axis, -1, 1)))
         half = float(angles.max()) * (1 + frusta.PAD)
         limit = frusta.MAX_POINT_HALF_ANGLE
         if projection == "cube" or (projection == "auto" and half > limit):
+            axes = np.array([d for d, _ in frusta.CUBE_FACES], np.float64)
+            near, far = frusta.perspective_range(p, points, caster_bounds, axes, 90.0, near)
             return frusta.cube_views(p, near, far, resolution), []
         notes = []
         if half > limit:
@@ -148,6 +149,7 @@ class PointLight(Light):
                          f"frustum's {limit}; {outside} shadowable pixels lie outside the shadow "
                          f"map and are treated as lit (use projection=cube)")
             half = limit
+        near, far = frusta.perspective_range(p, points, caster_bounds, axis[None], 2 * half, near)
         return [frusta.perspective_view(p, axis, 2 * half, near, far, resolution)], notes
 
     def _shape_uniforms(self):
@@ -219,8 +221,8 @@ class SpotLight(PointLight):
 
     def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):
         """One perspective view along the cone's axis with the cone's full angle α."""
-        near, far = frusta.perspective_range(self.position, points, caster_bounds, near)
         fov = min(self.alpha * (1 + frusta.PAD), frusta.MAX_FOV)
+        near, far = frusta.perspective_range(self.position, points, caster_bounds, self.direction[None], fov, near)
         return [frusta.perspective_view(self.position, self.direction, fov, near, far, resolution)], []
 
     def _shape_uniforms(self):

@@ -84,3 +84,35 @@ def test_shadow_rays_end_at_the_light(light, rng):
         assert (tfar > 1e20).all()
     to_light, _ = light.to_light(pts)
     assert (np.einsum("ij,ij->i", dirs, to_light) > 0).all()
+
+
+def near_plane(proj: np.ndarray) -> float:
+    """The near distance of an OpenGL perspective or orthographic projection matrix."""
+    if proj[3, 3] == 1.0:  # orthographic: m22 = -2/(f-n), m23 = -(f+n)/(f-n)
+        return (proj[2, 3] + 1.0) / proj[2, 2]
+    return proj[2, 3] / (proj[2, 2] - 1.0)  # perspective: m22 = (f+n)/(n-f), m23 = 2fn/(n-f)
+
+
+@pytest.mark.parametrize("light", LIGHTS, ids=lambda l: l.type_name)
+@pytest.mark.parametrize("projection", ["auto", "cube"])
+def test_shadow_views_cover_the_points_and_keep_casters_past_near(light, projection, rng):
+    """Every point to cover inside the light's footprint lands in the clip volume of one of the
+    light's views, and no caster point a view can see lies in front of its near plane (it would
+    be clipped and lose its shadow)."""
+    pts = rng.uniform([-2, -0.3, -2], [2, 0.0, 2], size=(2000, 3))
+    casters = np.array([[[-0.5, 0.2, -0.5], [0.5, 1.0, 0.5]], [[1.0, 0.1, 1.0], [1.4, 0.6, 1.6]]])
+    views, _ = light.shadow_views(pts, casters, 512, projection=projection)
+    lit = light.footprint(pts) > 0
+    assert lit.sum() > 100
+    inside = np.zeros(len(pts), bool)
+    for v in views:
+        c = np.c_[pts, np.ones(len(pts))] @ v.view_proj.T
+        inside |= (c[:, 3] > 0) & np.all(np.abs(c[:, :3]) <= c[:, 3:], axis=1)
+    assert inside[lit].all()
+    g = np.linspace(0, 1, 9)
+    box_pts = np.concatenate([lo + (hi - lo) * np.stack(np.meshgrid(g, g, g), -1).reshape(-1, 3) for lo, hi in casters])
+    for v in views:
+        c = np.c_[box_pts, np.ones(len(box_pts))] @ v.view_proj.T
+        sideways = (c[:, 3] > 0) & np.all(np.abs(c[:, :2]) <= c[:, 3:], axis=1)  # within the view's sides
+        depth = -(np.c_[box_pts, np.ones(len(box_pts))] @ v.view.T)[:, 2]
+        assert (depth[sideways] >= near_plane(v.proj) * (1 - 1e-12)).all()

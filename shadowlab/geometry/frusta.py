@@ -3,8 +3,8 @@ map is rendered through, fitted to the points it must cover (DESIGN §11: model 
 scene needs). The light classes (:mod:`shadowlab.lights`) choose which fit applies to them.
 
 Every fit keeps the points it covers strictly inside the clip volume (relative padding
-:data:`PAD`) and puts near planes at the nearest caster's bounding box, never past it: a caster
-in front of the near plane would be clipped and lose its shadow.
+:data:`PAD`) and puts near planes in front of every caster point a view can see, measured along
+the view's axis: a caster in front of the near plane would be clipped and lose its shadow.
 """
 from __future__ import annotations
 
@@ -104,14 +104,28 @@ def orthographic_fit(view: np.ndarray, points: np.ndarray, caster_bounds: np.nda
     return LightView(view, proj, texel_world=float(max(hi - lo)) / resolution)
 
 
-def perspective_range(position: np.ndarray, points: np.ndarray, caster_bounds: np.ndarray,
-                      near_override: float = 0.0) -> tuple[float, float]:
-    """(near, far) of a perspective map from ``position``: far just past the farthest point,
-    near at the nearest caster box within [far · MIN_NEAR_OVER_FAR, far · MAX_NEAR_OVER_FAR],
-    unless ``near_override`` > 0 forces it."""
+def perspective_range(position: np.ndarray, points: np.ndarray, caster_bounds: np.ndarray, axes: np.ndarray,
+                      fov: float, near_override: float = 0.0) -> tuple[float, float]:
+    """(near, far) of square perspective views from ``position`` along each of ``axes`` (A, 3)
+    with full angle ``fov``: far just past the farthest point; near in front of every caster
+    point a view can see, within [far · MIN_NEAR_OVER_FAR, far · MAX_NEAR_OVER_FAR], unless
+    ``near_override`` > 0 forces it.
+
+    The near plane bounds *axial* depth: a caster point at Euclidean distance d can lie at depth
+    d · cos γ only (γ: its angle from the axis). Per caster box two lower bounds of the depth
+    of its points inside a view hold — the smallest depth of its corners, and its distance
+    times the cosine of the view's corner angle, cos γc = 1 / √(1 + 2 tan²(fov/2)) — and the
+    larger of the two is used."""
     dist = np.linalg.norm(points - position, axis=1)
     far = float(dist.max()) * (1 + PAD)
-    nearest = float(box_distance(position, caster_bounds).min()) if len(caster_bounds) else far * MAX_NEAR_OVER_FAR
+    if len(caster_bounds):
+        cos_corner = 1.0 / np.sqrt(1.0 + 2.0 * np.tan(np.radians(fov) / 2) ** 2)
+        corners = box_corners(caster_bounds).reshape(-1, 8, 3) - position           # (K, 8, 3)
+        corner_depth = (corners @ np.asarray(axes, np.float64).T).min(axis=1)       # (K, A)
+        bound = np.maximum(corner_depth, box_distance(position, caster_bounds)[:, None] * cos_corner)
+        nearest = float(bound.min())
+    else:
+        nearest = far * MAX_NEAR_OVER_FAR
     near = min(max(nearest * (1 - PAD), far * MIN_NEAR_OVER_FAR), far * MAX_NEAR_OVER_FAR)
     return (near_override if near_override > 0 else near), far
 

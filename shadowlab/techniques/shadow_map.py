@@ -39,9 +39,10 @@ then
 - point: ``projection=frustum`` — one frustum around those points; ``cube`` — six faces;
   ``auto`` — the frustum when the points fit in a cone of
   ``geometry.frusta.MAX_POINT_HALF_ANGLE``, else the cube.
-Near planes sit at the nearest caster bounding box (a caster in front of near would be clipped
-and lose its shadow), unless ``near`` forces one (to show what a too-close near plane does to
-depth precision); far planes just past the farthest receiver.
+Near planes sit in front of every caster point a view can see — along the view's axis, not at
+the nearest caster's distance, which would clip an off-axis caster that is closer in depth
+(:func:`shadowlab.geometry.frusta.perspective_range`) — unless ``near`` forces one (to show what
+a too-close near plane does to depth precision); far planes just past the farthest receiver.
 """
 from __future__ import annotations
 

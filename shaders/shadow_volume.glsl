@@ -13,7 +13,7 @@ in vec4 v_extruded[];
 in float v_extrude[];
 void main() {
     for (int i = 0; i < 3; ++i) {
-        gl_Position = v_extrude[i] > 0.0 ? v_extruded[i] : v_surface[i];
+        emit_position(v_extrude[i] > 0.0 ? v_extruded[i] : v_surface[i]);
         EmitVertex();
     }
     EndPrimitive();

@@ -34,9 +34,9 @@ bool faces_light(vec3 a, vec3 b, vec3 c) {
 }
 
 void emit_tri(vec4 a, vec4 b, vec4 c) {
-    gl_Position = a; EmitVertex();
-    gl_Position = b; EmitVertex();
-    gl_Position = c; EmitVertex();
+    emit_position(a); EmitVertex();
+    emit_position(b); EmitVertex();
+    emit_position(c); EmitVertex();
     EndPrimitive();
 }
 

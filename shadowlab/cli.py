@@ -75,6 +75,9 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--out", default=None, help="run directory (default results/<scene>_<date-time>)")
     c.add_argument("--repeat", type=int, default=5, help="timed runs per configuration (default 5)")
     c.add_argument("--warmup", type=int, default=1, help="untimed warm-up runs (default 1)")
+    c.add_argument("--pass-timing", action="store_true",
+                   help="also time each named pass (pass_<name>_ms columns, a stacked bar chart in the report; "
+                        "measured in runs of their own)")
     return p
 
 
@@ -99,7 +102,8 @@ def _cmd_compare(args) -> int:
     bar = Progress()
     try:
         out = runmod.compare(args.scene, args.technique or ["shadow_map"], size=size, out=args.out,
-                             repeat=args.repeat, warmup=args.warmup, on_step=bar.step)
+                             repeat=args.repeat, warmup=args.warmup, on_step=bar.step,
+                             pass_timing=args.pass_timing)
     except GLContextError as exc:
         print(f"shadowlab: {exc}", file=sys.stderr)
         return EXIT_NO_GL

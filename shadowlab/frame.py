@@ -20,8 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import gl
+from . import gl, glstate
 from .geometry.rays import ray_plane_hits
+from .glstate import PassState
 from .geometry.triangles import triangle_normals
 from .lights import Light
 from .scene import Scene
@@ -134,9 +135,7 @@ class Frame:
         GL.glClearBufferfv(GL.GL_COLOR, 1, (0.0, 0.0, 0.0, 0.0))
         GL.glClearBufferiv(GL.GL_COLOR, 2, (-1, -1, 0, 0))
         self.target.clear_depth_stencil()
-        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.depth_func = "<"
+        glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True))
         self.draw(self.gbuffer_program, "all")
         ctx.finish()
         gl.check_errors("G-buffer pass")

@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import glstate
+
 _CONTEXT = None
 
 #: Debian packages that provide headless EGL + Mesa's software rasteriser.
@@ -60,7 +62,7 @@ def park() -> None:
     global _PARKING
     ctx = context()
     if _PARKING is None:
-        _PARKING = ctx.framebuffer(color_attachments=[ctx.renderbuffer((1, 1))])
+        _PARKING = framebuffer([ctx.renderbuffer((1, 1))])
     _PARKING.use()
 
 
@@ -70,9 +72,29 @@ def renderer() -> str:
 
 
 def gl_info() -> dict:
-    """GL_RENDERER, GL_VENDOR and GL_VERSION of the lab's context, for run records."""
+    """The GL device of the lab's context, for run records: vendor, renderer, version, GLSL
+    version, the driver (GL_VERSION after the version number, e.g. 'Mesa 22.3.6' or
+    'NVIDIA 580.159.04'), and the EGL vendor and version."""
     info = context().info
-    return {k: info[k] for k in ("GL_RENDERER", "GL_VENDOR", "GL_VERSION")}
+    out = {k: info[k] for k in ("GL_VENDOR", "GL_RENDERER", "GL_VERSION")}
+    out["GL_SHADING_LANGUAGE_VERSION"] = info.get("GL_SHADING_LANGUAGE_VERSION", "")
+    parts = out["GL_VERSION"].split(" ", 1)
+    out["driver"] = parts[1].strip("() ") if len(parts) > 1 else out["GL_VENDOR"]
+    try:
+        from OpenGL import EGL
+
+        display = EGL.eglGetCurrentDisplay()
+        out["EGL_VENDOR"] = EGL.eglQueryString(display, EGL.EGL_VENDOR).decode()
+        out["EGL_VERSION"] = EGL.eglQueryString(display, EGL.EGL_VERSION).decode()
+    except Exception:  # noqa: BLE001 - the EGL strings are a courtesy; GL_* above identify the device
+        pass
+    return out
+
+
+def device() -> str:
+    """One line naming the GL device: renderer, vendor and driver."""
+    i = gl_info()
+    return f"{i['GL_RENDERER']} ({i['GL_VENDOR']}; driver {i['driver']})"
 
 
 def is_software_renderer() -> bool:
@@ -150,7 +172,28 @@ def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = 
         kwargs["varyings"] = varyings
     else:
         kwargs["fragment_shader"] = stages.get("fragment")
-    return ctx.program(**kwargs)
+    prog = ctx.program(**kwargs)
+    PROGRAMS[prog.glo] = ProgramInfo(name, dict(defines or {}), glstate.clip_distances_written(stages))
+    return prog
+
+
+@dataclass(frozen=True)
+class ProgramInfo:
+    """What the lab knows of a program it compiled: its file, defines, and the clip distances
+    its vertex or geometry stage writes (each needs GL_CLIP_DISTANCEi enabled when it draws)."""
+
+    name: str
+    defines: dict
+    clip_distances: frozenset
+
+
+#: Every program :func:`program` compiled, by GL name (glo).
+PROGRAMS: dict[int, ProgramInfo] = {}
+
+
+def program_info(prog) -> ProgramInfo | None:
+    """The :class:`ProgramInfo` of a program made by :func:`program` (None for others)."""
+    return PROGRAMS.get(prog.glo)
 
 
 def set_uniforms(prog, values: dict) -> None:
@@ -328,6 +371,21 @@ class ScreenTarget:
         GL.glDeleteFramebuffers(1, [self.fbo_glo])
         if self.owns_depth_stencil:
             GL.glDeleteRenderbuffers(1, [self.depth_stencil_glo])
+
+
+def framebuffer(color_attachments: list, depth_attachment=None):
+    """A moderngl framebuffer, checked complete (GLError otherwise)."""
+    from OpenGL import GL
+
+    ctx = context()
+    fbo = ctx.framebuffer(color_attachments=color_attachments, depth_attachment=depth_attachment)
+    current = ctx.fbo  # moderngl re-bound its current framebuffer (if any) after creating this one
+    GL.glBindFramebuffer(GL.GL_FRAMEBUFFER, fbo.glo)
+    try:
+        _check_complete(GL)
+    finally:
+        (current or fbo).use()
+    return fbo
 
 
 def read_texture(tex, components: int, dtype: str = "f4") -> np.ndarray:

@@ -43,21 +43,39 @@ class Measurement:
     timing: timing.Timing
     stats: dict
     notes: list[str] = field(default_factory=list)
+    #: ``pass_<name>_ms`` per pass (only when per-pass timing was asked for).
+    pass_times: dict = field(default_factory=dict)
 
 
 def measure(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, warmup: int = 1,
-            on_step: Callable[[], None] | None = None, release: bool = True) -> Measurement:
+            on_step: Callable[[], None] | None = None, release: bool = True,
+            pass_timing: bool = False) -> Measurement:
     """Set ``tech`` up for one light, time ``warmup`` + ``repeat`` renders of its passes, read its
-    visibility and cost figures, check GL errors, and (``release``) free its GL objects."""
+    visibility and cost figures, check GL errors, and (``release``) free its GL objects.
+
+    ``pass_timing``: then ``repeat`` further renders time each named pass
+    (:class:`shadowlab.timing.PassTimer`); they run after the timed renders, so the finishes
+    between passes do not perturb ``time_ms_median``."""
     before = len(tech.notes)
     tech.setup(frame, light_index)
     t = timing.time_passes(tech.render, repeat=repeat, warmup=warmup, gpu=not tech.cpu, on_step=on_step)
+    pass_times = {}
+    if pass_timing:
+        timer = timing.PassTimer()
+        tech.pass_timer = timer
+        try:
+            for _ in range(repeat):
+                tech.render()
+                timer.end_run()
+        finally:
+            tech.pass_timer = None
+        pass_times = timer.columns()
     vis = tech.visibility()
     stats = tech.stats()
     gl.check_errors(f"{tech.name} on light {light_index}")
     if release:
         tech.release()
-    return Measurement(tech, light_index, vis, t, stats, list(dict.fromkeys(tech.notes[before:])))
+    return Measurement(tech, light_index, vis, t, stats, list(dict.fromkeys(tech.notes[before:])), pass_times)
 
 
 class Evaluator:
@@ -67,10 +85,11 @@ class Evaluator:
     default :class:`RayTraced`), as are each light's contact lines (for the contact-gap metric).
     """
 
-    def __init__(self, frame: Frame, truth: Technique | None = None, repeat: int = 1, warmup: int = 0):
+    def __init__(self, frame: Frame, truth: Technique | None = None, repeat: int = 1, warmup: int = 0,
+                 pass_timing: bool = False):
         self.frame = frame
         self.truth_technique = truth or RayTraced()
-        self.repeat, self.warmup = repeat, warmup
+        self.repeat, self.warmup, self.pass_timing = repeat, warmup, pass_timing
         self._truth: dict[int, Measurement] = {}
         self._contact: dict[int, np.ndarray] = {}
 
@@ -78,7 +97,7 @@ class Evaluator:
         """The ground truth's measurement of one light (measured on first use)."""
         if light_index not in self._truth:
             self._truth[light_index] = measure(self.truth_technique, self.frame, light_index, self.repeat,
-                                               self.warmup, on_step)
+                                               self.warmup, on_step, pass_timing=self.pass_timing)
         return self._truth[light_index]
 
     def contact_lines(self, light_index: int) -> np.ndarray:
@@ -101,6 +120,7 @@ class Evaluator:
         truth = m.visibility if reference else self.truth(li).visibility
         row.update(metrics.compare(m.visibility, truth, frame.evaluated(li), self.contact_lines(li)))
         row.update(m.timing.columns())
+        row.update(m.pass_times)
         row.update({f"param_{k}": v for k, v in tech.params().items()})
         row.update(m.stats)
         return row
@@ -128,11 +148,13 @@ def _stepper(on_step: StepCallback | None, total: int, what: str) -> Callable[[]
 
 
 def compare_frame(frame: Frame, techniques: Sequence[Technique], repeat: int = 5, warmup: int = 1,
-                  on_step: StepCallback | None = None, truth: Technique | None = None) -> Comparison:
-    """The ground truth and every technique on every light of ``frame``."""
+                  on_step: StepCallback | None = None, truth: Technique | None = None,
+                  pass_timing: bool = False) -> Comparison:
+    """The ground truth and every technique on every light of ``frame`` (``pass_timing``: also
+    per-pass times, see :func:`measure`)."""
     lights = range(len(frame.scene.lights))
     total = total_steps(len(lights), len(techniques), repeat, warmup)
-    evaluator = Evaluator(frame, truth, repeat, warmup)
+    evaluator = Evaluator(frame, truth, repeat, warmup, pass_timing)
     notes = []
     if frame.degenerate_triangles:
         notes.append(f"{frame.degenerate_triangles} degenerate (zero-area) triangles in the scene")
@@ -141,8 +163,8 @@ def compare_frame(frame: Frame, techniques: Sequence[Technique], repeat: int = 5
     rows = [evaluator.row(m, reference=True) for m in truths]
     results = []
     for tech in techniques:
-        ms = [measure(tech, frame, li, repeat, warmup, _stepper(on_step, total, f"{tech.name} light {li}"))
-              for li in lights]
+        ms = [measure(tech, frame, li, repeat, warmup, _stepper(on_step, total, f"{tech.name} light {li}"),
+                      pass_timing=pass_timing) for li in lights]
         rows.extend(evaluator.row(m) for m in ms)
         notes.extend(f"{tech.spec()}: {n}" for n in dict.fromkeys(tech.notes))
         results.append(ms)
@@ -168,7 +190,8 @@ def build_techniques(specs: Sequence[str], truth: Technique | None = None) -> li
 
 def measure_configs(scene_ref, specs: Sequence[str], size: tuple[int, int] = (640, 480), repeat: int = 1,
                     warmup: int = 0, light_index: int = 0, frame: Frame | None = None,
-                    evaluator: Evaluator | None = None, on_step: StepCallback | None = None) -> pd.DataFrame:
+                    evaluator: Evaluator | None = None, on_step: StepCallback | None = None,
+                    pass_timing: bool = False) -> pd.DataFrame:
     """Rows (the metrics.csv columns, plus ``notes``) for several configurations on one scene
     and light, the ground truth's first (``reference`` = True); writes nothing. For sweeps and
     tests. Pass ``frame`` (or an ``evaluator`` of a frame, which also keeps its truth) to reuse
@@ -183,7 +206,8 @@ def measure_configs(scene_ref, specs: Sequence[str], size: tuple[int, int] = (64
     truth = evaluator.truth(light_index, _stepper(on_step, total, "ground truth"))
     rows = [dict(evaluator.row(truth, reference=True), notes="")]
     for tech in techniques:
-        m = measure(tech, frame, light_index, repeat, warmup, _stepper(on_step, total, tech.short_label()))
+        m = measure(tech, frame, light_index, repeat, warmup, _stepper(on_step, total, tech.short_label()),
+                    pass_timing=pass_timing)
         rows.append(dict(evaluator.row(m), notes="; ".join(m.notes)))
     df = pd.DataFrame(rows)
     return df[metrics.order_columns(df.columns)]

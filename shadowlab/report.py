@@ -84,6 +84,39 @@ def speed_error_plot(df: pd.DataFrame, path: Path) -> None:
     plt.close(fig)
 
 
+def pass_time_plot(df: pd.DataFrame, path: Path) -> str | None:
+    """A stacked horizontal bar per configuration (first light): its ``pass_<name>_ms``
+    columns, in the order the passes run, beside the median total. Returns the file name, or
+    None when no pass was timed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    cols = [c for c in df.columns if c.startswith("pass_") and c.endswith("_ms")]
+    if not cols:
+        return None
+    rows = df[df["light"] == df["light"].min()].reset_index(drop=True)
+    fig, ax = plt.subplots(figsize=(7.5, 0.45 * len(rows) + 1.6), dpi=110)
+    colors = plt.get_cmap("tab20")
+    left = np.zeros(len(rows))
+    for k, col in enumerate(cols):
+        vals = rows[col].fillna(0.0).to_numpy()
+        ax.barh(range(len(rows)), vals, left=left, color=colors(k % 20), label=col[len("pass_"):-len("_ms")])
+        left += vals
+    ax.scatter(rows["time_ms_median"], range(len(rows)), marker="|", s=200, color="k", label="total (median)")
+    ax.set_yticks(range(len(rows)), rows["short_label"], fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xlabel("ms per frame (median per pass; timed in runs of their own)")
+    ax.set_title("Where the time goes, pass by pass (first light)")
+    ax.legend(fontsize=7, loc="lower right")
+    ax.grid(alpha=0.3, axis="x")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return Path(path).name
+
+
 def write_html(path: Path, run: dict, df: pd.DataFrame, images: list[dict]) -> None:
     """Write ``report.html``: run facts, the metrics table, the speed/error plot and an image grid
     (shaded | visibility | error map per configuration). ``images`` holds dicts with ``label``
@@ -114,14 +147,16 @@ figcaption {{ font-size: 0.8em; color: #555; }}
 .sw {{ display: inline-block; width: 1em; height: 1em; vertical-align: middle; margin-right: 0.3em; border: 1px solid #666; }}
 </style></head><body>
 <h1>shadowlab: {html.escape(run['scene']['name'])}</h1>
-<p>{run['size'][0]}×{run['size'][1]} pixels · renderer: {html.escape(run['renderer'])} · {html.escape(run['date'])}
+<p>{run['size'][0]}×{run['size'][1]} pixels · device: {html.escape(run.get('device', run['renderer']))} · {html.escape(run['date'])}
 · revision {html.escape(run.get('revision', ''))}<br>
 timing: {html.escape(run['timing_method'])}, {run['repeat']} repeats after {run['warmup']} warm-up<br>
 masks, metrics and error maps are for the first light; metrics.csv has every light.</p>
 {f'<h2>Notes</h2><ul>{notes}</ul>' if notes else ''}
 <h2>Metrics</h2>
 <div class="scroll">{table.to_html(index=False, escape=True)}</div>
-<p><img src="speed_vs_error.png" alt="speed vs error plot"></p>
+<p><img src="speed_vs_error.png" alt="speed vs error plot">
+{f'<img src="{run["pass_times_image"]}" alt="time per pass">' if run.get("pass_times_image") else ''}</p>
+{f'<p>pass timing: {html.escape(run["pass_timing"])}</p>' if run.get("pass_timing") else ''}
 <h2>Images</h2>
 <p>Error map legend: {legend} dimmed: not evaluated (not a receiver, facing away from the light, or outside its footprint)</p>
 {''.join(rows)}

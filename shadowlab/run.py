@@ -47,11 +47,12 @@ def default_out_dir(scene: Scene) -> Path:
 
 
 def compare(scene_ref, specs: list[str], size: tuple[int, int] = (800, 600), out: Path | None = None,
-            repeat: int = 5, warmup: int = 1, on_step: StepCallback | None = None) -> Path:
+            repeat: int = 5, warmup: int = 1, on_step: StepCallback | None = None, pass_timing: bool = False) -> Path:
     """Run the ground truth and every technique spec on a scene; return the run directory.
 
     Bad input (scene, specs, size, repeat) raises SceneError / TechniqueError / RunError before
     any GL work. ``on_step(what, total)`` is called after every render run (progress display).
+    ``pass_timing`` adds per-pass times (``pass_<name>_ms``) and the report's pass chart.
     """
     if repeat < 1 or warmup < 0:
         raise RunError(f"--repeat must be >= 1 and --warmup >= 0, got {repeat} and {warmup}")
@@ -69,8 +70,8 @@ def compare(scene_ref, specs: list[str], size: tuple[int, int] = (800, 600), out
     try:
         frame = Frame(scene, *size)
         try:
-            result = compare_frame(frame, techniques, repeat, warmup, on_step)
-            write_run(tmp, result, repeat, warmup)
+            result = compare_frame(frame, techniques, repeat, warmup, on_step, pass_timing=pass_timing)
+            write_run(tmp, result, repeat, warmup, pass_timing)
         finally:
             frame.release()
         _move_into_place(tmp, out)
@@ -94,7 +95,7 @@ def _safe(label: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", label).strip("_")
 
 
-def write_run(folder: Path, result: Comparison, repeat: int, warmup: int) -> None:
+def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_timing: bool = False) -> None:
     """Write a comparison's run directory (DESIGN §6) into ``folder`` (which has ``images/``)."""
     frame, df = result.frame, result.rows
     df.to_csv(folder / "metrics.csv", index=False)
@@ -116,6 +117,7 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int) -> Non
     finally:
         shader.release()
     report.speed_error_plot(df, folder / "speed_vs_error.png")
+    passes_png = report.pass_time_plot(df, folder / "pass_times.png") if pass_timing else None
     cam = frame.camera
     run = {
         "scene": frame.scene.describe(),
@@ -126,7 +128,10 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int) -> Non
         "configurations": [{"label": ms[0].technique.spec(), "technique": ms[0].technique.name,
                             "params": ms[0].technique.params()} for ms in result.results],
         "renderer": gl.renderer(),
+        "device": gl.device(),
         "timing_method": timing.method_description(),
+        "pass_timing": timing.PassTimer().method() if pass_timing else None,
+        "pass_times_image": passes_png,
         "repeat": repeat,
         "warmup": warmup,
         "masks_light": 0,

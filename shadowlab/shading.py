@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import gl
+from . import gl, glstate
+from .glstate import PassState
 
 
 class Shader:
@@ -30,7 +31,7 @@ class Shader:
         self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
         self.vis_tex.filter = (ctx.NEAREST, ctx.NEAREST)
         self.out_tex = ctx.texture((frame.width, frame.height), 4, dtype="f4")
-        self.out_fbo = ctx.framebuffer(color_attachments=[self.out_tex])
+        self.out_fbo = gl.framebuffer([self.out_tex])
         sh = frame.scene.shading
         gl.set_uniforms(self.prog, {
             "u_position": 0, "u_normal": 1, "u_ids": 2, "u_materials": 3, "u_visibility": 4,
@@ -44,12 +45,12 @@ class Shader:
         frame, ctx = self.frame, self.frame.ctx
         if len(visibilities) != len(frame.scene.lights):
             raise ValueError(f"need {len(frame.scene.lights)} visibility images, got {len(visibilities)}")
+        from OpenGL import GL
+
         self.out_fbo.use()
         ctx.viewport = (0, 0, frame.width, frame.height)
-        ctx.clear(0.0, 0.0, 0.0, 0.0)
-        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
-        ctx.enable(ctx.BLEND)
-        ctx.blend_func = ctx.ONE, ctx.ONE
+        glstate.apply(PassState(blend=("one", "one")))  # the lights add up
+        GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
         for tex, unit in ((frame.tex_position, 0), (frame.tex_normal, 1), (frame.tex_ids, 2),
                           (self.materials, 3), (self.vis_tex, 4)):
             tex.use(unit)
@@ -57,7 +58,6 @@ class Shader:
             self.vis_tex.write(np.ascontiguousarray(vis[::-1], dtype=np.float32).tobytes())
             gl.set_uniforms(self.prog, light.uniforms())
             self.quad.render()
-        ctx.disable(ctx.BLEND)
         gl.check_errors("shading pass")
         return gl.read_texture(self.out_tex, 4)[..., :3]
 

@@ -74,3 +74,59 @@ def time_passes(run: Callable[[], None], repeat: int = 5, warmup: int = 1, gpu: 
             on_step()
     q1, med, q3 = np.percentile(samples, [25, 50, 75])
     return Timing(float(med), float(q3 - q1), samples, float(np.median(gpu_samples)) if gpu_samples else None)
+
+
+class PassTimer:
+    """Per-pass times of a technique's render, the way engine profilers show them: each named
+    pass (:meth:`shadowlab.techniques.Technique.timed_pass`) is timed with a GL_TIME_ELAPSED
+    query on real GPUs, or with the wall clock between ``ctx.finish()`` calls on software
+    renderers (whose timer queries do not measure rasterisation) and for CPU passes. The
+    finishes perturb the total, so the pipeline times passes in runs of their own, after the
+    runs that give ``time_ms_median``.
+    """
+
+    def __init__(self):
+        self.use_queries = not gl.is_software_renderer()
+        self.ctx = gl.context()
+        self.samples: dict[str, list[float]] = {}
+        self._run: dict[str, float] = {}
+        self._queries: list = []
+
+    def method(self) -> str:
+        """How GPU passes are timed (for run.json)."""
+        return "GL_TIME_ELAPSED query per pass" if self.use_queries else "wall clock with ctx.finish() between passes"
+
+    def measure(self, name: str, cpu: bool = False):
+        """Context manager timing one occurrence of pass ``name`` (several add up in a run)."""
+        import contextlib
+
+        @contextlib.contextmanager
+        def timed():
+            if self.use_queries and not cpu:
+                query = self.ctx.query(time=True)
+                with query:
+                    yield
+                self._queries.append((name, query))
+                return
+            if not cpu:
+                self.ctx.finish()
+            t0 = time.perf_counter()
+            yield
+            if not cpu:
+                self.ctx.finish()
+            self._run[name] = self._run.get(name, 0.0) + (time.perf_counter() - t0) * 1e3
+
+        return timed()
+
+    def end_run(self) -> None:
+        """Close one render run: its per-pass sums become one sample each."""
+        self.ctx.finish()
+        for name, query in self._queries:
+            self._run[name] = self._run.get(name, 0.0) + query.elapsed / 1e6
+        for name, ms in self._run.items():
+            self.samples.setdefault(name, []).append(ms)
+        self._run, self._queries = {}, []
+
+    def columns(self) -> dict:
+        """``pass_<name>_ms``: the median over runs of each pass's time per run."""
+        return {f"pass_{name}_ms": float(np.median(v)) for name, v in self.samples.items()}

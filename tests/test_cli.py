@@ -116,3 +116,22 @@ def test_listing_and_python_m(tmp_path):
     res = subprocess.run([sys.executable, "-m", "shadowlab", "compare", "box_on_plane", "--size", "64x48",
                           "--repeat", "1", "--out", str(tmp_path / "r")], capture_output=True, text=True, env=env)
     assert res.returncode == 0 and res.stderr == ""
+
+
+def test_pass_timing_and_device_are_recorded(tmp_path):
+    """--pass-timing adds pass_<name>_ms columns and the report's chart; run.json names the GL
+    device (vendor, renderer, version, driver) and the code revision."""
+    out = tmp_path / "run"
+    assert main(["compare", "box_on_plane", "-t", "shadow_volume", "-t", "shadow_map:variant=midpoint,resolution=256",
+                 "--size", "96x72", "--repeat", "2", "--pass-timing", "--out", str(out)]) == 0
+    df = pd.read_csv(out / "metrics.csv")
+    volume = df[df["technique"] == "shadow_volume"].iloc[0]
+    assert all(np.isfinite(volume[f"pass_{p}_ms"]) for p in ("silhouette", "volume", "caps", "count"))
+    smap = df[df["technique"] == "shadow_map"].iloc[0]
+    assert all(np.isfinite(smap[f"pass_{p}_ms"]) for p in ("depth", "peel", "resolve", "lookup"))
+    run = json.loads((out / "run.json").read_text())
+    for key in ("GL_VENDOR", "GL_RENDERER", "GL_VERSION", "driver"):
+        assert run["gl"][key]
+    assert run["revision"] and run["pass_timing"] and (out / run["pass_times_image"]).stat().st_size > 0
+    page = (out / "report.html").read_text()
+    assert run["gl"]["GL_RENDERER"] in page and run["pass_times_image"] in page

@@ -16,6 +16,7 @@ to :attr:`Technique.notes`, which the run reports.
 """
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 from typing import Any
 
@@ -93,6 +94,10 @@ class Technique:
     cpu = False
     #: Shared frame resources this technique overwrites: empty, or {"depth_stencil"}.
     MODIFIES_FRAME: frozenset[str] = frozenset()
+    #: The passes :meth:`render` names with :meth:`timed_pass`, in drawing order.
+    PASSES: tuple[str, ...] = ()
+    #: Set by the pipeline while it times passes (a :class:`shadowlab.timing.PassTimer`).
+    pass_timer = None
 
     def __init__(self, **params):
         unknown = sorted(set(params) - set(self.PARAMS))
@@ -140,6 +145,13 @@ class Technique:
     def visibility(self) -> np.ndarray:
         """Visibility in [0, 1], float32 (height, width), row 0 = top; 1 = lit."""
         raise NotImplementedError
+
+    def timed_pass(self, name: str, cpu: bool = False):
+        """Context manager around one pass of :meth:`render` (``name`` from :attr:`PASSES`;
+        ``cpu`` for work on the CPU): timed only while the pipeline asks for per-pass times."""
+        if self.pass_timer is None:
+            return contextlib.nullcontext()
+        return self.pass_timer.measure(name, cpu)
 
     def stats(self) -> dict:
         """Cost figures beside time (memory, passes ...), as extra metrics.csv columns."""

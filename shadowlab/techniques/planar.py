@@ -19,7 +19,8 @@ one boolean turns on or off, so it can be reproduced on purpose and measured:
 - ``clip``: the receiver's own visible pixels are marked in the stencil first and only they can be
   darkened; without it the shadow hangs off the receiver's edge onto whatever lies beyond;
 - ``clip_light``: casters are clipped to the slab between the plane through the light (parallel
-  to the receiver) and the receiver's plane; without it geometry behind the receiver casts onto
+  to the receiver) and the receiver's plane (two clip distances, each enabled as GL 4.5 core
+  requires: a written gl_ClipDistance is ignored unless GL_CLIP_DISTANCEi is on); without it geometry behind the receiver casts onto
   it (false shadows), and geometry beyond the light projects with w ≤ 0 — which GL's
   homogeneous clipper happens to remove, so on this pipeline the measurable artefact is the
   former (Blinn's anti-shadows appear where w is divided out before clipping).
@@ -34,7 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import gl
+from .. import gl, glstate
+from ..glstate import PassState, Stencil
 from .base import Param, Technique
 
 #: Planarity tolerance: largest distance of a vertex from the fitted plane, relative to the
@@ -85,6 +87,7 @@ class PlanarShadow(Technique):
     }
     #: Its own depth pre-pass and the stencil of the fixes live in the G-buffer's depth-stencil.
     MODIFIES_FRAME = frozenset({"depth_stencil"})
+    PASSES = ("stencil", "darken")
 
     def setup(self, frame, light_index: int) -> None:
         """Find planar receivers, build their projections, render the depth pre-pass."""
@@ -124,14 +127,8 @@ class PlanarShadow(Technique):
                                              share_depth_stencil=frame.depth_stencil_for(self))
         self.target.use()
         self.target.clear_depth_stencil()
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
-        ctx.depth_func = "<"
-        from OpenGL import GL
-
-        GL.glColorMask(False, False, False, False)
+        glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False))
         frame.draw(self.depth_prog, "all")
-        GL.glColorMask(True, True, True, True)
 
     def _draw_object(self, prog, index: int) -> None:
         rng = self.frame.object_ranges[index]
@@ -141,51 +138,38 @@ class PlanarShadow(Technique):
         """Per receiver: mark its pixels (clip), then darken them with the flattened casters."""
         from OpenGL import GL
 
-        ctx, frame = self.frame.ctx, self.frame
+        frame = self.frame
         self.target.use()
+        glstate.apply(PassState(depth_write=False))
         GL.glClearBufferfv(GL.GL_COLOR, 0, (1.0, 0.0, 0.0, 0.0))
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.CULL_FACE)
-        GL.glDepthMask(False)
         casters = [i for i, o in enumerate(frame.scene.objects) if o.casts]
         for rec in self.receivers:
-            GL.glStencilMask(0xFF)
-            GL.glClearStencil(0)
-            GL.glClear(GL.GL_STENCIL_BUFFER_BIT)
-            ref = 0
-            if self.clip:  # the receiver's visible pixels get stencil 1
-                ref = 1
-                GL.glEnable(GL.GL_STENCIL_TEST)
-                GL.glStencilFunc(GL.GL_ALWAYS, 1, 0xFF)
-                GL.glStencilOp(GL.GL_KEEP, GL.GL_KEEP, GL.GL_REPLACE)
-                GL.glColorMask(False, False, False, False)
-                ctx.depth_func = "<="
-                self._draw_object(self.depth_prog, rec.index)
-                GL.glColorMask(True, True, True, True)
-            if self.clip or self.stencil:
-                GL.glEnable(GL.GL_STENCIL_TEST)
-                GL.glStencilFunc(GL.GL_EQUAL, ref, 0xFF)
-                # stencil fix: the first darkening moves the pixel off ``ref``, so it is darkened once
-                GL.glStencilOp(GL.GL_KEEP, GL.GL_KEEP, GL.GL_INCR if self.stencil else GL.GL_KEEP)
-            else:
-                GL.glDisable(GL.GL_STENCIL_TEST)
-            if self.offset:
-                GL.glEnable(GL.GL_POLYGON_OFFSET_FILL)
-                GL.glPolygonOffset(float(self.offset_factor), float(self.offset_units))
-            ctx.depth_func = "<"
-            ctx.enable(ctx.BLEND)
-            ctx.blend_func = ctx.ZERO, ctx.SRC_COLOR  # visibility *= 1 − opacity
-            gl.set_uniforms(self.prog, {"u_light_plane": tuple(map(float, rec.light_plane)),
-                                        "u_receiver_plane": tuple(map(float, rec.plane))})
-            self.prog["u_plane_projection"].write(gl.mat_bytes(rec.projection))
-            for i in casters:
-                if i != rec.index:
-                    self._draw_object(self.prog, i)
-            ctx.disable(ctx.BLEND)
-            GL.glDisable(GL.GL_POLYGON_OFFSET_FILL)
-        GL.glDisable(GL.GL_STENCIL_TEST)
-        GL.glDepthMask(True)
-        ctx.depth_func = "<"
+            ref = 1 if self.clip else 0
+            with self.timed_pass("stencil"):
+                GL.glStencilMask(0xFF)
+                GL.glClearStencil(0)
+                GL.glClear(GL.GL_STENCIL_BUFFER_BIT)
+                if self.clip:  # the receiver's visible pixels get stencil 1
+                    glstate.apply(PassState(depth_test=True, depth_func="<=", depth_write=False, color_write=False,
+                                            stencil=Stencil("always", 1).both(("keep", "keep", "replace"))))
+                    self._draw_object(self.depth_prog, rec.index)
+            with self.timed_pass("darken"):
+                stencil = None
+                if self.clip or self.stencil:
+                    # stencil fix: the first darkening moves the pixel off ``ref``, so it is darkened once
+                    stencil = Stencil("==", ref).both(("keep", "keep", "incr" if self.stencil else "keep"))
+                glstate.apply(PassState(
+                    depth_test=True, depth_func="<", depth_write=False,
+                    blend=("zero", "src_color"),  # visibility *= 1 − opacity
+                    polygon_offset=(float(self.offset_factor), float(self.offset_units)) if self.offset else None,
+                    stencil=stencil,
+                    clip_distances=2 if self.clip_light else 0))  # the light's and the receiver's planes
+                gl.set_uniforms(self.prog, {"u_light_plane": tuple(map(float, rec.light_plane)),
+                                            "u_receiver_plane": tuple(map(float, rec.plane))})
+                self.prog["u_plane_projection"].write(gl.mat_bytes(rec.projection))
+                for i in casters:
+                    if i != rec.index:
+                        self._draw_object(self.prog, i)
 
     def visibility(self) -> np.ndarray:
         """Visibility: 1, times 1 − opacity per darkening layer."""

@@ -76,6 +76,7 @@ class RayTraced(Technique):
     name = "raytrace"
     summary = "ray-traced ground truth (Embree, robust mode, magnitude-scaled offset)"
     cpu = True
+    PASSES = ("trace",)
     PARAMS = {
         "offset_scale": Param(2.0 ** -18, "shadow-ray origin offset along the normal, relative to "
                                           "max(|P|inf, scene extent)", min=0.0, max=1e-2),
@@ -95,8 +96,9 @@ class RayTraced(Technique):
         """Trace one shadow ray per evaluated pixel."""
         if self.scene is None:
             return
-        dirs, tfar = self.light.shadow_rays(self.eval_origins, self.eval_points)
-        self.blocked = occluded(self.scene, self.eval_origins, dirs, tfar)
+        with self.timed_pass("trace", cpu=True):
+            dirs, tfar = self.light.shadow_rays(self.eval_origins, self.eval_points)
+            self.blocked = occluded(self.scene, self.eval_origins, dirs, tfar)
 
     def visibility(self) -> np.ndarray:
         """1 where the shadow ray reached the light (and on pixels that are not evaluated)."""

@@ -48,10 +48,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import gl
+from .. import gl, glstate
 from ..geometry.bounds import segments_hit_boxes
 from ..geometry.frusta import LightView
 from ..geometry.transforms import BIAS
+from ..glstate import PassState
 from .base import Param, Technique, TechniqueError
 
 VARIANTS = ("none", "constant", "slope", "normal_offset", "second_depth", "midpoint", "dual")
@@ -104,6 +105,7 @@ class ShadowMap(Technique):
 
     name = "shadow_map"
     summary = "depth-buffer shadow maps (Williams 1978): bias variants, second-depth, midpoint, dual, PCF"
+    PASSES = ("depth", "peel", "resolve", "lookup")
     PARAMS = {
         "resolution": Param(2048, "shadow map width and height in texels (per cube face)", min=16, max=16384),
         "bias": Param(0.002, "constant depth bias in window-depth units [0, 1] (dual: the offset cap)",
@@ -179,67 +181,57 @@ class ShadowMap(Technique):
         })
         self.quad = gl.fullscreen_quad(self.lookup_prog)
         self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
-        self.vis_fbo = ctx.framebuffer(color_attachments=[self.vis_tex])
+        self.vis_fbo = gl.framebuffer([self.vis_tex])
 
     # ------------------------------------------------------------------ passes
-    def _depth_pass(self, layer: gl.DepthTexture, prog, cull_front: bool = False) -> None:
-        """Render the casters into every face of ``layer``."""
+    def _depth_pass(self, layer: gl.DepthTexture, prog, name: str, cull_front: bool = False) -> None:
+        """Render the casters into every face of ``layer`` (pass ``name``: depth or peel)."""
         from OpenGL import GL
 
-        ctx, frame = self.frame.ctx, self.frame
-        layer.use_as_target()
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.BLEND)
-        ctx.depth_func = "<"
-        ctx.clear(depth=1.0)
-        if cull_front:
-            ctx.enable(ctx.CULL_FACE)
-            ctx.cull_face = "front"
-        else:
-            ctx.disable(ctx.CULL_FACE)
-        hardware = self.variant == "slope" and self.hardware_offset
-        if hardware:
-            GL.glEnable(GL.GL_POLYGON_OFFSET_FILL)
-            GL.glPolygonOffset(float(self.slope_scale), float(self.offset_units))
-        for face, rect in zip(self.faces, self.rects):
-            ctx.viewport = rect
-            prog["u_light_view_proj"].write(gl.mat_bytes(face.view_proj))
-            frame.draw(prog, "casters")
-        if hardware:
-            GL.glDisable(GL.GL_POLYGON_OFFSET_FILL)
-        ctx.disable(ctx.CULL_FACE)
-        ctx.cull_face = "back"
+        frame = self.frame
+        with self.timed_pass(name):
+            layer.use_as_target()
+            hardware = self.variant == "slope" and self.hardware_offset
+            glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False,
+                                    cull="front" if cull_front else None,
+                                    polygon_offset=(float(self.slope_scale), float(self.offset_units)) if hardware
+                                    else None))
+            GL.glClearBufferfv(GL.GL_DEPTH, 0, (1.0,))
+            for face, rect in zip(self.faces, self.rects):
+                frame.ctx.viewport = rect
+                prog["u_light_view_proj"].write(gl.mat_bytes(face.view_proj))
+                frame.draw(prog, "casters")
 
     def render(self) -> None:
         """Depth pass(es) from the light, the resolve (two-layer variants), the lookup."""
-        ctx = self.frame.ctx
         if self.variant == "second_depth":
-            self._depth_pass(self.map, self.depth_prog, cull_front=True)
+            self._depth_pass(self.map, self.depth_prog, "depth", cull_front=True)
         elif self.variant in ("midpoint", "dual"):
             first, second, comparison = self.layers
-            self._depth_pass(first, self.depth_prog)
+            self._depth_pass(first, self.depth_prog, "depth")
             first.texture.use(0)
-            self._depth_pass(second, self.peel_prog)
-            comparison.use_as_target()
-            ctx.enable(ctx.DEPTH_TEST)
-            ctx.depth_func = "1"  # always: every texel gets the resolved depth
-            first.texture.use(0)
-            second.texture.use(1)
-            self.resolve_quad.render()
-            ctx.depth_func = "<"
+            self._depth_pass(second, self.peel_prog, "peel")
+            with self.timed_pass("resolve"):
+                comparison.use_as_target()
+                # every texel gets the resolved depth (written by the shader, test always passes)
+                glstate.apply(PassState(depth_test=True, depth_func="always", depth_write=True, color_write=False))
+                first.texture.use(0)
+                second.texture.use(1)
+                self.resolve_quad.render()
         else:
-            self._depth_pass(self.map, self.depth_prog)
-        self.vis_fbo.use()
-        ctx.disable(ctx.DEPTH_TEST)
-        self.frame.tex_position.use(0)
-        self.frame.tex_normal.use(1)
-        if self.sampler is not None:
-            self.sampler.use(2)
-        else:
-            self.map.texture.use(2)
-        self.quad.render()
-        if self.sampler is not None:
-            self.sampler.clear(2)
+            self._depth_pass(self.map, self.depth_prog, "depth")
+        with self.timed_pass("lookup"):
+            self.vis_fbo.use()
+            glstate.apply(PassState(samplers=(2,) if self.sampler is not None else ()))
+            self.frame.tex_position.use(0)
+            self.frame.tex_normal.use(1)
+            if self.sampler is not None:
+                self.sampler.use(2)
+            else:
+                self.map.texture.use(2)
+            self.quad.render()
+            if self.sampler is not None:
+                self.sampler.clear(2)
 
     def visibility(self) -> np.ndarray:
         """Visibility in [0, 1] from the lookup pass (fractional when filtered)."""

@@ -20,11 +20,12 @@ import time
 
 import numpy as np
 
-from .. import gl
+from .. import gl, glstate
 from ..geometry import adjacency as adj
 from ..geometry import polygon_clipping as pc
 from ..geometry.frusta import side_planes
 from ..geometry.triangles import triangle_normals, triangle_planes
+from ..glstate import PassState
 from .base import Param, Technique, TechniqueError
 
 #: Candidate pairs above which the technique refuses (a Python loop per pair: meant for
@@ -38,6 +39,7 @@ class ShadowPolygons(Technique):
 
     name = "shadow_polygons"
     summary = "exact object-space shadow polygons (convex clipping), precomputed per static light"
+    PASSES = ("draw",)
     PARAMS = {
         "epsilon": Param(1e-9, "geometric tolerance of every predicate, relative to the scene's size",
                          min=0.0, max=1e-1),
@@ -100,7 +102,7 @@ class ShadowPolygons(Technique):
         self.ibo_ids = ctx.buffer(triangle_ids.tobytes() if len(triangle_ids) else b"\0" * 4)
         self.vao = ctx.vertex_array(self.prog, [(self.vbo, "3f", "in_pos"), (self.ibo_ids, "1i", "in_triangle")])
         self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
-        self.vis_fbo = ctx.framebuffer(color_attachments=[self.vis_tex])
+        self.vis_fbo = gl.framebuffer([self.vis_tex])
 
     def _kept_faces(self, obj, light_index: int) -> np.ndarray:
         """Bool per face: this light is among the face's ``max_lights`` strongest lights."""
@@ -146,13 +148,13 @@ class ShadowPolygons(Technique):
         """Draw the precomputed fragments over the G-buffer."""
         from OpenGL import GL
 
-        ctx = self.frame.ctx
-        self.vis_fbo.use()
-        GL.glClearBufferfv(GL.GL_COLOR, 0, (1.0, 0.0, 0.0, 0.0))
-        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
-        self.frame.tex_ids.use(0)
-        if self.count:
-            self.vao.render(vertices=self.count)
+        with self.timed_pass("draw"):
+            self.vis_fbo.use()
+            glstate.apply(PassState())
+            GL.glClearBufferfv(GL.GL_COLOR, 0, (1.0, 0.0, 0.0, 0.0))
+            self.frame.tex_ids.use(0)
+            if self.count:
+                self.vao.render(vertices=self.count)
 
     def visibility(self) -> np.ndarray:
         """Binary visibility: 0 inside a fragment on its own receiver triangle."""

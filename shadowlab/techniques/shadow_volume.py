@@ -14,8 +14,11 @@ its count is 0.
   needs closed volumes: near caps (the light-facing faces) and far caps (the same, extruded).
 - ``far=infinite``: the camera projection with its far plane at infinity (Everitt & Kilgard,
   with their ε so that w = 0 points stay inside the clip volume); ``far=clamp``: the finite
-  projection with ``GL_DEPTH_CLAMP`` (NV_depth_clamp); ``far=finite``: neither — far caps and
-  sides are clipped and z-fail loses shadow (hard case SV2, kept to reproduce it on purpose).
+  projection with ``GL_DEPTH_CLAMP`` (NV_depth_clamp), which also drops the near plane: it is
+  restored as clip distance 0, and the depth pre-pass runs under the same clamp and clipping as
+  the caps so that they tie with it bit for bit (see shaders/shadow_volume_common.glsl);
+  ``far=finite``: neither — far caps and sides are clipped and z-fail loses shadow (hard case
+  SV2, kept to reproduce it on purpose).
 
 Near caps coincide with the casters' own lit faces. The technique renders its own depth
 pre-pass (in ``setup``, untimed: it is primary visibility under the projection it needs) with
@@ -36,9 +39,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import gl
+from .. import gl, glstate
 from ..geometry import adjacency as adj
 from ..geometry import transforms as tf
+from ..glstate import PassState, Stencil
 from .base import Param, Technique
 
 #: Everitt & Kilgard's ε for the infinite projection: keeps w = 0 points just inside the far plane.
@@ -76,6 +80,7 @@ class ShadowVolume(Technique):
     }
     #: Counts in the G-buffer's stencil, after its own depth pre-pass into the same attachment.
     MODIFIES_FRAME = frozenset({"depth_stencil"})
+    PASSES = ("silhouette", "volume", "caps", "count")
 
     # ------------------------------------------------------------------ setup
     def setup(self, frame, light_index: int) -> None:
@@ -106,7 +111,11 @@ class ShadowVolume(Technique):
                                   f"shader; its silhouette falls back to the CPU path")
                 path = "cpu"
             self.plans.append(CasterPlan(i, table, two_sided, path, int(starts[i])))
-        self.vs_prog = gl.program("shadow_volume.glsl")
+        # Depth clamp also turns off clipping at the near plane: the volume programs then restore
+        # it as clip distance 0 (see shaders/shadow_volume_common.glsl).
+        self.defines = {"NEAR_CLIP": 1} if self.far == "clamp" else None
+        self.clip_distances = 1 if self.far == "clamp" else 0
+        self.vs_prog = gl.program("shadow_volume.glsl", defines=self.defines)
         for key, val in self.matrices.items():
             self.vs_prog[key].write(val)
         gl.set_uniforms(self.vs_prog, self.light.uniforms())
@@ -120,7 +129,7 @@ class ShadowVolume(Technique):
         self.indexed: dict[str, tuple] = {}
         self.gpu, self.gs_prog = {}, None
         if any(p.path == "gpu" for p in self.plans):
-            self.gs_prog = gl.program("shadow_volume_gs.glsl")
+            self.gs_prog = gl.program("shadow_volume_gs.glsl", defines=self.defines)
             gl.set_uniforms(self.gs_prog, self.light.uniforms())
             for key, val in self.matrices.items():
                 self.gs_prog[key].write(val)
@@ -142,19 +151,16 @@ class ShadowVolume(Technique):
     def _depth_prepass(self) -> None:
         """Scene depth under this technique's projection, drawn by the CPU path's program; the GPU
         path's geometry shader takes its caps from the same shared vertex stage."""
-        from OpenGL import GL
-
-        ctx = self.frame.ctx
         self.target.use()
         self.target.clear_depth_stencil()
-        GL.glColorMask(False, False, False, False)
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
-        ctx.depth_func = "<"
+        # The same clipping and depth clamp as the volume passes: a near cap must tie with the
+        # surface it lies on bit for bit, and a triangle clipped differently (depth clamp drops
+        # the near plane) is rasterised from other vertices and rounds differently.
+        glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False,
+                                depth_clamp=self.far == "clamp", clip_distances=self.clip_distances))
         # One pre-pass program for both silhouette paths (they share the vertex stage): their
         # volumes then meet the same depths, also where a side starts on a surface (contacts).
         self.scene4_vao.render()
-        GL.glColorMask(True, True, True, True)
         gl.check_errors("shadow volume depth pre-pass")
 
     # ------------------------------------------------------------------ per-frame work
@@ -187,17 +193,23 @@ class ShadowVolume(Technique):
         far_idx = np.concatenate(far) if far else np.zeros(0, np.int64)
         return volume, cap_idx, flip_idx, far_idx
 
-    def _stencil_ops(self, flipped: bool = False) -> None:
-        from OpenGL import GL
-
-        inc, dec, keep = GL.GL_INCR_WRAP, GL.GL_DECR_WRAP, GL.GL_KEEP
-        front, back = (GL.GL_BACK, GL.GL_FRONT) if flipped else (GL.GL_FRONT, GL.GL_BACK)
+    def _counting(self, flipped: bool = False) -> Stencil:
+        """The stencil counting of this mode; ``flipped`` swaps the faces' operations (caps of
+        unlit faces drawn in their stored order in two-sided mode)."""
         if self.mode == "zpass":  # Heidmann: on depth pass, front +1, back -1
-            GL.glStencilOpSeparate(front, keep, keep, inc)
-            GL.glStencilOpSeparate(back, keep, keep, dec)
+            front, back = ("keep", "keep", "incr_wrap"), ("keep", "keep", "decr_wrap")
         else:  # Everitt & Kilgard: on depth fail, back +1, front -1
-            GL.glStencilOpSeparate(front, keep, dec, keep)
-            GL.glStencilOpSeparate(back, keep, inc, keep)
+            front, back = ("keep", "decr_wrap", "keep"), ("keep", "incr_wrap", "keep")
+        if flipped:
+            front, back = back, front
+        return Stencil("always", 0, 0xFF, front, back)
+
+    def _volume_state(self, depth_func: str = "<", stencil: bool = True) -> PassState:
+        """The state every volume draw runs under: depth test without depth writes, no colour,
+        depth clamp and the near clip distance for ``far=clamp``, stencil counting."""
+        return PassState(depth_test=True, depth_func=depth_func, depth_write=False, color_write=False,
+                         depth_clamp=self.far == "clamp", clip_distances=self.clip_distances,
+                         stencil=self._counting() if stencil else None)
 
     def _draw_indexed(self, key: str, vbo, idx: np.ndarray) -> None:
         """Triangles of ``vbo`` (the scene's corners, flagged) picked by vertex indices; the index
@@ -215,70 +227,62 @@ class ShadowVolume(Technique):
         entry[0].write(data)
         entry[1].render(vertices=len(idx))
 
-    def _draw_volumes(self, volume, cap_idx, flip_idx, far_idx) -> None:
-        """All volume geometry, with the stencil state already set (used by render and stats)."""
+    def _draw_volumes(self, volume, cap_idx, flip_idx, far_idx, counting: bool = True) -> None:
+        """All volume geometry under the volume state already applied (used by render and
+        stats); ``counting`` switches the stencil operations for flipped caps."""
         ctx = self.frame.ctx
-        if len(volume):
-            if self.volume_vbo is None or self.volume_vbo.size < volume.nbytes:
-                if self.volume_vbo is not None:
-                    self.volume_vao.release()
-                    self.volume_vbo.release()
-                self.volume_vbo = ctx.buffer(reserve=max(volume.nbytes, MIN_DYNAMIC_BUFFER_BYTES), dynamic=True)
-                self.volume_vao = ctx.vertex_array(self.vs_prog, [(self.volume_vbo, "3f 1f", "in_pos", "in_extrude")])
-            self.volume_vbo.write(volume.tobytes())
-            self.volume_vao.render(vertices=len(volume))
-        if len(far_idx):
-            self._draw_indexed("far", self.scene_ext, far_idx)
-        for key, idx, flipped in (("caps", cap_idx, False), ("flipped", flip_idx, True)):
-            if len(idx):
-                self._stencil_ops(flipped)
-                self._draw_indexed(key, self.scene4, idx)
-        self._stencil_ops(False)
-        for p in self.plans:
-            if p.path != "gpu":
-                continue
-            vao = self.gpu[p.index][2]
-            self.gs_prog["u_two_sided"].value = p.two_sided
-            self.gs_prog["u_stage"].value = GS_STAGE_VOLUME
-            vao.render(ctx.TRIANGLES_ADJACENCY)
-            if p.two_sided and self.mode == "zfail":
-                self._stencil_ops(True)
-                self.gs_prog["u_stage"].value = GS_STAGE_FLIPPED_CAPS
+        with self.timed_pass("volume"):
+            if len(volume):
+                if self.volume_vbo is None or self.volume_vbo.size < volume.nbytes:
+                    if self.volume_vbo is not None:
+                        self.volume_vao.release()
+                        self.volume_vbo.release()
+                    self.volume_vbo = ctx.buffer(reserve=max(volume.nbytes, MIN_DYNAMIC_BUFFER_BYTES), dynamic=True)
+                    self.volume_vao = ctx.vertex_array(self.vs_prog, [(self.volume_vbo, "3f 1f", "in_pos", "in_extrude")])
+                self.volume_vbo.write(volume.tobytes())
+                self.volume_vao.render(vertices=len(volume))
+            for p in self.plans:
+                if p.path != "gpu":
+                    continue
+                vao = self.gpu[p.index][2]
+                self.gs_prog["u_two_sided"].value = p.two_sided
+                self.gs_prog["u_stage"].value = GS_STAGE_VOLUME
                 vao.render(ctx.TRIANGLES_ADJACENCY)
-                self._stencil_ops(False)
+                if p.two_sided and self.mode == "zfail":
+                    if counting:
+                        glstate.set_stencil(self._counting(flipped=True))
+                    self.gs_prog["u_stage"].value = GS_STAGE_FLIPPED_CAPS
+                    vao.render(ctx.TRIANGLES_ADJACENCY)
+                    if counting:
+                        glstate.set_stencil(self._counting())
+        with self.timed_pass("caps"):
+            if len(far_idx):
+                self._draw_indexed("far", self.scene_ext, far_idx)
+            for key, idx, flipped in (("caps", cap_idx, False), ("flipped", flip_idx, True)):
+                if len(idx):
+                    if counting:
+                        glstate.set_stencil(self._counting(flipped))
+                    self._draw_indexed(key, self.scene4, idx)
+            if counting:
+                glstate.set_stencil(self._counting())
 
     def render(self) -> None:
         """Silhouettes (CPU path), stencil counting, then stencil → visibility."""
         from OpenGL import GL
 
-        ctx = self.frame.ctx
-        self._geometry = self.cpu_volume_geometry()
+        with self.timed_pass("silhouette", cpu=True):
+            self._geometry = self.cpu_volume_geometry()
         self.target.use()
-        GL.glStencilMask(0xFF)
+        glstate.apply(self._volume_state())
         GL.glClearStencil(0)
         GL.glClear(GL.GL_STENCIL_BUFFER_BIT)
-        GL.glColorMask(False, False, False, False)
-        GL.glDepthMask(False)
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.CULL_FACE | ctx.BLEND)
-        ctx.depth_func = "<"
-        if self.far == "clamp":
-            GL.glEnable(GL.GL_DEPTH_CLAMP)
-        GL.glEnable(GL.GL_STENCIL_TEST)
-        GL.glStencilFunc(GL.GL_ALWAYS, 0, 0xFF)
-        self._stencil_ops()
         self._draw_volumes(*self._geometry)
-        GL.glDisable(GL.GL_DEPTH_CLAMP)
-        # Visibility: 0 everywhere, 1 where the count is 0.
-        GL.glColorMask(True, True, True, True)
-        ctx.disable(ctx.DEPTH_TEST)
-        GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
-        GL.glStencilFunc(GL.GL_EQUAL, 0, 0xFF)
-        GL.glStencilOp(GL.GL_KEEP, GL.GL_KEEP, GL.GL_KEEP)
-        self.const_prog["u_value"].value = 1.0
-        self.quad.render()
-        GL.glDisable(GL.GL_STENCIL_TEST)
-        GL.glDepthMask(True)
+        with self.timed_pass("count"):
+            # Visibility: 0 everywhere, 1 where the count is 0.
+            glstate.apply(PassState(depth_write=False, stencil=Stencil("==", 0, 0xFF)))
+            GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
+            self.const_prog["u_value"].value = 1.0
+            self.quad.render()
 
     def visibility(self) -> np.ndarray:
         """Binary visibility from the stencil count."""
@@ -286,8 +290,6 @@ class ShadowVolume(Technique):
 
     def stats(self) -> dict:
         """Silhouette edges, volume triangles, stencil fill and peak count (untimed extra passes)."""
-        from OpenGL import GL
-
         ctx = self.frame.ctx
         stencil = self.target.read_stencil().astype(np.int64)
         out = {
@@ -297,26 +299,18 @@ class ShadowVolume(Technique):
             "stencil_peak_count": int(np.max(np.minimum(stencil, 256 - stencil))),  # counts wrap modulo 256
         }
         # Fill: fragments of all volume geometry with the depth test ALWAYS (so no class is
-        # missed), and those that update the stencil under the real depth test.
+        # missed), and those that update the stencil under the real depth test; the stencil
+        # test is off, so the counts left by render() stay as they are.
         self.target.use()
-        GL.glColorMask(False, False, False, False)
-        GL.glDepthMask(False)
-        ctx.enable(ctx.DEPTH_TEST)
-        if self.far == "clamp":
-            GL.glEnable(GL.GL_DEPTH_CLAMP)
         fill, prims = {}, 0
-        for name, func in (("volume_fragments", "1"), ("passed", "<")):
-            ctx.depth_func = func
+        for name, func in (("volume_fragments", "always"), ("passed", "<")):
+            glstate.apply(self._volume_state(func, stencil=False))
             q = ctx.query(samples=True, primitives=True) if name == "volume_fragments" else ctx.query(samples=True)
             with q:
-                self._draw_volumes(*self._geometry)
+                self._draw_volumes(*self._geometry, counting=False)
             fill[name] = q.samples
             if name == "volume_fragments":
                 prims = q.primitives
-        GL.glDisable(GL.GL_DEPTH_CLAMP)
-        GL.glColorMask(True, True, True, True)
-        GL.glDepthMask(True)
-        ctx.depth_func = "<"
         out["volume_fragments"] = int(fill["volume_fragments"])
         out["stencil_updates"] = int(fill["passed"] if self.mode == "zpass" else fill["volume_fragments"] - fill["passed"])
         out["fill_per_pixel"] = out["volume_fragments"] / (self.frame.width * self.frame.height)

@@ -1,0 +1,139 @@
+"""GL state that a technique relies on is set by the technique (DESIGN §14): its output must not
+depend on what earlier passes left behind, the draw checker must see what llvmpipe forgives,
+and the per-pass timings name the technique's own passes."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from OpenGL import GL
+
+from shadowlab import gl, glstate
+from shadowlab.pipeline import measure, measure_configs
+from shadowlab.techniques import REGISTRY, from_spec
+
+SIZE = (160, 120)
+#: Configurations that between them use every GL feature the techniques rely on.
+SPECS = ["raytrace:offset_scale=1e-05", "shadow_map", "shadow_map:variant=second_depth",
+         "shadow_map:variant=midpoint", "shadow_map:variant=slope,hardware_offset=true",
+         "shadow_map:filter=hw2x2,projection=cube,resolution=256", "shadow_volume",
+         "shadow_volume:mode=zpass,silhouette=gpu", "shadow_volume:far=clamp", "planar",
+         "planar:stencil=false,clip=false,clip_light=false", "shadow_polygons"]
+
+
+#: Capabilities off in a new context, which :func:`pollute` turns on.
+CAPABILITIES = [GL.GL_CULL_FACE, GL.GL_BLEND, GL.GL_POLYGON_OFFSET_FILL, GL.GL_DEPTH_CLAMP, GL.GL_STENCIL_TEST,
+                GL.GL_SCISSOR_TEST, GL.GL_DEPTH_TEST] + [GL.GL_CLIP_DISTANCE0 + i for i in range(glstate.MAX_CLIP_DISTANCES)]
+
+
+#: (setter, an unhelpful value, GL's initial value — GL 4.5 core state tables) for every other
+#: fixed-function setting a pass relies on.
+SETTINGS = [
+    (GL.glCullFace, (GL.GL_FRONT_AND_BACK,), (GL.GL_BACK,)),
+    (GL.glBlendFunc, (GL.GL_ZERO, GL.GL_ZERO), (GL.GL_ONE, GL.GL_ZERO)),
+    (GL.glPolygonOffset, (50.0, 5000.0), (0.0, 0.0)),
+    (GL.glStencilFunc, (GL.GL_NEVER, 7, 0x0F), (GL.GL_ALWAYS, 0, 0xFF)),
+    (GL.glStencilOp, (GL.GL_INVERT, GL.GL_INVERT, GL.GL_INVERT), (GL.GL_KEEP, GL.GL_KEEP, GL.GL_KEEP)),
+    (GL.glStencilMask, (0x00,), (0xFF,)),
+    (GL.glScissor, (0, 0, 3, 3), None),
+    (GL.glDepthFunc, (GL.GL_GREATER,), (GL.GL_LESS,)),
+    (GL.glDepthMask, (GL.GL_FALSE,), (GL.GL_TRUE,)),
+    (GL.glColorMask, (False, True, False, True), (True, True, True, True)),
+    (GL.glProvokingVertex, (GL.GL_FIRST_VERTEX_CONVENTION,), (GL.GL_LAST_VERTEX_CONVENTION,)),
+]
+
+
+def pollute(ctx):
+    """Leave every fixed-function state a pass could inherit at an unhelpful value, and a
+    comparison sampler on every texture unit (returned: deleting it unbinds it)."""
+    for cap in CAPABILITIES:
+        GL.glEnable(cap)
+    for setter, bad, _ in SETTINGS:
+        setter(*bad)
+    sampler = ctx.sampler(compare_func=">=")
+    for unit in range(glstate.TEXTURE_UNITS):
+        sampler.use(unit)
+    return sampler
+
+
+def reset_to_gl_defaults(sampler=None):
+    """Undo :func:`pollute` with GL's initial values, set with raw GL calls rather than the code
+    under test, so that a clean reference run is really clean."""
+    if sampler is not None:
+        sampler.release()  # deleting a sampler object unbinds it from every unit
+    for cap in CAPABILITIES:
+        GL.glDisable(cap)
+    for setter, _, initial in SETTINGS:
+        if initial is not None:
+            setter(*initial)
+
+
+@pytest.mark.parametrize("spec", SPECS)
+def test_output_does_not_depend_on_inherited_state(lab, ctx, spec):
+    """Each configuration renders the same visibility, bit for bit, after the GL state was left
+    polluted before its setup and before each render."""
+    frame = lab.frame("multi_light", SIZE)
+    for light in range(len(frame.scene.lights)):
+        reset_to_gl_defaults()
+        clean = measure(from_spec(spec), frame, light, repeat=1, warmup=0).visibility
+        tech = from_spec(spec)
+        samplers = [pollute(ctx)]
+        try:
+            tech.setup(frame, light)
+            samplers.append(pollute(ctx))  # kept alive: deleting a sampler object unbinds it
+            tech.render()
+            polluted = tech.visibility()
+        finally:
+            tech.release()
+            for sampler in samplers:
+                reset_to_gl_defaults(sampler)
+        assert np.array_equal(clean, polluted), (spec, light, int(np.sum(clean != polluted)))
+
+
+def test_draw_checker_sees_what_llvmpipe_forgives(ctx):
+    """A program that writes clip distances drawn without the enables, and enables without a
+    writer, are both reported; a depth texture read through a plain sampler with a compare
+    mode is reported."""
+    prog = gl.program("planar.glsl", defines={"CLIP_LIGHT": 1})
+    written = gl.program_info(prog).clip_distances
+    assert written == {0, 1}
+    gl.park()
+    glstate.apply(glstate.PassState(clip_distances=0))
+    assert len(glstate.draw_problems(written, {})) == 2
+    glstate.apply(glstate.PassState(clip_distances=3))
+    assert any("GL_CLIP_DISTANCE2 is enabled" in p for p in glstate.draw_problems(written, {}))
+    glstate.apply(glstate.PassState(clip_distances=2))
+    assert glstate.draw_problems(written, {}) == []
+    depth = gl.DepthTexture.create((8, 8), 24)
+    sampler = ctx.sampler(texture=depth.texture, compare_func="<=")
+    gl.park()
+    glstate.apply(glstate.PassState(samplers=(3,)))
+    sampler.use(3)
+    depth.texture.use(3)
+    assert any("unit 3: sampler2D reads a depth texture with a compare mode" in p
+               for p in glstate.draw_problems(frozenset(), {3: False}))
+    assert glstate.draw_problems(frozenset(), {3: True}) == []
+    sampler.clear(3)
+    assert any("unit 3: sampler2DShadow without" in p for p in glstate.draw_problems(frozenset(), {3: True}))
+    glstate.apply(glstate.PassState())
+    sampler.release()
+    depth.release()
+    prog.release()
+
+
+def test_the_preprocessor_follows_ifdefs():
+    src = "#define A 1\n#ifdef A\nx\n#ifndef B\ny\n#else\nz\n#endif\n#endif\n#ifdef B\nw\n#endif"
+    assert glstate.active_source(src).split() == ["x", "y"]
+
+
+@pytest.mark.parametrize("name", list(REGISTRY))
+def test_pass_timings_name_the_techniques_passes(lab, name):
+    """With pass timing asked for, each technique reports a time for its passes (names from its
+    PASSES) and nothing else; without, no pass columns."""
+    df = measure_configs(None, [name] if name != "raytrace" else ["raytrace:offset_scale=1e-05"],
+                         evaluator=lab.evaluator("box_on_plane", SIZE), pass_timing=True, repeat=2)
+    row = df[~df["reference"]].iloc[0]
+    passes = {c[len("pass_"):-len("_ms")] for c in df.columns if c.startswith("pass_") and np.isfinite(row[c])}
+    assert passes and passes <= set(REGISTRY[name].PASSES), passes
+    assert all(row[f"pass_{p}_ms"] >= 0 for p in passes)
+    plain = measure_configs(None, ["shadow_map"], evaluator=lab.evaluator("box_on_plane", SIZE))
+    assert not any(c.startswith("pass_") for c in plain.columns)

@@ -44,7 +44,7 @@ def main():
     df.to_csv(out.with_suffix(".csv"), index=False)
     provenance.write_record(out, {"size": list(size)})
     lines = [f"# Shadow-map depth precision ({size[0]}x{size[1]}, 2048², slope-scaled bias only; {gl.renderer()})", "",
-             "false-shadow rate (acne) / false-lit rate, % — near = 'fitted' is the nearest caster's distance", ""]
+             "false-shadow rate (acne) / false-lit rate, % — near = 'fitted': in front of every caster point the map sees (axial depth)", ""]
     for scene in SCENES:
         d = df[df["scene"] == scene]
         lines += [f"## {scene}", "", "| near | " + " | ".join(f"{b}-bit" for b in BITS) + " |",

@@ -13,6 +13,7 @@
 #define LIT 1.0
 #define SHADOWED 0.0
 #define MAX_FACES 6
+#define HALF_TEXEL 0.5                   // texel centres are at integer + 0.5 (GL 4.5 core §8.14)
 
 uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
 uniform sampler2D u_normal;              // G-buffer geometric normal
@@ -82,7 +83,11 @@ void main() {
     float ref = c.z - bias;
     vec2 atlas = u_face_rect[f].xy + c.xy * u_face_rect[f].zw;   // texel coordinates in the atlas
 #ifdef FILTER_HW
-    out_visibility = texture(u_map, vec3(atlas / u_atlas_size, ref));
+    // Keep the 2x2 bilinear footprint inside this face of the atlas: a texel centre sits half a
+    // texel in from the face's edge, and taps beyond it would read the neighbouring cube face.
+    vec2 inner = u_face_rect[f].xy + vec2(HALF_TEXEL);
+    out_visibility = texture(u_map, vec3(clamp(atlas, inner, inner + u_face_rect[f].zw - vec2(2.0 * HALF_TEXEL))
+                                         / u_atlas_size, ref));
 #else
     ivec2 lo = ivec2(u_face_rect[f].xy), hi = lo + ivec2(u_face_rect[f].zw) - 1;
     ivec2 t = clamp(ivec2(floor(atlas)), lo, hi);

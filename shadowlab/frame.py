@@ -131,11 +131,11 @@ class Frame:
         self.gbuffer_program = gl.program("gbuffer.glsl")
         self.gbuffer_program["u_view_proj"].write(gl.mat_bytes(self.view_projection))
         self.target.use()
+        glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True))  # before the clears
         GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
         GL.glClearBufferfv(GL.GL_COLOR, 1, (0.0, 0.0, 0.0, 0.0))
         GL.glClearBufferiv(GL.GL_COLOR, 2, (-1, -1, 0, 0))
         self.target.clear_depth_stencil()
-        glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True))
         self.draw(self.gbuffer_program, "all")
         ctx.finish()
         gl.check_errors("G-buffer pass")

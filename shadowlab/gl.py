@@ -77,9 +77,11 @@ def gl_info() -> dict:
     'NVIDIA 580.159.04'), and the EGL vendor and version."""
     info = context().info
     out = {k: info[k] for k in ("GL_VENDOR", "GL_RENDERER", "GL_VERSION")}
-    out["GL_SHADING_LANGUAGE_VERSION"] = info.get("GL_SHADING_LANGUAGE_VERSION", "")
-    parts = out["GL_VERSION"].split(" ", 1)
-    out["driver"] = parts[1].strip("() ") if len(parts) > 1 else out["GL_VENDOR"]
+    from OpenGL import GL
+
+    out["GL_SHADING_LANGUAGE_VERSION"] = GL.glGetString(GL.GL_SHADING_LANGUAGE_VERSION).decode()
+    # "4.5 (Core Profile) Mesa 22.3.6" → "Mesa 22.3.6"; "4.6.0 NVIDIA 580.159.04" → "NVIDIA 580.159.04"
+    out["driver"] = re.sub(r"^\s*[\d.]+\s*(\([^)]*\))?\s*", "", out["GL_VERSION"]) or out["GL_VENDOR"]
     try:
         from OpenGL import EGL
 
@@ -173,7 +175,7 @@ def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = 
     else:
         kwargs["fragment_shader"] = stages.get("fragment")
     prog = ctx.program(**kwargs)
-    PROGRAMS[prog.glo] = ProgramInfo(name, dict(defines or {}), glstate.clip_distances_written(stages))
+    prog.extra = ProgramInfo(name, dict(defines or {}), glstate.clip_distances_written(stages))
     return prog
 
 
@@ -187,13 +189,23 @@ class ProgramInfo:
     clip_distances: frozenset
 
 
-#: Every program :func:`program` compiled, by GL name (glo).
-PROGRAMS: dict[int, ProgramInfo] = {}
-
-
 def program_info(prog) -> ProgramInfo | None:
-    """The :class:`ProgramInfo` of a program made by :func:`program` (None for others)."""
-    return PROGRAMS.get(prog.glo)
+    """The :class:`ProgramInfo` of a program made by :func:`program` (kept on the program
+    object itself, so it goes with it); None for other programs."""
+    info = getattr(prog, "extra", None)
+    return info if isinstance(info, ProgramInfo) else None
+
+
+_QUERIES: dict = {}
+
+
+def query(key, **kinds):
+    """A GL query object (moderngl ``ctx.query(**kinds)``) kept for reuse under ``key``:
+    moderngl cannot release query objects, so timing code reuses one per purpose instead of
+    making one per measurement."""
+    if (key, tuple(sorted(kinds.items()))) not in _QUERIES:
+        _QUERIES[(key, tuple(sorted(kinds.items())))] = context().query(**kinds)
+    return _QUERIES[(key, tuple(sorted(kinds.items())))]
 
 
 def set_uniforms(prog, values: dict) -> None:
@@ -351,7 +363,8 @@ class ScreenTarget:
         context().viewport = (0, 0, *self.size)
 
     def clear_depth_stencil(self, depth: float = 1.0, stencil: int = 0) -> None:
-        """Clear depth and stencil of this target (it must be bound)."""
+        """Clear depth and stencil of this target (it must be bound, and the pass state applied:
+        rasterizer discard off). Sets the depth and stencil write masks to all-on."""
         from OpenGL import GL
 
         GL.glDepthMask(GL.GL_TRUE)

@@ -15,14 +15,18 @@ compare modes agree with the program that draws.
 
 The states, and who sets what (the audit of the GL 4.5 core spec for this lab):
 
-- depth test, function, write mask — every pass;
-- ``GL_DEPTH_CLAMP`` — on only for shadow volumes with ``far=clamp`` (volume passes); since it
-  also disables near-plane clipping, those passes restore the near plane as clip distance 0;
+- depth test, function, write mask — every pass; depth range [0, 1] and GL's clip-space
+  convention (z in [−w, w], lower-left origin, where GL 4.5's glClipControl exists) — every pass;
+- ``GL_DEPTH_CLAMP`` — on only for shadow volumes with ``far=clamp`` (their depth pre-pass and
+  volume passes alike); since it also disables near-plane clipping, those passes restore the
+  near plane as clip distance 0;
 - ``GL_CLIP_DISTANCEi`` — exactly the distances the drawing program writes (planar shadows'
   light and receiver planes; the shadow volumes' near plane under depth clamp), off otherwise;
 - colour write mask — every pass (off for depth-only and stencil-only passes);
-- face culling — every pass (only second-depth shadow maps cull, front faces);
-- blending — every pass (planar darkening multiplies; shading adds lights);
+- face culling and the front-face winding (counter-clockwise) — every pass (only second-depth
+  shadow maps cull, front faces; two-sided stencil counting also reads the winding);
+- polygon mode (filled) — every pass;
+- blending and its equation (add) — every pass (planar darkening multiplies; shading adds lights);
 - polygon offset (fill) — planar shadows' offset fix, hardware slope-scaled shadow maps;
 - stencil test, functions, operations (two-sided) and write mask — shadow volumes and planar
   shadows; off elsewhere;
@@ -32,7 +36,8 @@ The states, and who sets what (the audit of the GL 4.5 core spec for this lab):
   its own (the hardware-filtered shadow map's comparison sampler);
 - not used, hence never enabled: seamless cube maps (the point light's cube map is an atlas of
   2D faces chosen in the shader), sRGB framebuffers, multisampling (single-sample targets),
-  primitive restart. Precision qualifiers have no effect in desktop GLSL 3.30 (all float is
+  primitive restart. Clears come after :func:`apply` (``glClear`` is skipped under rasterizer
+  discard and obeys the write masks). Precision qualifiers have no effect in desktop GLSL 3.30 (all float is
   IEEE single); integer varyings are ``flat`` as required.
 """
 from __future__ import annotations
@@ -101,6 +106,12 @@ def apply(state: PassState) -> None:
     """Set every state of ``state`` (after binding the pass's framebuffer: moderngl's
     ``use()`` re-applies its own colour and depth masks)."""
     GL = _gl()
+    _cap(GL, GL.GL_RASTERIZER_DISCARD, False)
+    if bool(GL.glClipControl):  # GL 4.5: keep OpenGL's own conventions, whatever was set before
+        GL.glClipControl(GL.GL_LOWER_LEFT, GL.GL_NEGATIVE_ONE_TO_ONE)
+    GL.glDepthRange(0.0, 1.0)
+    GL.glPolygonMode(GL.GL_FRONT_AND_BACK, GL.GL_FILL)
+    GL.glFrontFace(GL.GL_CCW)
     _cap(GL, GL.GL_DEPTH_TEST, state.depth_test)
     GL.glDepthFunc(getattr(GL, _FUNCS[state.depth_func]))
     GL.glDepthMask(bool(state.depth_write))
@@ -109,6 +120,7 @@ def apply(state: PassState) -> None:
     _cap(GL, GL.GL_CULL_FACE, state.cull is not None)
     GL.glCullFace(GL.GL_FRONT if state.cull == "front" else GL.GL_BACK)
     _cap(GL, GL.GL_BLEND, state.blend is not None)
+    GL.glBlendEquation(GL.GL_FUNC_ADD)
     if state.blend is not None:
         GL.glBlendFunc(*(getattr(GL, _BLEND[f]) for f in state.blend))
     _cap(GL, GL.GL_POLYGON_OFFSET_FILL, state.polygon_offset is not None)
@@ -117,7 +129,6 @@ def apply(state: PassState) -> None:
     for i in range(MAX_CLIP_DISTANCES):
         _cap(GL, GL.GL_CLIP_DISTANCE0 + i, i < state.clip_distances)
     _cap(GL, GL.GL_SCISSOR_TEST, False)
-    _cap(GL, GL.GL_RASTERIZER_DISCARD, False)
     GL.glProvokingVertex(GL.GL_LAST_VERTEX_CONVENTION)
     for unit in range(TEXTURE_UNITS):
         if unit not in state.samplers:
@@ -141,43 +152,49 @@ def set_stencil(stencil: Stencil | None) -> None:
 
 # --------------------------------------------------------------------------- what programs need
 
-_DIRECTIVE = re.compile(r"^\s*#\s*(ifdef|ifndef|else|endif|define)\b\s*(\w*)", re.M)
+_DIRECTIVE = re.compile(r"^\s*#\s*(ifdef|ifndef|if|elif|else|endif|define|undef)\b\s*(\w*)", re.M)
 _CLIP_WRITE = re.compile(r"gl_ClipDistance\s*\[\s*(\d+)\s*\]\s*=(?!=)")
 
 
 def active_source(source: str) -> str:
     """``source`` with the lines that ``#ifdef`` / ``#ifndef`` / ``#else`` / ``#endif`` leave
-    out removed, given the ``#define``s it contains (the subset of the preprocessor the lab's
-    shaders use)."""
+    out removed, given the ``#define``s (and ``#undef``s) it contains. Conditions this reader
+    does not evaluate (``#if`` / ``#elif`` expressions) keep every branch: a program is then
+    assumed to write what any branch writes, which the draw checks report rather than miss."""
     defined: set[str] = set()
-    keep: list[bool] = []
+    stack: list[tuple[bool, bool]] = []  # per open conditional: (current branch kept, condition known)
     out = []
     for line in source.splitlines():
         m = _DIRECTIVE.match(line)
-        live = all(keep)
-        if m:
-            kind, name = m.groups()
-            if kind == "define" and live:
-                defined.add(name)
-            elif kind in ("ifdef", "ifndef"):
-                keep.append((name in defined) == (kind == "ifdef"))
-            elif kind == "else":
-                keep[-1] = not keep[-1]
-            elif kind == "endif":
-                keep.pop()
+        live = all(kept for kept, _ in stack)
+        if not m:
+            if live:
+                out.append(line)
             continue
-        if live:
-            out.append(line)
+        kind, name = m.groups()
+        if kind == "define" and live:
+            defined.add(name)
+        elif kind == "undef" and live:
+            defined.discard(name)
+        elif kind in ("ifdef", "ifndef"):
+            stack.append(((name in defined) == (kind == "ifdef"), True))
+        elif kind in ("if", "elif"):
+            if kind == "elif" and stack:
+                stack.pop()
+            stack.append((True, False))
+        elif kind == "else" and stack:
+            kept, known = stack.pop()
+            stack.append((not kept if known else True, known))
+        elif kind == "endif" and stack:
+            stack.pop()
     return "\n".join(out)
 
 
 def clip_distances_written(stage_sources: dict[str, str]) -> frozenset[int]:
-    """Indices i for which the vertex or geometry stage writes ``gl_ClipDistance[i]``."""
-    found: set[int] = set()
-    for stage in ("vertex", "geometry"):
-        if stage_sources.get(stage):
-            found |= {int(i) for i in _CLIP_WRITE.findall(active_source(stage_sources[stage]))}
-    return frozenset(found)
+    """Indices i for which the last stage before rasterisation (the geometry stage if there is
+    one, else the vertex stage) writes ``gl_ClipDistance[i]``."""
+    stage = "geometry" if stage_sources.get("geometry") else "vertex"
+    return frozenset(int(i) for i in _CLIP_WRITE.findall(active_source(stage_sources.get(stage) or "")))
 
 
 def draw_problems(program_clip_distances: frozenset[int], shadow_units: dict[int, bool]) -> list[str]:

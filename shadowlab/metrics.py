@@ -195,8 +195,9 @@ def _metric(name, doc, compute, fmt="value", **kw) -> Column:
     return Column(name, doc, fmt, compute, **kw)
 
 
-#: Every column metrics.csv has, in CSV order (then ``param_<name>`` per parameter, then the
-#: technique's own cost columns). The contract columns of DESIGN §6 are marked.
+#: The columns every metrics.csv has, in CSV order (then ``param_<name>`` per parameter,
+#: ``pass_<name>_ms`` per timed pass, and the techniques' own cost columns: see
+#: :func:`order_columns`). The contract columns of DESIGN §6 are marked.
 COLUMNS: tuple[Column, ...] = (
     Column("scene", "scene name", "text", contract=True),
     Column("light", "index of the light in the scene file", "count", contract=True, summary=True, report=True),
@@ -253,11 +254,17 @@ def compare(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: 
     return {c.name: c.compute(e) for c in METRIC_COLUMNS if all(have[k] for k in c.needs)}
 
 
-def order_columns(names) -> list[str]:
-    """Column names in CSV order: the table's columns in table order, then the rest as given."""
+def order_columns(names, pass_order=()) -> list[str]:
+    """Column names in CSV order: the table's columns in table order; then ``param_<name>``;
+    then ``pass_<name>_ms`` in ``pass_order`` (the techniques' drawing order); then the
+    techniques' own cost columns, as given."""
     names = list(dict.fromkeys(names))
     known = [c.name for c in COLUMNS if c.name in names]
-    return known + [n for n in names if n not in COLUMN_BY_NAME]
+    rest = [n for n in names if n not in COLUMN_BY_NAME]
+    params = [n for n in rest if n.startswith("param_")]
+    rank = {f"pass_{p}_ms": i for i, p in enumerate(dict.fromkeys(pass_order))}
+    passes = sorted((n for n in rest if n.startswith("pass_") and n.endswith("_ms")), key=lambda n: rank.get(n, len(rank)))
+    return known + params + passes + [n for n in rest if n not in params and n not in passes]
 
 
 def format_table(df, which: str, first: str = "short_label"):

@@ -58,21 +58,25 @@ def measure(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, wa
     between passes do not perturb ``time_ms_median``."""
     before = len(tech.notes)
     tech.setup(frame, light_index)
-    t = timing.time_passes(tech.render, repeat=repeat, warmup=warmup, gpu=not tech.cpu, on_step=on_step)
-    pass_times = {}
-    if pass_timing:
-        timer = timing.PassTimer()
-        tech.pass_timer = timer
-        try:
-            for _ in range(repeat):
-                tech.render()
-                timer.end_run()
-        finally:
-            tech.pass_timer = None
-        pass_times = timer.columns()
-    vis = tech.visibility()
-    stats = tech.stats()
-    gl.check_errors(f"{tech.name} on light {light_index}")
+    try:
+        t = timing.time_passes(tech.render, repeat=repeat, warmup=warmup, gpu=not tech.cpu, on_step=on_step)
+        pass_times = {}
+        if pass_timing:
+            timer = timing.PassTimer()
+            tech.pass_timer = timer
+            try:
+                for _ in range(repeat):
+                    tech.render()
+                    timer.end_run()
+            finally:
+                tech.pass_timer = None
+            pass_times = timer.columns()
+        vis = tech.visibility()
+        stats = tech.stats()
+        gl.check_errors(f"{tech.name} on light {light_index}")
+    except BaseException:
+        tech.release()  # a failed measurement leaves no GL objects (nor a borrowed depth-stencil) behind
+        raise
     if release:
         tech.release()
     return Measurement(tech, light_index, vis, t, stats, list(dict.fromkeys(tech.notes[before:])), pass_times)
@@ -138,6 +142,13 @@ class Comparison:
     notes: list[str]
 
 
+def _pass_order() -> list[str]:
+    """Every registered technique's passes, each technique's in drawing order."""
+    from .techniques import REGISTRY
+
+    return [p for cls in REGISTRY.values() for p in cls.PASSES]
+
+
 def total_steps(lights: int, configurations: int, repeat: int, warmup: int) -> int:
     """Render runs :func:`compare_frame` makes (the truth counted as a configuration)."""
     return lights * (1 + configurations) * (repeat + warmup)
@@ -169,7 +180,7 @@ def compare_frame(frame: Frame, techniques: Sequence[Technique], repeat: int = 5
         notes.extend(f"{tech.spec()}: {n}" for n in dict.fromkeys(tech.notes))
         results.append(ms)
     df = pd.DataFrame(rows)
-    return Comparison(frame, truths, results, df[metrics.order_columns(df.columns)], notes)
+    return Comparison(frame, truths, results, df[metrics.order_columns(df.columns, _pass_order())], notes)
 
 
 def build_techniques(specs: Sequence[str], truth: Technique | None = None) -> list[Technique]:
@@ -201,7 +212,7 @@ def measure_configs(scene_ref, specs: Sequence[str], size: tuple[int, int] = (64
     scene = frame.scene if frame is not None else load_scene(scene_ref)
     techniques = [from_spec(s) for s in specs]
     frame = frame or Frame(scene, *size)
-    evaluator = evaluator or Evaluator(frame, repeat=repeat, warmup=warmup)
+    evaluator = evaluator or Evaluator(frame, repeat=repeat, warmup=warmup, pass_timing=pass_timing)
     total = (1 + len(techniques)) * (repeat + warmup)
     truth = evaluator.truth(light_index, _stepper(on_step, total, "ground truth"))
     rows = [dict(evaluator.row(truth, reference=True), notes="")]
@@ -210,4 +221,4 @@ def measure_configs(scene_ref, specs: Sequence[str], size: tuple[int, int] = (64
                     pass_timing=pass_timing)
         rows.append(dict(evaluator.row(m), notes="; ".join(m.notes)))
     df = pd.DataFrame(rows)
-    return df[metrics.order_columns(df.columns)]
+    return df[metrics.order_columns(df.columns, _pass_order())]

@@ -130,7 +130,7 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
         "renderer": gl.renderer(),
         "device": gl.device(),
         "timing_method": timing.method_description(),
-        "pass_timing": timing.PassTimer().method() if pass_timing else None,
+        "pass_timing": timing.pass_timing_method() if pass_timing else None,
         "pass_times_image": passes_png,
         "repeat": repeat,
         "warmup": warmup,

@@ -6,7 +6,6 @@ shipped scene is named by its file stem (``box_on_plane``); any other argument i
 """
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass, field
 from functools import cached_property
 from importlib import resources
@@ -19,10 +18,7 @@ from .geometry import transforms as tf
 from .lights import Light, parse_light
 from .validation import SceneError, TableReader
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover
-    import tomli as tomllib
+import tomllib
 
 
 @dataclass

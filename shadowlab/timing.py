@@ -58,7 +58,7 @@ def time_passes(run: Callable[[], None], repeat: int = 5, warmup: int = 1, gpu: 
             on_step()
     samples, gpu_samples = [], []
     for _ in range(max(1, repeat)):
-        query = ctx.query(time=True) if use_query else None
+        query = gl.query("time_passes", time=True) if use_query else None
         t0 = time.perf_counter()
         if query is not None:
             with query:
@@ -76,6 +76,13 @@ def time_passes(run: Callable[[], None], repeat: int = 5, warmup: int = 1, gpu: 
     return Timing(float(med), float(q3 - q1), samples, float(np.median(gpu_samples)) if gpu_samples else None)
 
 
+def pass_timing_method() -> str:
+    """How this process times the passes of a render (for run.json)."""
+    if gl.is_software_renderer():
+        return "wall clock with ctx.finish() between passes (software rasteriser)"
+    return "GL_TIME_ELAPSED query per pass"
+
+
 class PassTimer:
     """Per-pass times of a technique's render, the way engine profilers show them: each named
     pass (:meth:`shadowlab.techniques.Technique.timed_pass`) is timed with a GL_TIME_ELAPSED
@@ -90,11 +97,11 @@ class PassTimer:
         self.ctx = gl.context()
         self.samples: dict[str, list[float]] = {}
         self._run: dict[str, float] = {}
-        self._queries: list = []
+        self._queries: list = []  # (pass name, query) of the current run, read at its end
 
     def method(self) -> str:
         """How GPU passes are timed (for run.json)."""
-        return "GL_TIME_ELAPSED query per pass" if self.use_queries else "wall clock with ctx.finish() between passes"
+        return pass_timing_method()
 
     def measure(self, name: str, cpu: bool = False):
         """Context manager timing one occurrence of pass ``name`` (several add up in a run)."""
@@ -103,7 +110,8 @@ class PassTimer:
         @contextlib.contextmanager
         def timed():
             if self.use_queries and not cpu:
-                query = self.ctx.query(time=True)
+                # one pooled query per occurrence of the pass within a run (planar: per receiver)
+                query = gl.query(("pass", name, sum(n == name for n, _ in self._queries)), time=True)
                 with query:
                     yield
                 self._queries.append((name, query))

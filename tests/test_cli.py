@@ -132,6 +132,8 @@ def test_pass_timing_and_device_are_recorded(tmp_path):
     run = json.loads((out / "run.json").read_text())
     for key in ("GL_VENDOR", "GL_RENDERER", "GL_VERSION", "driver"):
         assert run["gl"][key]
+    # the driver is what GL_VERSION says after the version number and profile, e.g. "Mesa 22.3.6"
+    assert run["gl"]["GL_VERSION"].endswith(run["gl"]["driver"]) and run["gl"]["driver"][0] not in "(0123456789"
     assert run["revision"] and run["pass_timing"] and (out / run["pass_times_image"]).stat().st_size > 0
     page = (out / "report.html").read_text()
     assert run["gl"]["GL_RENDERER"] in page and run["pass_times_image"] in page

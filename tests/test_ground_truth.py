@@ -170,6 +170,7 @@ def check_closed_form(scene, light_spec, size, offset=np.zeros(3)):
     assert mismatches == 0, f"{mismatches} floor pixels disagree with the closed-form shadow"
     if light_spec["type"] in ("spot", "target_direct"):  # the footprint's edge crosses the view
         assert (margin < 0).sum() > 1000 and (margin > 0).sum() > 1000
+    frame.release()
     return int(check.sum()), int(expected_shadow[check].sum()), float(far_from_edge.mean())
 
 
@@ -216,6 +217,7 @@ def test_ground_truth_sees_thin_sheet_on_floor():
     gt.render()
     vis = gt.visibility()
     sheet_px = frame.evaluated(0) & (frame.object_id == 1)
+    frame.release()
     assert sheet_px.sum() > 100 and (vis[sheet_px] > 0.5).all(), "the sheet's top must not shadow itself"
 
 
@@ -247,7 +249,7 @@ def test_image_convention_row_zero_is_the_top(tmp_path):
     assert r > 3 * g and r > 3 * b, "the red box must be at the top-left of the saved image"
 
 
-def scene_file(folder, objects, lights, camera) -> "Path":
+def scene_file(folder, objects, lights, camera):
     """Write a scene file from the plain dicts ``make_scene`` takes (DESIGN §4 keys)."""
     import json
 

@@ -59,6 +59,7 @@ def test_comparison_rows_follow_the_table_and_judge_against_the_truth(lab):
     assert len(df) == 2 * len(frame.scene.lights) and df["reference"].sum() == len(frame.scene.lights)
     for li, m in enumerate(result.results[0]):
         row = df[(df["light"] == li) & ~df["reference"]].iloc[0]
+        assert row["evaluated_pixels"] == frame.evaluated(li).sum()  # each light judged on its own pixels
         truth = result.truth[li].visibility
         assert row["error_rate"] == compare(m.visibility, truth, frame.evaluated(li))["error_rate"]
     assert (df.loc[df["reference"], "error_rate"] == 0).all()

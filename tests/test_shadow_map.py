@@ -2,7 +2,6 @@
 and what it reports of its cost checked against the GL objects and draws it really makes."""
 from __future__ import annotations
 
-import numpy as np
 import pytest
 from OpenGL import GL
 

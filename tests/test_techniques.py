@@ -33,6 +33,7 @@ def test_spec_values_are_typed():
     ("shadow_map:bias=nan", "bias must be float"),
     ("shadow_map:bias", "expected key=value"),
     ("shadow_map:bias=1,bias=2", "given twice"),
+    ("planar:opacity=0.5", "opacity must be > 0.5"),  # one layer at 0.5 would read as lit
 ])
 def test_bad_specs(spec, match):
     with pytest.raises(TechniqueError, match=match):

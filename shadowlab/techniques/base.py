@@ -40,6 +40,7 @@ class Param:
     choices: tuple | None = None
     min: float | None = None
     max: float | None = None
+    min_open: bool = False  # the lower bound itself is excluded
 
     def parse(self, owner: str, key: str, value: Any) -> Any:
         """Convert ``value`` (a string from the command line, or a Python value) and check it."""
@@ -68,8 +69,8 @@ class Param:
             raise TechniqueError(f"{owner}: {key} must be {kind.__name__}, got {value!r}") from None
         if self.choices is not None and value not in self.choices:
             raise TechniqueError(f"{owner}: {key} must be one of {', '.join(map(str, self.choices))}, got {value!r}")
-        if self.min is not None and value < self.min:
-            raise TechniqueError(f"{owner}: {key} must be >= {self.min}, got {value!r}")
+        if self.min is not None and (value <= self.min if self.min_open else value < self.min):
+            raise TechniqueError(f"{owner}: {key} must be {'>' if self.min_open else '>='} {self.min}, got {value!r}")
         if self.max is not None and value > self.max:
             raise TechniqueError(f"{owner}: {key} must be <= {self.max}, got {value!r}")
         return value

@@ -81,7 +81,8 @@ class PlanarShadow(Technique):
         "stencil": Param(True, "darken each pixel once (no double blending)"),
         "clip": Param(True, "stencil-clip the shadow to the receiver's own pixels"),
         "clip_light": Param(True, "clip casters to the slab between the light's plane and the receiver"),
-        "opacity": Param(0.75, "darkening of one shadow layer (visibility 1 − opacity)", min=0.5, max=1.0),
+        "opacity": Param(0.75, "darkening of one shadow layer (visibility 1 − opacity; above 0.5, so that one "
+                                 "layer reads as shadow at the metrics' threshold)", min=0.5, min_open=True, max=1.0),
         "offset_factor": Param(-1.0, "glPolygonOffset factor of the offset fix", min=-1e3, max=0.0),
         "offset_units": Param(-4.0, "glPolygonOffset units of the offset fix", min=-1e6, max=0.0),
     }
@@ -126,8 +127,8 @@ class PlanarShadow(Technique):
         self.target = gl.ScreenTarget.create((frame.width, frame.height), [self.vis_tex],
                                              share_depth_stencil=frame.depth_stencil_for(self))
         self.target.use()
-        self.target.clear_depth_stencil()
         glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False))
+        self.target.clear_depth_stencil()
         frame.draw(self.depth_prog, "all")
 
     def _draw_object(self, prog, index: int) -> None:

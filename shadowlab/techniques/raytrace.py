@@ -94,9 +94,9 @@ class RayTraced(Technique):
 
     def render(self) -> None:
         """Trace one shadow ray per evaluated pixel."""
-        if self.scene is None:
-            return
         with self.timed_pass("trace", cpu=True):
+            if self.scene is None:  # nothing casts: every ray reaches the light
+                return
             dirs, tfar = self.light.shadow_rays(self.eval_origins, self.eval_points)
             self.blocked = occluded(self.scene, self.eval_origins, dirs, tfar)
 

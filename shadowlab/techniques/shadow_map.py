@@ -239,23 +239,25 @@ class ShadowMap(Technique):
 
     def stats(self) -> dict:
         """Map memory (every layer) and passes per frame."""
-        layers = len(self.layers) if self.variant in ("midpoint", "dual") else 1
-        depth_passes = len(self.faces) * (2 if layers == 3 else 1)
+        two_layer = len(self.layers) == 3
+        depth_passes = len(self.faces) * (2 if two_layer else 1)
         return {"memory_bytes": sum(l.nbytes for l in self.layers), "faces": len(self.faces),
-                "passes": depth_passes + (1 if layers == 3 else 0) + 1,
+                "passes": depth_passes + (1 if two_layer else 0) + 1,  # depth (and peel), resolve, lookup
                 "depth_range": self.faces[0].depth_range,
                 "texel_world": float(self.faces[0].texel_world) or None}
 
     def release(self) -> None:
         """Free the depth layers, programs and visibility target."""
         gl.park()
-        progs = [self.depth_prog, self.lookup_prog]
-        if self.variant in ("midpoint", "dual"):
-            progs += [self.peel_prog, self.resolve_prog]
+        drawn = [self.depth_prog]  # programs that drew the scene's vertex arrays
+        others = [self.lookup_prog]
+        if len(self.layers) == 3:
+            drawn.append(self.peel_prog)
+            others.append(self.resolve_prog)
             self.resolve_quad.release()
-        for prog in (self.depth_prog, getattr(self, "peel_prog", None)):
-            if prog is not None:
-                self.frame.forget(prog)
+        for prog in drawn:
+            self.frame.forget(prog)
+        progs = drawn + others
         for layer in self.layers:
             layer.release()
         if self.sampler is not None:

@@ -152,12 +152,12 @@ class ShadowVolume(Technique):
         """Scene depth under this technique's projection, drawn by the CPU path's program; the GPU
         path's geometry shader takes its caps from the same shared vertex stage."""
         self.target.use()
-        self.target.clear_depth_stencil()
         # The same clipping and depth clamp as the volume passes: a near cap must tie with the
         # surface it lies on bit for bit, and a triangle clipped differently (depth clamp drops
         # the near plane) is rasterised from other vertices and rounds differently.
         glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False,
                                 depth_clamp=self.far == "clamp", clip_distances=self.clip_distances))
+        self.target.clear_depth_stencil()
         # One pre-pass program for both silhouette paths (they share the vertex stage): their
         # volumes then meet the same depths, also where a side starts on a surface (contacts).
         self.scene4_vao.render()
@@ -290,7 +290,6 @@ class ShadowVolume(Technique):
 
     def stats(self) -> dict:
         """Silhouette edges, volume triangles, stencil fill and peak count (untimed extra passes)."""
-        ctx = self.frame.ctx
         stencil = self.target.read_stencil().astype(np.int64)
         out = {
             # Extruded edges (an edge of multiplicity m counts |m| times), on every path.
@@ -305,7 +304,7 @@ class ShadowVolume(Technique):
         fill, prims = {}, 0
         for name, func in (("volume_fragments", "always"), ("passed", "<")):
             glstate.apply(self._volume_state(func, stencil=False))
-            q = ctx.query(samples=True, primitives=True) if name == "volume_fragments" else ctx.query(samples=True)
+            q = gl.query("shadow_volume fill", samples=True, primitives=True)
             with q:
                 self._draw_volumes(*self._geometry, counting=False)
             fill[name] = q.samples

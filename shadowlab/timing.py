@@ -99,10 +99,6 @@ class PassTimer:
         self._run: dict[str, float] = {}
         self._queries: list = []  # (pass name, query) of the current run, read at its end
 
-    def method(self) -> str:
-        """How GPU passes are timed (for run.json)."""
-        return pass_timing_method()
-
     def measure(self, name: str, cpu: bool = False):
         """Context manager timing one occurrence of pass ``name`` (several add up in a run)."""
         import contextlib

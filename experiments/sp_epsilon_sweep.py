@@ -1,7 +1,7 @@
 """Epsilon sweep for exact shadow polygons: where too small and too large a tolerance break them.
 
 Three families of nearly degenerate configurations, each with a closed-form or independently
-computed answer (central / parallel projection, then Qhull's half-space intersection — no code
+computed answer (central / parallel projection, then GEOS's polygon intersection (shapely) — no code
 shared with shadowlab.geometry.polygon_clipping), each rotated by a random rotation so that nothing lies
 exactly on an axis:
 
@@ -33,7 +33,7 @@ from scipy.spatial.transform import Rotation
 from shadowlab import provenance
 from shadowlab.geometry import polygon_clipping as pc
 
-# The independent oracle (Qhull, no code shared with the clipper) lives with the tests.
+# The independent oracle (shapely/GEOS, no code shared with the clipper) lives with the tests.
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
 from convex_reference import overlap_area  # noqa: E402
 

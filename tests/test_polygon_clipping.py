@@ -2,7 +2,7 @@
 
 The independent answer: project the caster polygon onto the receiver's plane from the light
 (central projection for point lights, parallel for directional ones, closed form) and
-intersect it with the receiver with scipy's half-space intersection (Qhull) — no code shared
+intersect it with the receiver with GEOS's polygon intersection (shapely) — no code shared
 with shadowlab.geometry.polygon_clipping. Configurations are built with the receiver on y = 0
 and then turned to any orientation and moved, so receivers and casters are tilted every way.
 """
@@ -44,7 +44,7 @@ def configurations(draw):
 
     Returns (receiver, caster, light_h) in world space, the expected shadow area (computed in
     the unrotated frame by projecting the caster onto y = 0 from the light: central or
-    parallel projection, then Qhull), and the world rotation/offset (to find the plane)."""
+    parallel projection, then shapely), and the world rotation/offset (to find the plane)."""
     rec2 = convex_polygon_2d(draw, draw(st.integers(3, 7)), 2.0, np.zeros(2))
     cas2 = convex_polygon_2d(draw, draw(st.integers(3, 7)), draw(st.floats(0.2, 1.2)),
                              np.array([draw(st.floats(-1.5, 1.5)), draw(st.floats(-1.5, 1.5))]))

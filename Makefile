@@ -15,15 +15,16 @@ $(STAMP): pyproject.toml constraints.txt
 
 install: $(STAMP)
 
-# The default comparison: ground truth + the shadow map at two resolutions on box_on_plane.
+# The lab's headline: the quick study (shadow volumes vs shadow maps vs planar vs exact shadow
+# polygons against the ray-traced truth, on a few hard cases), then where its report is.
 run: $(STAMP)
-	$(BIN)/shadowlab compare box_on_plane \
-		--technique shadow_map \
-		--technique shadow_map:resolution=256 \
-		--size 800x600 --out results/quickstart
+	$(BIN)/shadowlab study quick --out results/study-quick
 
+# The tests, then the quick study held against its committed baseline (what CI runs).
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
+	$(BIN)/shadowlab study quick --out results/study-quick
+	$(BIN)/shadowlab check results/study-quick tests/baselines/quick.csv
 
 # Every experiment at its small default size (a few minutes); each writes results/<name>.* and
 # a .json record of the code revision, renderer, package versions, CPU and command line.
@@ -32,4 +33,4 @@ experiments: $(STAMP)
 	@set -e; for e in $(EXPERIMENTS); do echo "== $$e"; $(BIN)/python $$e; done
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache results/quickstart
+	rm -rf $(VENV) build *.egg-info .pytest_cache results/quickstart results/study-quick

@@ -5,83 +5,115 @@ the floor), with the classic fit over every visible receiver, 2048² maps: each 
 is swept over its own parameter — constant ``bias``, ``slope_scale`` (bias 0), ``normal_offset``
 (bias 0), the ``dual`` offset cap — and second-depth and midpoint (no parameter) are drawn as
 reference lines. Reports false-shadow rate (acne), false-lit rate (leaks) and the contact gap.
-Writes results/sm_bias_sweep.csv and results/sm_bias_sweep.png.
+Writes results/sm_bias_sweep.csv (the rows plotted) and results/sm_bias_sweep.png.
 
-    python experiments/sm_bias_sweep.py [--size 320x240] [--resolution 2048]
-    (the figures in earlier notes used --size 640x480; a JSON record of provenance is written beside the CSV)
+The grid is the shipped suite ``shadowlab/suites/sm_bias.toml`` (320x240, 3 timed repeats);
+this script runs it as a study into ``<folder of --out>/study-sm_bias`` — the directory
+``shadowlab study sm_bias`` uses by default, so the two share one cache and whichever runs second
+only reads it — and draws this figure from the study's results. ``shadowlab study sm_bias``
+gives the full study report (Pareto plot, HTML, images of every configuration).
+
+    python experiments/sm_bias_sweep.py [--out results/sm_bias_sweep] [--workers N] [--force]
+    (the suite fixes the size and resolution: the former --size/--resolution flags are gone; the
+    640x480 figures in earlier notes need a copy of the suite with size = [640, 480], run with
+    ``shadowlab study COPY.toml``. A JSON record of provenance is written beside the CSV)
 """
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from shadowlab import gl, provenance
-from shadowlab.frame import Frame
-from shadowlab.cli import parse_size
-from shadowlab.pipeline import measure_configs
-from shadowlab.scene import load_scene
+from shadowlab import provenance
+from shadowlab.study.runner import run_study
+from shadowlab.techniques.shadow_map import ShadowMap
 
-SWEEPS = {  # variant: (parameter, values, fixed parameters)
-    "constant": ("bias", [0.0, 0.0001, 0.0002, 0.0005, 0.001, 0.002, 0.005, 0.01, 0.02, 0.05], ""),
-    "slope": ("slope_scale", [0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0], "bias=0"),
-    "normal_offset": ("normal_offset", [0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0], "bias=0"),
-    "dual": ("bias", [0.0001, 0.0005, 0.001, 0.002, 0.005, 0.01, 0.05], ""),
-}
-FIXED = ["second_depth", "midpoint"]
+SUITE = "sm_bias"
+SWEPT = ["constant", "slope", "normal_offset", "dual"]  # variants swept over an offset, in plot order
+FIXED = ["second_depth", "midpoint"]                     # variants without one: reference lines
 SCENES = ["sm_grazing", "sm_contact"]
+PARAMS = [f"param_{k}" for k in ShadowMap.PARAMS]
+
+
+def _fmt(value) -> str:
+    """A parameter value for an axis label: numbers as %g (``bias=0``), the rest as in a spec."""
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    return f"{value:g}" if isinstance(value, (int, float, np.number)) else str(value)
+
+
+def sweep_rows(results: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
+    """The study's shadow-map rows (light 0), with ``variant``, ``swept`` (the parameter that
+    varies within the variant, "" for one configuration) and ``value``; and per variant the
+    parameters held at a non-default value that are not common to every row (axis labels)."""
+    df = results[~results["reference"].astype(bool) & (results["technique"] == "shadow_map")
+                 & (results["light"] == 0)].copy()
+    failed = df[df["status"] != "ok"]
+    if len(failed):
+        raise SystemExit("failed runs in the study:\n" + "\n".join(f"  {r.scene} {r.label}: {r.error}"
+                                                                    for r in failed.itertuples()))
+    common = {p for p in PARAMS if df[p].nunique(dropna=False) == 1}
+    parts, held = [], {}
+    for variant, g in df.groupby("param_variant", sort=False):
+        varying = [p for p in PARAMS if g[p].nunique(dropna=False) > 1]
+        if len(varying) > 1:
+            raise SystemExit(f"variant {variant}: more than one parameter varies ({', '.join(varying)})")
+        g = g.assign(variant=variant, swept=varying[0][len("param_"):] if varying else "",
+                     value=g[varying[0]].astype(float) if varying else np.nan)
+        held[variant] = ",".join(f"{p[len('param_'):]}={_fmt(g[p].iloc[0])}" for p in PARAMS
+                                 if p not in common and p not in varying and p != "param_variant"
+                                 and g[p].iloc[0] != ShadowMap.PARAMS[p[len("param_"):]].default)
+        parts.append(g)
+    df = pd.concat(parts)
+    order = {v: i for i, v in enumerate(SWEPT + FIXED)}
+    df = df.sort_values(["scene", "variant", "value"], key=lambda s: s.map(SCENES.index) if s.name == "scene"
+                        else s.map(order) if s.name == "variant" else s, kind="stable")
+    front = ["scene", "variant", "swept", "value"]
+    return df[front + [c for c in df.columns if c not in front]].reset_index(drop=True), held
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--size", default="320x240")
-    ap.add_argument("--resolution", type=int, default=2048)
-    ap.add_argument("--out", default="results/sm_bias_sweep")
+    ap.add_argument("--out", default="results/sm_bias_sweep", help="CSV/PNG stem; the study goes beside it")
+    ap.add_argument("--workers", type=int, default=None, help="worker processes (default: every core)")
+    ap.add_argument("--force", action="store_true", help="ignore the study's cache")
     args = ap.parse_args()
-    size = parse_size(args.size)
-    frames = []
-    for scene in SCENES:
-        frame = Frame(load_scene(scene), *size)
-        specs, meta = [], []
-        for variant, (param, values, fixed) in SWEEPS.items():
-            for v in values:
-                extra = f",{fixed}" if fixed else ""
-                specs.append(f"shadow_map:variant={variant},{param}={v},fit=receivers,resolution={args.resolution}{extra}")
-                meta.append((variant, param, v))
-        for variant in FIXED:
-            specs.append(f"shadow_map:variant={variant},fit=receivers,resolution={args.resolution}")
-            meta.append((variant, "", np.nan))
-        print(f"{scene}: {len(specs)} configurations", flush=True)
-        df = measure_configs(scene, specs, frame=frame)
-        df = df[~df["reference"]].reset_index(drop=True)
-        df["variant"], df["swept"], df["value"] = zip(*meta)
-        frames.append(df)
     out = Path(args.out)
+    outcome = run_study(SUITE, out=out.parent / f"study-{SUITE}", workers=args.workers, force=args.force)
+    rows, held = sweep_rows(outcome.results)
+    width, height = int(rows["width"].iloc[0]), int(rows["height"].iloc[0])
+    resolution = int(rows["param_resolution"].iloc[0])
     out.parent.mkdir(parents=True, exist_ok=True)
-    all_rows = pd.concat(frames)
-    all_rows.to_csv(out.with_suffix(".csv"), index=False)
-    provenance.write_record(out, {"size": list(size), "resolution": args.resolution})
-    plot(all_rows, out.with_suffix(".png"), args.resolution, size)
+    rows.to_csv(out.with_suffix(".csv"), index=False)
+    study = json.loads((outcome.out / "study.json").read_text())["record"]  # the workers' GL device
+    renderer = study["renderer"]
+    provenance.write_record(out, {"gl": study["gl"], "size": [width, height], "resolution": resolution,
+                                  "suite": SUITE, "study": str(outcome.out), "timing": study["timing_method"]},
+                            gl_info=False)
+    plot(rows, held, out.with_suffix(".png"), resolution, (width, height), renderer)
     cols = ["scene", "variant", "swept", "value", "false_shadow_rate", "false_lit_rate", "contact_gap_px"]
     with pd.option_context("display.width", 200, "display.max_rows", 200):
-        print(all_rows[cols].to_string(index=False, float_format=lambda x: f"{x:.4g}"))
-    print(f"renderer: {gl.renderer()}; wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
+        print(rows[cols].to_string(index=False, float_format=lambda x: f"{x:.4g}"))
+    print(f"renderer: {renderer}; study {outcome.out} ({outcome.ran} tasks run, {outcome.cached} cached); "
+          f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
 
 
-def plot(df, path, resolution, size):
+def plot(df, held, path, resolution, size, renderer):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(SCENES), len(SWEEPS), figsize=(16, 7.5), dpi=100, squeeze=False)
+    fig, axes = plt.subplots(len(SCENES), len(SWEPT), figsize=(16, 7.5), dpi=100, squeeze=False)
     for r, scene in enumerate(SCENES):
         d = df[df["scene"] == scene]
-        for c, (variant, (param, _, fixed)) in enumerate(SWEEPS.items()):
+        for c, variant in enumerate(SWEPT):
             ax = axes[r, c]
             g = d[d["variant"] == variant].sort_values("value")
+            param, fixed = g["swept"].iloc[0], held[variant]
             x = g["value"].to_numpy()
             x = np.where(x == 0, np.nan, x)
             ax.semilogx(x, 100 * g["false_shadow_rate"], "o-", color="tab:orange", label="false shadow (acne)")
@@ -103,7 +135,7 @@ def plot(df, path, resolution, size):
             if r == 0 and c == 0:
                 ax.legend(fontsize=6, loc="best")
     fig.suptitle(f"Shadow-map bias sweep: acne (false shadow) against leaks and peter-panning — "
-                 f"{resolution}² maps fitted to all visible receivers, {size[0]}x{size[1]}, {gl.renderer()}", fontsize=11)
+                 f"{resolution}² maps fitted to all visible receivers, {size[0]}x{size[1]}, {renderer}", fontsize=11)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)

@@ -2,63 +2,89 @@
 
 Spot-light scenes at the origin (spot_scene) and 10^4 units away (sm_far_origin), the near
 plane fitted to the casters or forced to 10^-2 and 10^-3; slope-scaled bias only (bias 0) so the
-depth format itself is what is measured. Writes results/sm_depth_precision.csv and a markdown
-table results/sm_depth_precision.md.
+depth format itself is what is measured. Writes results/sm_depth_precision.csv (the rows in the
+table) and a markdown table results/sm_depth_precision.md.
 
-    python experiments/sm_depth_precision.py [--size 320x240]
-    (the figures in earlier notes used --size 640x480; a JSON record of provenance is written beside the CSV)
+The grid is the shipped suite ``shadowlab/suites/sm_depth_precision.toml`` (320x240, 2048² maps);
+this script runs it as a study into ``<folder of --out>/study-sm_depth_precision`` — the
+directory ``shadowlab study sm_depth_precision`` uses by default, so the two share one cache and
+whichever runs second only reads it — and writes this table from the study's results.
+``shadowlab study sm_depth_precision`` gives the full study report.
+
+    python experiments/sm_depth_precision.py [--out results/sm_depth_precision] [--workers N] [--force]
+    (the suite fixes the size: the former --size flag is gone; the 640x480 figures in earlier
+    notes need a copy of the suite with size = [640, 480], run with ``shadowlab study COPY.toml``.
+    A JSON record of provenance is written beside the CSV)
 """
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import pandas as pd
 
-from shadowlab import gl, provenance
-from shadowlab.frame import Frame
-from shadowlab.cli import parse_size
-from shadowlab.pipeline import measure_configs
-from shadowlab.scene import load_scene
+from shadowlab import provenance
+from shadowlab.study.runner import run_study
 
-NEARS = [0.0, 0.01, 0.001]
-BITS = [16, 24, 32]
+SUITE = "sm_depth_precision"
 SCENES = ["spot_scene", "sm_far_origin"]
+
+
+def table_rows(results: pd.DataFrame) -> pd.DataFrame:
+    """The study's shadow-map rows (light 0), in scene, near (fitted first), depth-bits order."""
+    df = results[~results["reference"].astype(bool) & (results["technique"] == "shadow_map")
+                 & (results["light"] == 0)].copy()
+    failed = df[df["status"] != "ok"]
+    if len(failed):
+        raise SystemExit("failed runs in the study:\n" + "\n".join(f"  {r.scene} {r.label}: {r.error}"
+                                                                    for r in failed.itertuples()))
+    df["param_near"] = df["param_near"].astype(float)
+    df["param_depth_bits"] = df["param_depth_bits"].astype(int)
+    # fitted (near = 0) first, then the forced planes from the farthest to the closest
+    df = df.sort_values(["scene", "param_near", "param_depth_bits"], ascending=[True, False, True], kind="stable",
+                        key=lambda s: s.map(SCENES.index) if s.name == "scene"
+                        else s.where(s != 0, float("inf")) if s.name == "param_near" else s)
+    return df.reset_index(drop=True)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--size", default="320x240")
-    ap.add_argument("--out", default="results/sm_depth_precision")
+    ap.add_argument("--out", default="results/sm_depth_precision", help="CSV/markdown stem; the study goes beside it")
+    ap.add_argument("--workers", type=int, default=None, help="worker processes (default: every core)")
+    ap.add_argument("--force", action="store_true", help="ignore the study's cache")
     args = ap.parse_args()
-    size = parse_size(args.size)
-    rows = []
-    for scene in SCENES:
-        frame = Frame(load_scene(scene), *size)
-        specs = [f"shadow_map:variant=slope,bias=0,near={n},depth_bits={b}" for n in NEARS for b in BITS]
-        df = measure_configs(scene, specs, frame=frame)
-        rows.append(df[~df["reference"]])
-    df = pd.concat(rows)
     out = Path(args.out)
+    outcome = run_study(SUITE, out=out.parent / f"study-{SUITE}", workers=args.workers, force=args.force)
+    df = table_rows(outcome.results)
+    size = (int(df["width"].iloc[0]), int(df["height"].iloc[0]))
+    resolutions = sorted(df["param_resolution"].astype(int).unique())
+    study = json.loads((outcome.out / "study.json").read_text())["record"]  # the workers' GL device
+    renderer = study["renderer"]
     out.parent.mkdir(parents=True, exist_ok=True)
     df.to_csv(out.with_suffix(".csv"), index=False)
-    provenance.write_record(out, {"size": list(size)})
-    lines = [f"# Shadow-map depth precision ({size[0]}x{size[1]}, 2048², slope-scaled bias only; {gl.renderer()})", "",
+    provenance.write_record(out, {"gl": study["gl"], "size": list(size), "suite": SUITE, "study": str(outcome.out)},
+                            gl_info=False)
+    nears = list(dict.fromkeys(df["param_near"]))
+    bits = sorted(df["param_depth_bits"].unique())
+    res = "/".join(f"{r}²" for r in resolutions)
+    lines = [f"# Shadow-map depth precision ({size[0]}x{size[1]}, {res}, slope-scaled bias only; {renderer})", "",
              "false-shadow rate (acne) / false-lit rate, % — near = 'fitted': in front of every caster point the map sees (axial depth)", ""]
     for scene in SCENES:
         d = df[df["scene"] == scene]
-        lines += [f"## {scene}", "", "| near | " + " | ".join(f"{b}-bit" for b in BITS) + " |",
-                  "|---|" + "---|" * len(BITS)]
-        for n in NEARS:
+        lines += [f"## {scene}", "", "| near | " + " | ".join(f"{b}-bit" for b in bits) + " |",
+                  "|---|" + "---|" * len(bits)]
+        for n in nears:
             cells = []
-            for b in BITS:
+            for b in bits:
                 r = d[(d["param_near"] == n) & (d["param_depth_bits"] == b)].iloc[0]
                 cells.append(f"{100 * r['false_shadow_rate']:.3g} / {100 * r['false_lit_rate']:.3g}")
-            lines.append(f"| {'fitted' if n == 0 else n} | " + " | ".join(cells) + " |")
+            lines.append(f"| {'fitted' if n == 0 else f'{n:g}'} | " + " | ".join(cells) + " |")
         lines.append("")
     out.with_suffix(".md").write_text("\n".join(lines))
     print("\n".join(lines))
-    print(f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.md')}")
+    print(f"study {outcome.out} ({outcome.ran} tasks run, {outcome.cached} cached); "
+          f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.md')}")
 
 
 if __name__ == "__main__":

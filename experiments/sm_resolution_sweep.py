@@ -3,65 +3,90 @@
 On the perspective-aliasing case (a wide spot cone, the camera close to a receiver far from the
 light) and the spot scene, maps from 128² to 4096²: ``boundary_error_px`` (mean distance of the
 technique's shadow boundary to the truth's) and the median time of the technique's passes.
-Writes results/sm_resolution_sweep.csv and .png.
+Writes results/sm_resolution_sweep.csv (the rows plotted) and .png.
 
-    python experiments/sm_resolution_sweep.py [--size 320x240] [--repeat 3]
-    (the figures in earlier notes used --size 640x480; a JSON record of provenance is written beside the CSV)
+The grid is the shipped suite ``shadowlab/suites/sm_resolution.toml`` (320x240, median of 3
+timed runs after 1 warm-up); this script runs it as a study into
+``<folder of --out>/study-sm_resolution`` — the directory ``shadowlab study sm_resolution`` uses
+by default, so the two share one cache and whichever runs second only reads it — and draws this
+figure from the study's results. Times come from the study's separate timing phase (each
+configuration rendered alone, on every core). ``shadowlab study sm_resolution`` gives the full
+study report.
+
+    python experiments/sm_resolution_sweep.py [--out results/sm_resolution_sweep] [--workers N] [--force]
+    (the suite fixes the size and the repeats: the former --size/--repeat flags are gone; the
+    640x480 figures in earlier notes need a copy of the suite with size = [640, 480], run with
+    ``shadowlab study COPY.toml``. A JSON record of provenance is written beside the CSV)
 """
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import pandas as pd
 
-from shadowlab import gl, provenance
-from shadowlab.frame import Frame
-from shadowlab.cli import parse_size
-from shadowlab.pipeline import measure_configs
-from shadowlab.scene import load_scene
+from shadowlab import provenance
+from shadowlab.study.runner import run_study
 
-RESOLUTIONS = [128, 256, 512, 1024, 2048, 4096]
-VARIANTS = ["constant", "slope", "normal_offset", "second_depth", "midpoint"]
+SUITE = "sm_resolution"
 SCENES = ["sm_aliasing", "spot_scene"]
+VARIANTS = ["constant", "slope", "normal_offset", "second_depth", "midpoint"]  # plot order
+
+
+def sweep_rows(results: pd.DataFrame) -> pd.DataFrame:
+    """The study's shadow-map rows (light 0), in scene, variant, resolution order."""
+    df = results[~results["reference"].astype(bool) & (results["technique"] == "shadow_map")
+                 & (results["light"] == 0)].copy()
+    failed = df[df["status"] != "ok"]
+    if len(failed):
+        raise SystemExit("failed runs in the study:\n" + "\n".join(f"  {r.scene} {r.label}: {r.error}"
+                                                                    for r in failed.itertuples()))
+    df["param_resolution"] = df["param_resolution"].astype(int)
+    rank = {v: i for i, v in enumerate(VARIANTS)}
+    df = df.sort_values(["scene", "param_variant", "param_resolution"], kind="stable",
+                        key=lambda s: s.map(SCENES.index) if s.name == "scene"
+                        else s.map(lambda v: rank.get(v, len(rank))) if s.name == "param_variant" else s)
+    return df.reset_index(drop=True)
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--size", default="320x240")
-    ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--out", default="results/sm_resolution_sweep")
+    ap.add_argument("--out", default="results/sm_resolution_sweep", help="CSV/PNG stem; the study goes beside it")
+    ap.add_argument("--workers", type=int, default=None, help="worker processes (default: every core)")
+    ap.add_argument("--force", action="store_true", help="ignore the study's cache")
     args = ap.parse_args()
-    size = parse_size(args.size)
-    frames = []
-    for scene in SCENES:
-        frame = Frame(load_scene(scene), *size)
-        specs = [f"shadow_map:variant={v},resolution={r}" for v in VARIANTS for r in RESOLUTIONS]
-        print(f"{scene}: {len(specs)} configurations", flush=True)
-        df = measure_configs(scene, specs, frame=frame, repeat=args.repeat, warmup=1)
-        frames.append(df[~df["reference"]])
-    df = pd.concat(frames)
     out = Path(args.out)
+    outcome = run_study(SUITE, out=out.parent / f"study-{SUITE}", workers=args.workers, force=args.force)
+    df = sweep_rows(outcome.results)
+    size = (int(df["width"].iloc[0]), int(df["height"].iloc[0]))
+    study = json.loads((outcome.out / "study.json").read_text())["record"]  # the workers' GL device
+    renderer = study["renderer"]
     out.parent.mkdir(parents=True, exist_ok=True)
     df.to_csv(out.with_suffix(".csv"), index=False)
-    provenance.write_record(out, {"size": list(size), "timing": f"wall clock around ctx.finish(), median of {args.repeat}"})
-    plot(df, out.with_suffix(".png"), size)
+    provenance.write_record(out, {"gl": study["gl"], "size": list(size), "suite": SUITE, "study": str(outcome.out),
+                                  "timing": study["timing_method"]}, gl_info=False)
+    plot(df, out.with_suffix(".png"), size, renderer)
     cols = ["scene", "param_variant", "param_resolution", "boundary_error_px", "error_rate", "time_ms_median"]
     with pd.option_context("display.width", 200, "display.max_rows", 200):
         print(df[cols].to_string(index=False, float_format=lambda x: f"{x:.4g}"))
-    print(f"renderer: {gl.renderer()}; wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
+    print(f"renderer: {renderer}; study {outcome.out} ({outcome.ran} tasks run, {outcome.cached} cached); "
+          f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
 
 
-def plot(df, path, size):
+def plot(df, path, size, renderer):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    resolutions = sorted(df["param_resolution"].unique())
+    variants = [v for v in VARIANTS if v in set(df["param_variant"])]
+    variants += [v for v in df["param_variant"].unique() if v not in variants]
     fig, axes = plt.subplots(2, len(SCENES), figsize=(12, 8), dpi=100, squeeze=False)
     for c, scene in enumerate(SCENES):
         d = df[df["scene"] == scene]
-        for v in VARIANTS:
+        for v in variants:
             g = d[d["param_variant"] == v].sort_values("param_resolution")
             axes[0, c].loglog(g["param_resolution"], g["boundary_error_px"], "o-", label=v)
             axes[1, c].loglog(g["param_resolution"], g["time_ms_median"], "o-", label=v)
@@ -70,12 +95,12 @@ def plot(df, path, size):
         axes[1, c].set_title(f"{scene}: time of the technique's passes", fontsize=10)
         axes[1, c].set_ylabel("ms (median)")
         for ax in axes[:, c]:
-            ax.set_xticks(RESOLUTIONS, [str(r) for r in RESOLUTIONS])
+            ax.set_xticks(resolutions, [str(r) for r in resolutions])
             ax.minorticks_off()
             ax.set_xlabel("shadow map resolution (texels per side)")
             ax.grid(alpha=0.3, which="both")
             ax.legend(fontsize=7)
-    fig.suptitle(f"Shadow-map resolution sweep — {size[0]}x{size[1]}, {gl.renderer()} (wall clock)", fontsize=11)
+    fig.suptitle(f"Shadow-map resolution sweep — {size[0]}x{size[1]}, {renderer} (wall clock)", fontsize=11)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)

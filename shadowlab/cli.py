@@ -1,4 +1,5 @@
-"""The ``shadowlab`` command: list scenes and techniques, run comparisons.
+"""The ``shadowlab`` command: list scenes, techniques and suites, run comparisons and studies,
+check a study against a baseline.
 
 Bad input (scene, technique spec, size, ...) exits with status 2 and one line naming the
 culprit, before any GL work; a missing GL driver exits with status 3.
@@ -47,6 +48,33 @@ class Progress:
         self.bar.close()
 
 
+class StudyProgress:
+    """The study's progress bar over all its tasks, with an ETA (tqdm; silent when stderr is not
+    a terminal)."""
+
+    def __init__(self, enabled: bool | None = None):
+        self.enabled = sys.stderr.isatty() if enabled is None else enabled
+        self.bar = None
+
+    def start(self, total: int) -> None:
+        """Open the bar for ``total`` tasks."""
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=total, disable=not self.enabled, unit="task", file=sys.stderr, dynamic_ncols=True)
+
+    def step(self, what: str) -> None:
+        """One task finished (``what`` names it)."""
+        if self.bar is not None:
+            self.bar.set_description(what[:48], refresh=False)
+            self.bar.update(1)
+
+    def close(self) -> None:
+        """Remove the bar."""
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
+
+
 def technique_listing() -> str:
     """Registered techniques with their parameters and defaults, for ``shadowlab techniques``."""
     from .techniques import REGISTRY
@@ -78,7 +106,102 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--pass-timing", action="store_true",
                    help="also time each named pass (pass_<name>_ms columns, a stacked bar chart in the report; "
                         "measured in runs of their own)")
+    st = sub.add_parser("study", help="run a suite of scenes x techniques and draw the comparison")
+    st.add_argument("suite", help="a shipped suite's name (see 'shadowlab suites') or a path to a suite file")
+    st.add_argument("--out", default=None, help="study directory (default results/study-<suite name>)")
+    st.add_argument("--workers", type=int, default=None,
+                    help="local worker processes for the accuracy phase (default: one per core)")
+    st.add_argument("--dask", default=None, metavar="ADDRESS",
+                    help="run the tasks on the Dask scheduler at ADDRESS (e.g. tcp://host:8786) instead")
+    st.add_argument("--force", action="store_true", help="ignore the cache: redo every run")
+    sub.add_parser("suites", help="list the shipped suites")
+    ch = sub.add_parser("check", help="compare a study's artefact metrics with a baseline; exit 1 on regressions")
+    ch.add_argument("study_dir", help="a study directory (holds results.csv)")
+    ch.add_argument("baseline", help="baseline CSV (scene, light, label, held metrics)")
+    ch.add_argument("--update", action="store_true", help="write the study's metrics as the new baseline instead")
     return p
+
+
+def _cmd_suites() -> int:
+    from .study.suite import SuiteError, builtin_suites, load_suite
+
+    for name, path in builtin_suites().items():
+        try:
+            s = load_suite(path)
+            desc = (f"{len(s.scenes)} scenes, {s.runs()} runs, {s.size[0]}x{s.size[1]}, repeat {s.repeat}"
+                    f"{' — ' + s.description.splitlines()[0] if s.description else ''}")
+        except SuiteError as exc:
+            desc = f"INVALID: {exc}"
+        print(f"{name:16s} {desc}")
+    return 0
+
+
+def _cmd_study(args) -> int:
+    from .gl import GLContextError
+    from .study.runner import run_study
+
+    bar = StudyProgress()
+    try:
+        outcome = run_study(args.suite, out=args.out, workers=args.workers, dask=args.dask, force=args.force,
+                            progress=bar)
+    except GLContextError as exc:
+        print(f"shadowlab: {exc}", file=sys.stderr)
+        return EXIT_NO_GL
+    except KeyboardInterrupt:
+        bar.close()
+        print("shadowlab: interrupted; finished runs are cached — run the same command again to resume",
+              file=sys.stderr)
+        return 130
+    except RuntimeError as exc:  # Dask unreachable or not installed
+        print(f"shadowlab: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    finally:
+        bar.close()
+    out = outcome.out
+    print(f"{outcome.ran} tasks run, {outcome.cached} from the cache, in {outcome.elapsed_s:.1f} s")
+    if outcome.failed:
+        print(f"{len(outcome.failed)} run(s) FAILED (recorded in results.csv with their errors):")
+        for line in outcome.failed:
+            print(f"  {line}")
+    print(f"results: {(out / 'results.csv').resolve()}")
+    print(f"summary: {(out / 'summary.md').resolve()}")
+    print(f"report:  {(out / 'study.html').resolve()}")
+    return 1 if outcome.failed else 0
+
+
+def _cmd_check(args) -> int:
+    from pathlib import Path
+
+    from .study import check as chk
+
+    try:
+        results = chk.read_results(Path(args.study_dir))
+        if args.update:
+            base = chk.baseline_from(results)
+            Path(args.baseline).parent.mkdir(parents=True, exist_ok=True)
+            base.to_csv(args.baseline, index=False)
+            print(f"wrote {len(base)} baseline rows to {args.baseline}")
+            return 0
+        result = chk.check(results, chk.read_baseline(Path(args.baseline)))
+    except chk.CheckError as exc:
+        print(f"shadowlab: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if result.new:
+        print(f"{len(result.new)} configuration(s) not in the baseline (not checked): " + "; ".join(result.new[:8])
+              + (" ..." if len(result.new) > 8 else ""))
+    if result.respecified:
+        print(f"{len(result.respecified)} configuration(s) now resolve to other parameters than in the baseline "
+              f"(a changed default?): " + "; ".join(result.respecified[:4]) + (" ..." if len(result.respecified) > 4 else ""))
+    if not result.improvements.empty:
+        print(f"{len(result.improvements)} metric(s) better than the baseline beyond tolerance "
+              f"(update it with --update to hold the new level):")
+        print(chk.format_findings(result.improvements))
+    if not result.ok:
+        print(f"REGRESSIONS: {len(result.regressions)} metric(s) worse than {args.baseline} beyond tolerance:")
+        print(chk.format_findings(result.regressions))
+        return 1
+    print(f"ok: {result.checked} metrics within tolerance of {args.baseline}")
+    return 0
 
 
 def _cmd_scenes() -> int:
@@ -122,6 +245,7 @@ def _cmd_compare(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the process exit status."""
     from .run import RunError
+    from .study.suite import SuiteError
     from .techniques import TechniqueError
 
     args = _parser().parse_args(argv)
@@ -131,8 +255,14 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "techniques":
             print(technique_listing())
             return 0
+        if args.command == "suites":
+            return _cmd_suites()
+        if args.command == "study":
+            return _cmd_study(args)
+        if args.command == "check":
+            return _cmd_check(args)
         return _cmd_compare(args)
-    except (SceneError, TechniqueError, RunError) as exc:
+    except (SceneError, TechniqueError, RunError, SuiteError) as exc:
         print(f"shadowlab: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
 

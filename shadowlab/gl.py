@@ -111,7 +111,12 @@ def device() -> str:
 
 def is_software_renderer() -> bool:
     """True on CPU rasterisers (llvmpipe, softpipe, swrast), whose timer queries are not meaningful."""
-    name = renderer().lower()
+    return is_software_name(renderer())
+
+
+def is_software_name(renderer_name: str) -> bool:
+    """True when a GL_RENDERER string names a CPU rasteriser."""
+    name = renderer_name.lower()
     return any(s in name for s in ("llvmpipe", "softpipe", "swrast", "lavapipe"))
 
 

@@ -175,13 +175,19 @@ class Column:
     summary: bool = False
     report: bool = False
     needs: tuple[str, ...] = ()
+    #: Artefact metrics a baseline holds (``shadowlab check``): (absolute, relative) tolerance —
+    #: a value is a regression when it exceeds baseline + max(abs, rel × baseline). Larger is worse.
+    tolerance: tuple[float, float] | None = None
 
     def format(self, value) -> str:
         """``value`` as shown in the report and the CLI."""
         if value is None or (isinstance(value, float) and np.isnan(value)):
             return ""
         if self.fmt == "percent":
-            return f"{100 * value:.3f} %"
+            # three decimals, but never "0.000 %" for a rate that is not zero (one wrong pixel
+            # in 300k is 0.0003 %): small rates keep two significant digits
+            pct = 100 * value
+            return f"{pct:.3f} %" if pct == 0 or abs(pct) >= 0.1 else f"{pct:.2g} %"
         if self.fmt in ("px", "ms"):
             return f"{value:.3f}"
         if self.fmt == "count":
@@ -189,6 +195,14 @@ class Column:
         if self.fmt == "value" and isinstance(value, float):
             return f"{value:.4g}"
         return str(value)
+
+
+#: Baseline tolerances (absolute, relative). Rates: 0.02 % of the pixels (61 pixels at 640x480)
+#: or 5 % of the value — wide enough for the few pixels of rasterisation ties that differ
+#: between drivers (DESIGN §14), below what a tenfold too small bias does to the grazing
+#: receivers of sm_grazing (+0.07 %). Distances: a quarter of a pixel or 10 %.
+RATE_TOLERANCE = (2e-4, 0.05)
+DISTANCE_TOLERANCE = (0.25, 0.1)
 
 
 def _metric(name, doc, compute, fmt="value", **kw) -> Column:
@@ -208,13 +222,17 @@ COLUMNS: tuple[Column, ...] = (
     _metric("evaluated_pixels", "pixels evaluated: visible receivers facing the light inside its footprint",
             lambda e: e.n, "count", contract=True, report=True),
     _metric("error_rate", "wrong / evaluated pixels (V, G thresholded at 0.5)",
-            lambda e: _ratio(e.false_shadow + e.false_lit, e.n), "percent", contract=True, summary=True, report=True),
+            lambda e: _ratio(e.false_shadow + e.false_lit, e.n), "percent", contract=True, summary=True, report=True,
+            tolerance=RATE_TOLERANCE),
     _metric("false_shadow_rate", "wrongly shadowed / truly lit pixels (acne, over-darkening)",
-            lambda e: _ratio(e.false_shadow, e.g_lit), "percent", contract=True, summary=True, report=True),
+            lambda e: _ratio(e.false_shadow, e.g_lit), "percent", contract=True, summary=True, report=True,
+            tolerance=RATE_TOLERANCE),
     _metric("false_lit_rate", "wrongly lit / truly shadowed pixels (leaks, peter-panning, missing shadows)",
-            lambda e: _ratio(e.false_lit, e.g_shadow), "percent", contract=True, summary=True, report=True),
+            lambda e: _ratio(e.false_lit, e.g_shadow), "percent", contract=True, summary=True, report=True,
+            tolerance=RATE_TOLERANCE),
     _metric("boundary_error_px", "mean distance from V's shadow boundary to G's, pixels",
-            lambda e: e.boundary_figures[0], "px", contract=True, summary=True, report=True),
+            lambda e: e.boundary_figures[0], "px", contract=True, summary=True, report=True,
+            tolerance=DISTANCE_TOLERANCE),
     Column("time_ms_median", "median time of the technique's timed passes, ms", "ms", contract=True, summary=True,
            report=True),
     Column("time_ms_iqr", "interquartile range of those times, ms", "ms", contract=True, report=True),
@@ -223,9 +241,9 @@ COLUMNS: tuple[Column, ...] = (
     Column("short_label", "name and the parameters that differ from their defaults", "text"),
     Column("reference", "True on the ground truth's own row", "text"),
     _metric("visibility_mae", "mean |V - G| over evaluated pixels, without thresholding",
-            _visibility_mae, report=True),
+            _visibility_mae, report=True, tolerance=RATE_TOLERANCE),
     _metric("umbra_visibility_std", "spread of V inside the shadow (multiple modulation)",
-            _umbra_visibility_std, report=True),
+            _umbra_visibility_std, report=True, tolerance=(0.01, 0.1)),
     _metric("truth_lit_pixels", "evaluated pixels the truth has lit", lambda e: e.g_lit, "count"),
     _metric("truth_shadowed_pixels", "evaluated pixels the truth has shadowed", lambda e: e.g_shadow, "count"),
     _metric("false_shadow_pixels", "wrongly shadowed pixels", lambda e: e.false_shadow, "count"),
@@ -234,9 +252,9 @@ COLUMNS: tuple[Column, ...] = (
     _metric("boundary_hausdorff_px", "symmetric Hausdorff distance between the boundaries, pixels",
             lambda e: e.boundary_figures[1], "px"),
     _metric("boundary_p95_px", "95th percentile of the symmetric boundary distances, pixels",
-            lambda e: e.boundary_figures[2], "px"),
+            lambda e: e.boundary_figures[2], "px", tolerance=DISTANCE_TOLERANCE),
     _metric("contact_gap_px", "peter-panning: mean width of the false-lit band along shadowed contact lines, pixels",
-            _contact_gap_px, "px", report=True, needs=("contact",)),
+            _contact_gap_px, "px", report=True, needs=("contact",), tolerance=(0.5, 0.1)),
     Column("time_repeats", "timed runs behind the median", "count"),
     Column("gpu_time_ms_median", "median GL_TIME_ELAPSED of the timed passes, ms (real GPUs only)", "ms"),
 )
@@ -244,6 +262,8 @@ COLUMN_BY_NAME = {c.name: c for c in COLUMNS}
 #: The DESIGN §6 columns every metrics.csv starts with, in order.
 CONTRACT_COLUMNS = [c.name for c in COLUMNS if c.contract]
 METRIC_COLUMNS = [c for c in COLUMNS if c.compute is not None]
+#: The artefact metrics a baseline holds (``shadowlab check``), with their tolerances.
+HELD_COLUMNS = [c for c in COLUMNS if c.tolerance is not None]
 
 
 def compare(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray | None = None) -> dict:

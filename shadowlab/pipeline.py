@@ -104,6 +104,14 @@ class Evaluator:
                                                self.warmup, on_step, pass_timing=self.pass_timing)
         return self._truth[light_index]
 
+    def use_truth(self, light_index: int, visibility: np.ndarray) -> None:
+        """Judge against a truth measured elsewhere (a study's cached truth): ``visibility``
+        float32 (height, width), row 0 = top, of the default truth technique for this frame."""
+        if visibility.shape != (self.frame.height, self.frame.width):
+            raise ValueError(f"truth of shape {visibility.shape} for a {self.frame.width}x{self.frame.height} frame")
+        self._truth[light_index] = Measurement(self.truth_technique, light_index, visibility,
+                                               timing.Timing(float("nan"), float("nan"), []), {})
+
     def contact_lines(self, light_index: int) -> np.ndarray:
         """Bool (height, width): evaluated receiver pixels where another object touches the
         receiver (:func:`shadowlab.metrics.contact_pixels`)."""
@@ -142,7 +150,7 @@ class Comparison:
     notes: list[str]
 
 
-def _pass_order() -> list[str]:
+def pass_order() -> list[str]:
     """Every registered technique's passes, each technique's in drawing order."""
     from .techniques import REGISTRY
 
@@ -180,7 +188,7 @@ def compare_frame(frame: Frame, techniques: Sequence[Technique], repeat: int = 5
         notes.extend(f"{tech.spec()}: {n}" for n in dict.fromkeys(tech.notes))
         results.append(ms)
     df = pd.DataFrame(rows)
-    return Comparison(frame, truths, results, df[metrics.order_columns(df.columns, _pass_order())], notes)
+    return Comparison(frame, truths, results, df[metrics.order_columns(df.columns, pass_order())], notes)
 
 
 def build_techniques(specs: Sequence[str], truth: Technique | None = None) -> list[Technique]:
@@ -221,4 +229,4 @@ def measure_configs(scene_ref, specs: Sequence[str], size: tuple[int, int] = (64
                     pass_timing=pass_timing)
         rows.append(dict(evaluator.row(m), notes="; ".join(m.notes)))
     df = pd.DataFrame(rows)
-    return df[metrics.order_columns(df.columns, _pass_order())]
+    return df[metrics.order_columns(df.columns, pass_order())]

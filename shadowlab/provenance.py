@@ -6,6 +6,7 @@ traced to the code, the renderer and the machine that made it (DESIGN §6).
 from __future__ import annotations
 
 import datetime as _dt
+import hashlib
 import json
 import os
 import platform
@@ -31,6 +32,29 @@ def revision() -> str:
         except (OSError, subprocess.SubprocessError):
             pass
     return f"shadowlab {__version__}"
+
+
+@lru_cache(maxsize=None)
+def code_fingerprint() -> str:
+    """:func:`revision`, plus, when the checkout is dirty, a hash of its uncommitted changes
+    (``git diff HEAD`` and the untracked files of the package): what the study's cache keys
+    its runs by, so that editing the code invalidates them even before a commit."""
+    rev = revision()
+    if not rev.endswith("-dirty"):
+        return rev
+    root = Path(__file__).resolve().parent.parent
+    digest = hashlib.sha256()
+    try:
+        diff = subprocess.run(["git", "-C", str(root), "diff", "HEAD", "--binary"], capture_output=True, timeout=30)
+        digest.update(diff.stdout)
+        untracked = subprocess.run(["git", "-C", str(root), "ls-files", "--others", "--exclude-standard", "-z",
+                                    "--", "shadowlab", "shaders"], capture_output=True, timeout=30)
+        for name in sorted(filter(None, untracked.stdout.split(b"\0"))):
+            digest.update(name)
+            digest.update((root / name.decode()).read_bytes())
+    except (OSError, subprocess.SubprocessError):
+        return rev
+    return f"{rev}+{digest.hexdigest()[:12]}"
 
 
 def versions() -> dict:

@@ -57,9 +57,40 @@ def error_picture(classes: np.ndarray, shaded_display: np.ndarray) -> np.ndarray
 
 def save_png(path: Path, rgb: np.ndarray) -> None:
     """Write an RGB float image in [0, 1] (H, W, 3), row 0 = top."""
+    Path(path).write_bytes(encode_png(rgb))
+
+
+def encode_png(rgb: np.ndarray) -> bytes:
+    """An RGB float image in [0, 1] (H, W, 3), row 0 = top, as PNG file bytes (8 bits per channel)."""
+    import io
+
     import matplotlib.image as mpimg
 
-    mpimg.imsave(path, np.clip(rgb, 0.0, 1.0))
+    buf = io.BytesIO()
+    mpimg.imsave(buf, np.clip(rgb, 0.0, 1.0), format="png")
+    return buf.getvalue()
+
+
+def worst_region(wrong: np.ndarray, window: int) -> tuple[tuple[int, int, int, int], int]:
+    """The ``window`` x ``window`` box (clipped to the image) holding the most wrong pixels of the
+    bool mask ``wrong`` (H, W), row 0 = top: ((x0, y0, x1, y1) with x1, y1 exclusive, count).
+    Where several boxes tie, the first in row-major order."""
+    h, w = wrong.shape
+    wy, wx = min(window, h), min(window, w)
+    # window sums from the summed-area table
+    sat = np.zeros((h + 1, w + 1), np.int64)
+    sat[1:, 1:] = np.cumsum(np.cumsum(wrong.astype(np.int64), 0), 1)
+    sums = sat[wy:, wx:] - sat[:-wy, wx:] - sat[wy:, :-wx] + sat[:-wy, :-wx]
+    y0, x0 = np.unravel_index(int(np.argmax(sums)), sums.shape)
+    return (int(x0), int(y0), int(x0 + wx), int(y0 + wy)), int(sums[y0, x0])
+
+
+def magnified(rgb: np.ndarray, box: tuple[int, int, int, int], factor: int) -> np.ndarray:
+    """The crop ``box`` = (x0, y0, x1, y1) of an image (H, W, 3), enlarged ``factor`` times by
+    repeating pixels (nearest neighbour: single wrong pixels stay sharp squares)."""
+    x0, y0, x1, y1 = box
+    crop = rgb[y0:y1, x0:x1]
+    return np.repeat(np.repeat(crop, factor, axis=0), factor, axis=1)
 
 
 def speed_error_plot(df: pd.DataFrame, path: Path) -> None:

@@ -74,14 +74,15 @@ def compare(scene_ref, specs: list[str], size: tuple[int, int] = (800, 600), out
             write_run(tmp, result, repeat, warmup, pass_timing)
         finally:
             frame.release()
-        _move_into_place(tmp, out)
+        move_into_place(tmp, out)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return out
 
 
-def _move_into_place(tmp: Path, out: Path) -> None:
+def move_into_place(tmp: Path, out: Path) -> None:
+    """Replace ``out`` (if any) by the finished directory ``tmp``, removing the old one last."""
     old = None
     if out.exists():
         old = out.parent / f".{out.name}.old-{os.getpid()}"
@@ -91,7 +92,8 @@ def _move_into_place(tmp: Path, out: Path) -> None:
         shutil.rmtree(old, ignore_errors=True)
 
 
-def _safe(label: str) -> str:
+def safe_name(label: str) -> str:
+    """A label (technique spec, scene name) as a file-name stem: letters, digits, ``._-``."""
     return re.sub(r"[^A-Za-z0-9._-]+", "_", label).strip("_")
 
 
@@ -112,7 +114,7 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
         images = [_write_images(folder, "ground_truth", truth.spec(), "ground truth", shader, frame, gt_vis, None)]
         for ms in result.results:
             tech = ms[0].technique
-            images.append(_write_images(folder, _safe(tech.short_label()), tech.spec(), tech.short_label(), shader,
+            images.append(_write_images(folder, safe_name(tech.short_label()), tech.spec(), tech.short_label(), shader,
                                         frame, [m.visibility for m in ms], gt_vis[0]))
     finally:
         shader.release()

@@ -6,6 +6,8 @@ shipped scene is named by its file stem (``box_on_plane``); any other argument i
 """
 from __future__ import annotations
 
+import gzip
+import io
 from dataclasses import dataclass, field
 from functools import cached_property
 from importlib import resources
@@ -209,16 +211,32 @@ def _build_primitive(kind: str, rd: TableReader) -> trimesh.Trimesh:
 PRIMITIVES = ("box", "sphere", "plane", "cylinder", "torus", "capsule")
 
 
+def _read_mesh(path: Path) -> trimesh.Trimesh:
+    """trimesh's reading of ``path``; a gzipped file (``name.ply.gz``) is decompressed and
+    parsed as the format its inner extension names. Raises on any problem."""
+    if path.suffix.lower() != ".gz":
+        return trimesh.load(path, force="mesh", process=False)
+    inner = Path(path.stem).suffix.lower().lstrip(".")
+    if not inner:
+        raise ValueError("a gzipped mesh must name its format before .gz (e.g. bunny.ply.gz)")
+    with gzip.open(path, "rb") as fh:
+        data = fh.read()  # a corrupt or truncated stream raises here (BadGzipFile / EOFError)
+    return trimesh.load(io.BytesIO(data), file_type=inner, force="mesh", process=False)
+
+
 def _load_mesh_file(rd: TableReader, ref: str, base: Path) -> trimesh.Trimesh:
     path = (base / ref).resolve()
     if not path.is_file():
         raise rd.error("mesh", f"mesh file not found: {path}")
     try:
-        mesh = trimesh.load(path, force="mesh", process=False)
+        mesh = _read_mesh(path)
     except Exception as exc:
         raise rd.error("mesh", f"cannot read mesh file {path}: {exc}") from exc
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise rd.error("mesh", f"{path} holds no triangles")
+    faces = np.asarray(mesh.faces)
+    if faces.ndim != 2 or faces.shape[1] != 3 or faces.min() < 0 or faces.max() >= len(mesh.vertices):
+        raise rd.error("mesh", f"{path} has faces indexing vertices that are not there")
     return mesh
 
 

@@ -37,7 +37,12 @@ class Timing:
 
 def method_description() -> str:
     """How this process times GPU work, for run.json."""
-    if gl.is_software_renderer():
+    return method_for(gl.renderer())
+
+
+def method_for(renderer: str) -> str:
+    """How GPU work is timed on the renderer named ``renderer`` (GL_RENDERER), for run records."""
+    if gl.is_software_name(renderer):
         return WALL_CLOCK + "; GL timer queries not used (software rasteriser)"
     return WALL_CLOCK + "; GL_TIME_ELAPSED queries reported as gpu_time_ms_median"
 
@@ -78,7 +83,12 @@ def time_passes(run: Callable[[], None], repeat: int = 5, warmup: int = 1, gpu: 
 
 def pass_timing_method() -> str:
     """How this process times the passes of a render (for run.json)."""
-    if gl.is_software_renderer():
+    return pass_timing_method_for(gl.renderer())
+
+
+def pass_timing_method_for(renderer: str) -> str:
+    """How the passes of a render are timed on the renderer named ``renderer``."""
+    if gl.is_software_name(renderer):
         return "wall clock with ctx.finish() between passes (software rasteriser)"
     return "GL_TIME_ELAPSED query per pass"
 

@@ -1,0 +1,366 @@
+"""Runs a study (DESIGN §12–13): every scene × configuration of a suite, in parallel, cached,
+then the comparison drawn.
+
+Two phases, so that timings stay honest:
+
+1. **Accuracy** — in parallel (local worker processes, or a Dask cluster): per scene the ground
+   truth, then every configuration's visibility, metrics, images. Nothing here is timed.
+2. **Timing** — afterwards, one task at a time: each configuration (and the truth) is set up and
+   rendered ``warmup`` + ``repeat`` times alone, in one worker process with every core's
+   llvmpipe threads, so no other work of the study overlaps a timed section on this host.
+
+Every finished task is stored in the study's cache (:mod:`shadowlab.study.cache`) as soon as it
+returns, so Ctrl-C loses only the tasks in flight and the next run resumes. Then, without GL,
+the results are assembled: per scene a run directory, ``results.csv``, ``study.json`` and the
+study report (``pareto.png``, ``study.html``, ``summary.md``).
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from .. import provenance, timing
+from ..run import RunError, safe_name
+from ..techniques import from_spec
+from . import rundir
+from .cache import Cache, run_key, scene_content_hash
+from .executors import DaskExecutor, LocalExecutor, cores
+from .suite import Suite, load_suite
+
+#: Columns a study adds to every metrics row in results.csv (DESIGN §12).
+STUDY_COLUMNS = ("config", "scene_family", "status", "error", "run_dir", "revision", "renderer", "shaded_image",
+                 "error_image", "worst_crop_image", "worst_box", "worst_errors")
+
+
+@dataclass
+class StudyOutcome:
+    """What :func:`run_study` did: the study directory, its results (results.csv as a
+    DataFrame), counts of tasks run / taken from the cache / failed, and the wall time."""
+
+    out: Path
+    results: pd.DataFrame
+    ran: int
+    cached: int
+    failed: list[str] = field(default_factory=list)
+    elapsed_s: float = 0.0  # the whole study, report included
+    report: dict = field(default_factory=dict)
+    phases_s: dict = field(default_factory=dict)
+
+
+class Progress:
+    """Minimal progress interface the runner reports to (the CLI passes a tqdm bar)."""
+
+    def start(self, total: int) -> None:
+        """The number of tasks to run."""
+
+    def step(self, what: str) -> None:
+        """One task finished."""
+
+    def close(self) -> None:
+        """All done (or interrupted)."""
+
+
+@dataclass
+class _Run:
+    scene: object          # SceneEntry
+    spec: str
+    reference: bool
+    acc_key: str
+    time_key: str
+
+
+def default_out_dir(suite: Suite) -> Path:
+    """results/study-<suite name> under the current directory (a fixed place, so that running the
+    same suite again finds its cache)."""
+    return Path("results") / f"study-{safe_name(suite.name)}"
+
+
+def run_study(suite_ref, out: Path | None = None, workers: int | None = None, dask=None, force: bool = False,
+              progress: Progress | None = None, log: Callable[[str], None] | None = None) -> StudyOutcome:
+    """Run a suite (shipped name, path, or a :class:`Suite`) into ``out`` and draw the comparison.
+
+    ``workers``: local worker processes (default: the machine's cores); ``dask``: a scheduler
+    address (or a ``distributed.Client``) to run on instead; ``force``: ignore the cache.
+    Bad suites raise :class:`shadowlab.study.suite.SuiteError` before anything runs; failed runs
+    are recorded in results.csv (``status`` = failed, ``error``) and listed in the outcome.
+    KeyboardInterrupt propagates after the pool is stopped; the cache stays consistent.
+    """
+    t_start = time.perf_counter()
+    log = log or (lambda msg: print(msg, file=sys.stderr))
+    progress = progress or Progress()
+    suite = suite_ref if isinstance(suite_ref, Suite) else load_suite(suite_ref)
+    if workers is not None and workers < 1:
+        raise RunError(f"--workers must be >= 1, got {workers}")
+    out = Path(out) if out is not None else default_out_dir(suite)
+    if out.exists() and not out.is_dir():
+        raise RunError(f"--out {out} exists and is not a directory")
+    workers = workers or cores()
+    cache = Cache(out / "cache")
+    revision = provenance.code_fingerprint()
+
+    executor = DaskExecutor(dask) if dask is not None else None
+    try:
+        device = _probe(executor)
+        renderer = device["renderer"]
+        runs = _plan(suite, revision, renderer)
+        todo_truth = [r for r in runs if r.reference and (force or not cache.has_result(r.acc_key))]
+        todo_config = [r for r in runs if not r.reference and (force or not cache.has_result(r.acc_key))]
+        todo_time = [r for r in runs if force or cache.load_timing(r.time_key) is None]
+        known_truths = {}  # scene → cached truth, for scenes whose configurations must run
+        for r in runs:
+            if r.reference and r not in todo_truth and any(c.scene.name == r.scene.name for c in todo_config):
+                cached = cache.load_result(r.acc_key)
+                if cached is None:
+                    todo_truth.append(r)  # an unreadable entry: recompute
+                else:
+                    known_truths[r.scene.name] = cached
+        n_tasks = len(todo_truth) + len(todo_config) + len(todo_time)
+        log(f"study {suite.name}: {len(suite.scenes)} scenes, {suite.runs()} configuration runs "
+            f"+ {len(suite.scenes)} ground truths; {n_tasks} tasks to run, "
+            f"{2 * len(runs) - n_tasks} cached ({out / 'cache'})")
+        failed: dict[tuple[str, str], str] = {}
+        phases = {}
+        if n_tasks:
+            progress.start(n_tasks)
+            if executor is None and (todo_truth or todo_config):
+                executor_acc = LocalExecutor(min(workers, len(todo_truth) + len(todo_config)))
+            else:
+                executor_acc = executor
+            t0 = time.perf_counter()
+            if todo_truth or todo_config:
+                log(f"accuracy phase on {executor_acc.description}")
+                _accuracy_phase(executor_acc, suite, todo_truth, todo_config, known_truths, cache, failed, progress)
+                if executor_acc is not executor:
+                    executor_acc.close()
+            phases["accuracy_s"] = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            todo_time = [r for r in todo_time if (r.scene.name, r.spec) not in failed]
+            if todo_time:
+                executor_time = executor or LocalExecutor(1, threads=cores())
+                log(f"timing phase, one task at a time, on {executor_time.description}")
+                _timing_phase(executor_time, suite, todo_time, cache, failed, progress)
+                if executor_time is not executor:
+                    executor_time.close()
+            phases["timing_s"] = time.perf_counter() - t0
+            progress.close()
+    finally:
+        if executor is not None:
+            executor.close()
+
+    timing_text = _timing_sentence(suite, renderer, dask)
+    record = {"renderer": renderer, "device": device["device"], "gl": device["gl"], "ground_truth": suite.truth,
+              "timing_method": timing_text, "timing_phase": "separate",
+              "pass_timing": timing.pass_timing_method_for(renderer) if suite.pass_timing else None,
+              "repeat": suite.repeat, "warmup": suite.warmup, "study": suite.name, "size": list(suite.size),
+              **provenance.record(gl_info=False)}
+    results, written = _assemble(suite, runs, cache, failed, out, revision, record)
+    elapsed = time.perf_counter() - t_start
+    meta = {"name": suite.name, "description": suite.description, "size": list(suite.size), "repeat": suite.repeat,
+            "warmup": suite.warmup, "device": device["device"], "renderer": renderer,
+            "revision": provenance.revision(), "date": record["date"], "timing": timing_text,
+            "workers": f"dask {executor.description}" if executor is not None else workers,
+            "elapsed_s": elapsed, "runs": len(runs), "cached": 2 * len(runs) - n_tasks,
+            "failed": len(failed), "suite_file": suite.file, "phases_s": phases}
+    report_files = _write_study_files(out, results, meta, record)
+    failures = [f"{scene} / {spec}: {err}" for (scene, spec), err in failed.items()]
+    phases["report_s"] = time.perf_counter() - t_start - elapsed
+    return StudyOutcome(out, results, n_tasks, 2 * len(runs) - n_tasks, failures, time.perf_counter() - t_start,
+                        report_files, phases)
+
+
+def _probe(executor) -> dict:
+    """The GL device the runs will use: this process's (local workers share its driver), or a
+    Dask worker's."""
+    from .tasks import probe, probe_here
+
+    if executor is None:
+        return probe_here()
+    return executor.submit(probe, None).result()
+
+
+def _plan(suite: Suite, revision: str, renderer: str) -> list[_Run]:
+    """Every run of the suite with its cache keys: per scene the truth, then its configurations."""
+    runs = []
+    timing_settings = {"repeat": suite.repeat, "warmup": suite.warmup, "pass_timing": suite.pass_timing}
+    for scene in suite.scenes:
+        h = scene_content_hash(scene.path)
+        for spec, ref in [(suite.truth, True)] + [(s, False) for s in suite.configurations[scene.name]]:
+            acc = run_key(h, spec, suite.size, revision, renderer)
+            runs.append(_Run(scene, spec, ref, acc, run_key(h, spec, suite.size, revision, renderer, **timing_settings)))
+    return runs
+
+
+def _task(run: _Run, suite: Suite, kind: str, **extra) -> dict:
+    return {"kind": kind, "scene_path": str(run.scene.path), "scene_hash": scene_content_hash_cached(run.scene.path),
+            "size": list(suite.size), "spec": run.spec, **extra}
+
+
+_HASHES: dict[Path, str] = {}
+
+
+def scene_content_hash_cached(path: Path) -> str:
+    """:func:`scene_content_hash`, computed once per file per study process."""
+    if path not in _HASHES:
+        _HASHES[path] = scene_content_hash(path)
+    return _HASHES[path]
+
+
+def _truth_arrays(result: dict) -> list[np.ndarray]:
+    n = result["meta"]["lights"]
+    return [result["arrays"][f"truth_{li}"] for li in range(n)]
+
+
+def _accuracy_phase(executor, suite, todo_truth, todo_config, known_truths: dict, cache: Cache, failed: dict,
+                    progress) -> None:
+    """Truths first; each scene's configurations as soon as its truth is known (``known_truths``:
+    scene → a cached truth result)."""
+    from .tasks import run_task
+
+    waiting: dict[str, list[_Run]] = {}
+    for r in todo_config:
+        waiting.setdefault(r.scene.name, []).append(r)
+    pending: dict = {}
+
+    def submit_configs(scene_name: str, truth_result: dict) -> None:
+        arrays = _truth_arrays(truth_result)
+        for r in waiting.pop(scene_name, []):
+            pending[executor.submit(run_task, _task(r, suite, "config", truth=arrays))] = r
+
+    try:
+        for r in todo_truth:
+            pending[executor.submit(run_task, _task(r, suite, "truth"))] = r
+        for scene_name, truth_result in known_truths.items():
+            submit_configs(scene_name, truth_result)
+        while pending:
+            for fut in executor.wait_first(pending.keys()):
+                r = pending.pop(fut)
+                result = fut.result()
+                progress.step(f"{r.scene.name}: {'truth' if r.reference else from_spec(r.spec).short_label()}")
+                if not result["ok"]:
+                    failed[(r.scene.name, r.spec)] = result["error"]
+                    if r.reference:
+                        for c in waiting.pop(r.scene.name, []):
+                            failed[(c.scene.name, c.spec)] = f"not run: the ground truth failed ({result['error']})"
+                            progress.step(f"{c.scene.name}: skipped")
+                    continue
+                cache.store_result(r.acc_key, result)
+                if r.reference:
+                    submit_configs(r.scene.name, result)
+    except BaseException:
+        if hasattr(executor, "kill"):
+            executor.kill()
+        raise
+
+
+def _timing_phase(executor, suite, todo_time, cache: Cache, failed: dict, progress) -> None:
+    """Each timing task alone: submitted only when the previous one has returned."""
+    from .tasks import run_task
+
+    try:
+        for r in sorted(todo_time, key=lambda r: (r.scene.name, not r.reference)):
+            result = executor.submit(run_task, _task(r, suite, "timing", repeat=suite.repeat, warmup=suite.warmup,
+                                                     pass_timing=suite.pass_timing)).result()
+            progress.step(f"timing {r.scene.name}: {'truth' if r.reference else from_spec(r.spec).short_label()}")
+            if not result["ok"]:
+                failed[(r.scene.name, r.spec)] = f"timing failed: {result['error']}"
+                continue
+            cache.store_timing(r.time_key, result["meta"])
+    except BaseException:
+        if hasattr(executor, "kill"):
+            executor.kill()
+        raise
+
+
+def _timing_sentence(suite: Suite, renderer: str, dask) -> str:
+    where = ("one task at a time on the Dask cluster (no other task of this study running)" if dask is not None
+             else f"one task at a time in one worker process with LP_NUM_THREADS={cores()}")
+    return (f"separate timing phase after all accuracy work: each configuration set up and rendered alone, {where}; "
+            f"{timing.method_for(renderer)}; {suite.repeat} repeats after {suite.warmup} warm-up")
+
+
+def _failed_row(scene, spec: str, error: str, light: int, suite: Suite, revision: str, renderer: str) -> dict:
+    tech = from_spec(spec)
+    return {"scene": scene.name, "light": light, "technique": tech.name, "params": tech.params_string(),
+            "label": tech.spec(), "short_label": tech.short_label(), "reference": spec == suite.truth,
+            "config": suite.config_name(spec),
+            "width": suite.size[0], "height": suite.size[1], "scene_family": scene.family, "status": "failed",
+            "error": error, "run_dir": "", "revision": revision, "renderer": renderer}
+
+
+def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, out: Path, revision: str,
+              record: dict) -> tuple[pd.DataFrame, int]:
+    """Per scene: rows with timings, the run directory; all rows as results.csv's DataFrame."""
+    all_rows, written = [], 0
+    by_scene: dict[str, list[_Run]] = {}
+    for r in runs:
+        by_scene.setdefault(r.scene.name, []).append(r)
+    for name, scene_runs in by_scene.items():
+        scene = scene_runs[0].scene
+        run_dir = f"runs/{safe_name(name)}"
+        truth_run = scene_runs[0]
+        truth = None if (name, truth_run.spec) in failed else cache.load_result(truth_run.acc_key)
+        lights = truth["meta"]["lights"] if truth else 1
+        sr = rundir.SceneRuns(name, truth, {})
+        rows = []
+        for r in scene_runs:
+            res = truth if r.reference else (None if (name, r.spec) in failed or truth is None
+                                             else cache.load_result(r.acc_key))
+            tim = cache.load_timing(r.time_key) if res is not None else None
+            if res is None or tim is None:
+                err = failed.get((name, r.spec), "no result (interrupted?)")
+                all_rows.extend(_failed_row(scene, r.spec, err, li, suite, provenance.revision(), record["renderer"])
+                                for li in range(lights))
+                continue
+            if not r.reference:
+                sr.configs[r.spec] = res
+            sr.keys += [r.acc_key, r.time_key]
+            stem = "ground_truth" if r.reference else rundir.image_stem(res["meta"]["rows"][0]["short_label"])
+            worst = None if r.reference else res["meta"].get("worst")
+            for li, (row, cols) in enumerate(zip(res["meta"]["rows"], tim["columns"])):
+                row = {**row, **cols}
+                extra = {"config": suite.config_name(r.spec), "scene_family": scene.family, "status": "ok", "error": "", "run_dir": run_dir,
+                         "revision": provenance.revision(), "renderer": record["renderer"]}
+                if li == 0:
+                    extra["shaded_image"] = f"{run_dir}/images/{stem}_shaded.png"
+                    if not r.reference:
+                        extra["error_image"] = f"{run_dir}/images/{stem}_error.png"
+                        extra["worst_errors"] = worst["count"] if worst else 0
+                        if worst and worst["count"]:
+                            extra["worst_crop_image"] = f"{run_dir}/images/{stem}_worst.png"
+                            extra["worst_box"] = ",".join(map(str, worst["box"]))
+                rows.append({**row, **extra})
+        if truth is not None and rows:
+            df = rundir.ordered(pd.DataFrame(rows))
+            metric_cols = [c for c in df.columns if c not in STUDY_COLUMNS]
+            written += rundir.write_run_dir(out / run_dir, sr, df[metric_cols], record)
+        all_rows.extend(rows)
+    results = pd.DataFrame(all_rows)
+    if len(results):
+        results = rundir.ordered(results)
+        front = [c for c in results.columns if c not in STUDY_COLUMNS]
+        results = results[front + [c for c in STUDY_COLUMNS if c in results.columns]]
+    return results, written
+
+
+def _write_study_files(out: Path, results: pd.DataFrame, meta: dict, record: dict) -> dict:
+    """results.csv, study.json and the report, each written to a temporary name and renamed."""
+    out.mkdir(parents=True, exist_ok=True)
+    tmp = out / f".results.csv.tmp-{os.getpid()}"
+    results.to_csv(tmp, index=False)
+    os.replace(tmp, out / "results.csv")
+    study = {**meta, "record": record, "date_finished": _dt.datetime.now().astimezone().isoformat(timespec="seconds")}
+    tmp = out / f".study.json.tmp-{os.getpid()}"
+    tmp.write_text(json.dumps(study, indent=2, default=str))
+    os.replace(tmp, out / "study.json")
+    from . import report as study_report
+
+    return study_report.write_study_report(out, results, meta)

@@ -1,0 +1,244 @@
+"""Suites (DESIGN §12): which scenes, which technique configurations, at what size and how often.
+
+A suite is a TOML file — shipped ones live in ``shadowlab/suites/`` and are named by their stem
+(``quick``), any other argument is a path::
+
+    name = "hard_shadows"
+    description = "..."            # optional
+    size = [800, 600]
+    repeat = 5                     # timed runs per configuration (timing phase)
+    warmup = 1                     # optional, untimed runs before them
+    pass_timing = false            # optional: also pass_<name>_ms columns
+    scenes = ["box_on_plane", "sm_grazing", "path/to/scene.toml"]
+    techniques = ["shadow_volume", "shadow_map:variant=slope", "planar"]
+
+    [[sweeps]]                     # optional: a grid over one technique's parameters
+    technique = "shadow_map"
+    resolution = [256, 512, 1024]  # a list is swept; a single value is held fixed
+    variant = ["constant", "slope"]
+    scenes = ["sm_grazing"]        # optional: only these scenes of the suite (default: all)
+
+Everything is checked when the suite is loaded, before any rendering: unknown keys, unknown
+scenes, unknown techniques or parameters and bad values raise :class:`SuiteError` naming the
+file and the entry. Scene files are resolved and parsed as TOML here; their objects and meshes
+are built by the runs themselves, so a mesh that cannot be loaded is a failed run, recorded with
+its error, not a refused suite.
+"""
+from __future__ import annotations
+
+import itertools
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+from ..techniques import TechniqueError, from_spec
+from ..techniques.base import format_value
+from ..techniques.raytrace import RayTraced
+from ..validation import SceneError, TableReader
+
+#: Scene-name prefixes → hard-case family (HARD_CASES.md), for the study's summary.
+FAMILIES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps", "rm_": "real meshes",
+            "rt_": "ground truth", "soft_": "soft shadows"}
+GENERAL_FAMILY = "general"
+
+
+class SuiteError(ValueError):
+    """A suite file is malformed or names an unknown scene, technique or parameter."""
+
+
+def scene_family(scene_name: str) -> str:
+    """The hard-case family of a scene, from its name's prefix (:data:`FAMILIES`)."""
+    for prefix, family in FAMILIES.items():
+        if scene_name.startswith(prefix):
+            return family
+    return GENERAL_FAMILY
+
+
+@dataclass(frozen=True)
+class SceneEntry:
+    """One scene of a suite: its name (the file stem), file and hard-case family."""
+
+    name: str
+    path: Path
+    family: str
+
+
+@dataclass
+class Suite:
+    """A validated suite. ``configurations`` maps each scene name to the canonical technique
+    specs (``Technique.spec()``) to run on it, in suite order, without duplicates."""
+
+    name: str
+    description: str
+    size: tuple[int, int]
+    repeat: int
+    warmup: int
+    pass_timing: bool
+    scenes: list[SceneEntry]
+    configurations: dict[str, list[str]]
+    truth: str = field(default_factory=lambda: RayTraced().spec())
+    file: str = "<suite>"
+    #: canonical spec → the configuration as the suite writes it (``"shadow_map:variant=slope"``,
+    #: a sweep's ``"shadow_map:resolution=256"``): a name that survives a change of defaults, so
+    #: a baseline keyed by it sees a changed default as a change of metrics, not a missing run.
+    written: dict[str, str] = field(default_factory=dict)
+
+    def config_name(self, spec: str) -> str:
+        """The configuration ``spec`` as written in the suite (the truth: its technique name)."""
+        return self.written.get(spec, spec.split(":")[0] if spec == self.truth else spec)
+
+    def runs(self) -> int:
+        """Number of (scene, configuration) runs, the ground truths not counted."""
+        return sum(len(c) for c in self.configurations.values())
+
+
+def builtin_suite_dir() -> Path:
+    """The folder of the shipped suites (package data)."""
+    return Path(str(resources.files("shadowlab.suites")))
+
+
+def builtin_suites() -> dict[str, Path]:
+    """Shipped suites: name (file stem) → path."""
+    return {p.stem: p for p in sorted(builtin_suite_dir().glob("*.toml"))}
+
+
+def resolve_suite_path(ref: str | Path) -> Path:
+    """A shipped suite's name or a path to a suite file → its path (SuiteError if neither)."""
+    shipped = builtin_suites()
+    if str(ref) in shipped:
+        return shipped[str(ref)]
+    path = Path(ref)
+    if path.is_file():
+        return path
+    raise SuiteError(f"{ref}: no such suite file, and not a shipped suite ({', '.join(shipped)})")
+
+
+def load_suite(ref: str | Path) -> Suite:
+    """Load and validate a suite by shipped name or path (SuiteError on any problem)."""
+    path = resolve_suite_path(ref)
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise SuiteError(f"{path}: not valid TOML: {exc}") from exc
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SuiteError(f"{path}: cannot read: {exc}") from exc
+    try:
+        return parse_suite(data, str(path), path.parent)
+    except SceneError as exc:  # TableReader's errors name file and key already
+        raise SuiteError(str(exc)) from exc
+
+
+def _string_list(rd: TableReader, key: str, default=None) -> list[str]:
+    val = rd.raw(key, default)
+    if not isinstance(val, list) or not all(isinstance(v, str) for v in val):
+        raise rd.error(key, f"must be a list of strings, got {val!r}")
+    return val
+
+
+def _scene(ref: str, where: str, file: str, base: Path) -> SceneEntry:
+    """Resolve a scene reference (shipped name, or a path relative to the suite file) and check
+    that it is a readable TOML file."""
+    from ..scene import builtin_scenes
+
+    shipped = builtin_scenes()
+    candidates = [base / ref, Path(ref)]
+    if ref in shipped:
+        path = shipped[ref]
+    elif any(c.is_file() for c in candidates):
+        path = next(c for c in candidates if c.is_file())
+    else:
+        raise SuiteError(f"{file}: {where}: unknown scene {ref!r} (not a shipped scene — see 'shadowlab scenes' — "
+                         f"and no file {candidates[0]})")
+    try:
+        data = tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:
+        raise SuiteError(f"{file}: {where}: scene file {path} cannot be read as TOML: {exc}") from exc
+    name = data.get("name", path.stem) if isinstance(data.get("name", path.stem), str) else path.stem
+    return SceneEntry(name, path.resolve(), scene_family(name))
+
+
+def _spec(spec: str, where: str, file: str, written: dict[str, str]) -> str:
+    """The canonical spec of ``spec`` (SuiteError naming the entry if it is not a technique);
+    records how the suite wrote it in ``written`` (first writing wins)."""
+    try:
+        canonical = from_spec(spec).spec()
+    except TechniqueError as exc:
+        raise SuiteError(f"{file}: {where}: {exc}") from None
+    written.setdefault(canonical, spec.strip())
+    return canonical
+
+
+def _sweep_specs(table, where: str, file: str, scene_names: set[str],
+                 written: dict[str, str]) -> tuple[list[str], list[str] | None]:
+    """A ``[[sweeps]]`` table → (canonical specs of its grid, the scenes it is limited to or None)."""
+    if not isinstance(table, dict):
+        raise SuiteError(f"{file}: {where}: must be a table")
+    if "technique" not in table or not isinstance(table["technique"], str):
+        raise SuiteError(f"{file}: {where}.technique: required, the name of a technique")
+    name = table["technique"]
+    scenes = table.get("scenes")
+    if scenes is not None:
+        if not isinstance(scenes, list) or not all(isinstance(s, str) for s in scenes):
+            raise SuiteError(f"{file}: {where}.scenes: must be a list of scene names")
+        unknown = [s for s in scenes if s not in scene_names]
+        if unknown:
+            raise SuiteError(f"{file}: {where}.scenes: {unknown[0]!r} is not one of the suite's scenes")
+    axes = {k: (v if isinstance(v, list) else [v]) for k, v in table.items() if k not in ("technique", "scenes")}
+    for key, values in axes.items():
+        if not values:
+            raise SuiteError(f"{file}: {where}.{key}: empty list")
+        if any(isinstance(v, (dict, list)) for v in values):
+            raise SuiteError(f"{file}: {where}.{key}: values must be numbers, strings or booleans")
+    specs = []
+    for combo in itertools.product(*axes.values()):
+        params = ",".join(f"{k}={format_value(v)}" for k, v in zip(axes, combo))
+        specs.append(_spec(f"{name}:{params}" if params else name, f"{where} ({params})", file, written))
+    return specs, scenes
+
+
+def parse_suite(data: dict, file: str = "<suite>", base: Path | None = None) -> Suite:
+    """Build a :class:`Suite` from a parsed TOML dict (``base``: folder scene paths are relative to)."""
+    from ..run import RunError, check_size
+
+    base = base or Path.cwd()
+    rd = TableReader(data, "", file)
+    name = rd.string("name", default=Path(file).stem)
+    description = rd.string("description", default="")
+    size = rd.raw("size", [800, 600])
+    if not (isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
+                                                               for v in size)):
+        raise rd.error("size", f"must be [width, height] in pixels, got {size!r}")
+    try:
+        size = check_size(tuple(size))
+    except RunError as exc:
+        raise rd.error("size", str(exc)) from None
+    repeat = rd.number("repeat", 5, min=1, integer=True)
+    warmup = rd.number("warmup", 1, min=0, integer=True)
+    pass_timing = rd.boolean("pass_timing", False)
+    scene_refs = _string_list(rd, "scenes")
+    if not scene_refs:
+        raise rd.error("scenes", "at least one scene is required")
+    scenes: list[SceneEntry] = []
+    for i, ref in enumerate(scene_refs):
+        entry = _scene(ref, f"scenes[{i}]", file, base)
+        if any(s.name == entry.name for s in scenes):
+            raise SuiteError(f"{file}: scenes[{i}]: scene {entry.name!r} listed twice")
+        scenes.append(entry)
+    written: dict[str, str] = {}
+    techniques = [_spec(s, f"techniques[{i}]", file, written)
+                  for i, s in enumerate(_string_list(rd, "techniques", []))]
+    sweeps = [_sweep_specs(t, f"sweeps[{i}]", file, {s.name for s in scenes}, written)
+              for i, t in enumerate(rd.table_list("sweeps", []))]
+    rd.finish()
+    truth = RayTraced().spec()
+    configurations = {}
+    for s in scenes:
+        specs = list(techniques)
+        for sweep_specs, only in sweeps:
+            if only is None or s.name in only:
+                specs.extend(sweep_specs)
+        configurations[s.name] = [sp for sp in dict.fromkeys(specs) if sp != truth]
+    if not any(configurations.values()):
+        raise SuiteError(f"{file}: no technique configurations (give techniques or [[sweeps]])")
+    return Suite(name, description, size, repeat, warmup, pass_timing, scenes, configurations, truth, file, written)

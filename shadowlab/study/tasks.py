@@ -1,0 +1,213 @@
+"""What a study's workers do (DESIGN §13): the ground truth of a scene, one configuration's
+visibility and metrics, or one configuration's timing — each a picklable task dict in, a
+picklable result dict out, so the same functions run in a local process pool and on a Dask
+cluster.
+
+Each worker process makes one GL context (on first use, through :func:`shadowlab.gl.context`)
+and reuses it, with the frames (G-buffers) of the scenes it last worked on. GL contexts belong
+to a thread, and a Dask worker may run tasks on several threads, so every task runs on one
+dedicated GL thread of the process.
+
+Results: ``{"ok": bool, "error": str, "seconds": float, "meta": dict, "arrays": {name: ndarray},
+"files": {name: PNG bytes}}`` (the layout :class:`shadowlab.study.cache.Cache` stores).
+"""
+from __future__ import annotations
+
+import os
+import threading
+import time
+import traceback
+from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+#: Frames kept per worker (each holds a G-buffer and the scene's geometry).
+FRAMES_KEPT = 2
+#: The worst-region crop: side = this fraction of the image's smaller side (at least MIN_CROP
+#: pixels), enlarged to about CROP_DISPLAY pixels.
+CROP_FRACTION, MIN_CROP, CROP_DISPLAY = 1 / 8, 16, 192
+
+_TIMING_COLUMNS = ("time_ms_median", "time_ms_iqr", "time_repeats", "gpu_time_ms_median")
+_gl_thread: ThreadPoolExecutor | None = None
+_gl_thread_lock = threading.Lock()
+_frames: OrderedDict = OrderedDict()
+
+
+def init_worker(threads: int | None) -> None:
+    """Process-pool initializer: llvmpipe's rasteriser threads for this worker (``LP_NUM_THREADS``,
+    read when the GL context is made), and Ctrl-C left to the main process, which stops the pool."""
+    import signal
+
+    if threads:
+        os.environ["LP_NUM_THREADS"] = str(int(threads))
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def run_task(task: dict) -> dict:
+    """Run one task on this process's GL thread; never raises: a failure is a result with
+    ``ok`` False and the error (type, message and where it happened)."""
+    global _gl_thread
+    with _gl_thread_lock:
+        if _gl_thread is None:
+            _gl_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shadowlab-gl")
+    return _gl_thread.submit(_run_here, task).result()
+
+
+def _run_here(task: dict) -> dict:
+    t0 = time.perf_counter()
+    try:
+        result = {"truth": _truth, "config": _config, "timing": _timing}[task["kind"]](task)
+        result.update(ok=True, error="")
+    except Exception as exc:  # noqa: BLE001 - recorded as the run's error, the study goes on
+        where = traceback.extract_tb(exc.__traceback__)[-1]
+        result = {"ok": False, "error": f"{type(exc).__name__}: {exc} (at {os.path.basename(where.filename)}:"
+                                        f"{where.lineno})", "meta": {}, "arrays": {}, "files": {}}
+        _forget_frames()  # a failure may leave GL in a bad state; start the next task afresh
+    result["seconds"] = time.perf_counter() - t0
+    result["pid"] = os.getpid()
+    return result
+
+
+def _frame(task: dict):
+    """The worker's frame of the task's scene at its size (built on first use, kept for the next
+    tasks of the same scene)."""
+    from ..frame import Frame
+    from ..scene import load_scene
+
+    key = (task["scene_hash"], tuple(task["size"]))
+    if key in _frames:
+        _frames.move_to_end(key)
+        return _frames[key]
+    while len(_frames) >= FRAMES_KEPT:
+        _, old = _frames.popitem(last=False)
+        old.release()
+    frame = Frame(load_scene(task["scene_path"]), *task["size"])
+    _frames[key] = frame
+    return frame
+
+
+def _forget_frames() -> None:
+    while _frames:
+        _, frame = _frames.popitem(last=False)
+        try:
+            frame.release()
+        except Exception:  # noqa: BLE001 - releasing after a failure is best effort
+            pass
+
+
+def _accuracy_row(row: dict) -> dict:
+    """A metrics row without its time columns (the timing phase supplies those)."""
+    return {k: v for k, v in row.items() if k not in _TIMING_COLUMNS}
+
+
+def _images(frame, visibilities, truth0):
+    """PNG bytes of the shaded image, the first light's visibility and (given the truth)
+    the error map and the magnified crop of its worst region, with that region's box and count."""
+    from .. import metrics, report
+    from ..shading import Shader
+
+    shader = Shader(frame)
+    try:
+        shaded = report.to_display(shader.shade(list(visibilities)), frame.covered)
+    finally:
+        shader.release()
+    ev0 = frame.evaluated(0)
+    files = {"shaded.png": report.encode_png(shaded),
+             "visibility.png": report.encode_png(report.visibility_picture(visibilities[0], ev0, frame.covered))}
+    worst = None
+    if truth0 is not None:
+        classes = metrics.error_classes(visibilities[0], truth0, ev0)
+        error_rgb = report.error_picture(classes, shaded)
+        files["error.png"] = report.encode_png(error_rgb)
+        window = max(MIN_CROP, int(round(min(frame.width, frame.height) * CROP_FRACTION)))
+        box, count = report.worst_region((classes == 3) | (classes == 4), window)
+        worst = {"box": list(box), "count": count}
+        if count:
+            factor = max(1, CROP_DISPLAY // window)
+            files["worst.png"] = report.encode_png(report.magnified(error_rgb, box, factor))
+            worst["factor"] = factor
+    return files, worst
+
+
+def _truth(task: dict) -> dict:
+    """The ground truth of every light of a scene, with what the configurations of that scene
+    need to be judged: the truth's visibility per light (float32 (H, W), row 0 = top)."""
+    from ..pipeline import Evaluator
+    from ..techniques import from_spec
+
+    frame = _frame(task)
+    evaluator = Evaluator(frame, from_spec(task["spec"]), repeat=1, warmup=0)
+    lights = range(len(frame.scene.lights))
+    truths = [evaluator.truth(li) for li in lights]
+    rows = [_accuracy_row(evaluator.row(m, reference=True)) for m in truths]
+    files, _ = _images(frame, [m.visibility for m in truths], None)
+    ev0 = frame.evaluated(0)
+    arrays = {f"truth_{li}": m.visibility.astype(np.float32) for li, m in zip(lights, truths)}
+    arrays["mask_0"] = np.where(ev0, truths[0].visibility, np.nan).astype(np.float32)
+    cam = frame.camera
+    notes = [f"{frame.degenerate_triangles} degenerate (zero-area) triangles in the scene"] \
+        if frame.degenerate_triangles else []
+    meta = {"rows": rows, "notes": notes + list(dict.fromkeys(evaluator.truth_technique.notes)),
+            "scene": frame.scene.describe(), "lights": len(lights),
+            "camera": {"eye": cam.eye.tolist(), "target": cam.target.tolist(), "fov_y": cam.fov_y,
+                       "near": cam.near, "far": cam.far}}
+    return {"meta": meta, "arrays": arrays, "files": files}
+
+
+def _config(task: dict) -> dict:
+    """One configuration on every light of a scene: visibility, metrics rows against the given
+    truth (``task["truth"]``: one float32 (H, W) image per light), cost figures, notes, images."""
+    from ..pipeline import Evaluator, measure
+    from ..techniques import from_spec
+
+    frame = _frame(task)
+    evaluator = Evaluator(frame)
+    for li, vis in enumerate(task["truth"]):
+        evaluator.use_truth(li, vis)
+    tech = from_spec(task["spec"])
+    ms = [measure(tech, frame, li, repeat=1, warmup=0) for li in range(len(frame.scene.lights))]
+    rows = [_accuracy_row(evaluator.row(m)) for m in ms]
+    for row, m in zip(rows, ms):
+        row["notes"] = "; ".join(m.notes)
+    files, worst = _images(frame, [m.visibility for m in ms], task["truth"][0])
+    ev0 = frame.evaluated(0)
+    arrays = {"mask_0": np.where(ev0, ms[0].visibility, np.nan).astype(np.float32)}
+    meta = {"rows": rows, "notes": list(dict.fromkeys(tech.notes)), "worst": worst}
+    return {"meta": meta, "arrays": arrays, "files": files}
+
+
+def _timing(task: dict) -> dict:
+    """Times one configuration (or the truth) on every light of a scene: ``repeat`` timed renders
+    after ``warmup`` untimed ones (:func:`shadowlab.pipeline.measure`), per light."""
+    from ..pipeline import measure
+    from ..techniques import from_spec
+
+    frame = _frame(task)
+    tech = from_spec(task["spec"])
+    columns = []
+    for li in range(len(frame.scene.lights)):
+        m = measure(tech, frame, li, repeat=task["repeat"], warmup=task["warmup"],
+                    pass_timing=task.get("pass_timing", False))
+        columns.append({**m.timing.columns(), **m.pass_times})
+    return {"meta": {"columns": columns, "lp_num_threads": os.environ.get("LP_NUM_THREADS")},
+            "arrays": {}, "files": {}}
+
+
+def probe_here() -> dict:
+    """The GL device of this process's lab context, on the calling thread (the thread that made
+    the context, or will: a GL context is current on one thread only)."""
+    from .. import gl
+
+    return {"renderer": gl.renderer(), "device": gl.device(), "gl": gl.gl_info(),
+            "lp_num_threads": os.environ.get("LP_NUM_THREADS"), "pid": os.getpid()}
+
+
+def probe(_: object = None) -> dict:
+    """The GL device of the worker that runs it (cache keys name the renderer), on the worker's
+    GL thread, where its tasks run."""
+    global _gl_thread
+    with _gl_thread_lock:
+        if _gl_thread is None:
+            _gl_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shadowlab-gl")
+    return _gl_thread.submit(probe_here).result()

@@ -1,0 +1,1 @@
+"""Shipped study suites (TOML, DESIGN §12): ``shadowlab suites`` lists them."""

@@ -1,0 +1,282 @@
+"""The study (DESIGN §12–13): suite validation, parallel and Dask runs that agree with one
+worker, the cache (repeat, change, force, interruption), failed runs, and the baseline check."""
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from shadowlab import cli
+from shadowlab.metrics import RATE_TOLERANCE
+from shadowlab.study import check as chk
+from shadowlab.study.runner import Progress, run_study
+from shadowlab.study.suite import SuiteError, builtin_suites, load_suite
+
+#: Error metrics that must agree exactly between ways of running a study.
+EXACT = ["evaluated_pixels", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
+         "visibility_mae", "contact_gap_px", "false_shadow_pixels", "false_lit_pixels"]
+
+SMALL = """
+name = "small"
+size = [96, 72]
+repeat = 1
+warmup = 0
+scenes = ["box_on_plane", "sv_camera_in_shadow"]
+techniques = ["shadow_volume:mode=zpass", "planar"]
+[[sweeps]]
+technique = "shadow_map"
+resolution = [64, 512]
+scenes = ["box_on_plane"]
+"""
+
+
+def write_suite(tmp_path: Path, text: str = SMALL, name: str = "suite.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def metrics_of(results: pd.DataFrame) -> pd.DataFrame:
+    ok = results[results["status"] == "ok"].sort_values(["scene", "label", "light"])
+    return ok[["scene", "label", "light"] + [c for c in EXACT if c in ok.columns]].reset_index(drop=True)
+
+
+# ----------------------------------------------------------------------------- suites
+
+def test_shipped_suites_load_and_cover_every_family():
+    from shadowlab.techniques import REGISTRY
+
+    suites = builtin_suites()
+    assert {"quick", "hard_shadows", "real_meshes"} <= set(suites)
+    for name in suites:
+        suite = load_suite(name)
+        assert suite.runs() > 0
+    quick = load_suite("quick")
+    families = {spec.split(":")[0] for specs in quick.configurations.values() for spec in specs}
+    assert families == set(REGISTRY) - {"raytrace"}
+
+
+def test_sweeps_expand_to_canonical_specs_on_their_scenes_only(tmp_path):
+    suite = load_suite(write_suite(tmp_path))
+    box = suite.configurations["box_on_plane"]
+    assert len(box) == 4 and len(suite.configurations["sv_camera_in_shadow"]) == 2
+    assert any(s.startswith("shadow_map:resolution=64,") for s in box)
+    assert all(s.count("=") > 1 for s in box)  # full specs: every parameter written out
+    assert suite.scenes[1].family == "shadow volumes" and suite.scenes[0].family == "general"
+
+
+@pytest.mark.parametrize("text, where", [
+    (SMALL.replace('"box_on_plane", "sv_camera', '"no_such_scene", "sv_camera'), "scenes[0]"),
+    (SMALL.replace('"planar"]', '"planar", "shadow_mop"]'), "techniques[2]"),
+    (SMALL.replace('"planar"]', '"planar:stencli=false"]'), "techniques[1]"),
+    (SMALL.replace("resolution = [64, 512]", "resolution = [64, 512]\nbais = [0.1]"), "sweeps[0]"),
+    (SMALL.replace("resolution = [64, 512]", "resolution = [64, -5]"), "sweeps[0]"),
+    (SMALL.replace('scenes = ["box_on_plane"]\n', 'scenes = ["sm_grazing"]\n'), "sweeps[0].scenes"),
+    (SMALL.replace("repeat = 1", "repaet = 1"), "repaet"),
+    (SMALL.replace("size = [96, 72]", "size = [0, 72]"), "size"),
+])
+def test_bad_suites_name_the_file_and_entry(tmp_path, text, where):
+    path = write_suite(tmp_path, text)
+    with pytest.raises(SuiteError) as info:
+        load_suite(path)
+    assert str(path) in str(info.value) and where in str(info.value)
+
+
+def test_bad_suite_exits_2_before_rendering(tmp_path, capsys):
+    path = write_suite(tmp_path, SMALL.replace('"planar"]', '"planar:bogus=1"]'))
+    out = tmp_path / "study"
+    assert cli.main(["study", str(path), "--out", str(out)]) == cli.EXIT_BAD_INPUT
+    assert "techniques[1]" in capsys.readouterr().err
+    assert not out.exists()
+    assert cli.main(["study", "no_such_suite"]) == cli.EXIT_BAD_INPUT
+
+
+# ----------------------------------------------------------------------------- running
+
+@pytest.fixture(scope="module")
+def one_worker(tmp_path_factory):
+    """The small suite run with one worker (the reference the other runs must equal)."""
+    tmp = tmp_path_factory.mktemp("study1")
+    path = write_suite(tmp)
+    outcome = run_study(path, out=tmp / "out", workers=1, log=lambda _: None)
+    return path, outcome
+
+
+def test_study_writes_the_contract(one_worker):
+    _, outcome = one_worker
+    out, res = outcome.out, outcome.results
+    assert not outcome.failed
+    for name in ("results.csv", "study.json", "pareto.png", "study.html", "summary.md"):
+        assert (out / name).is_file(), name
+    for col in ("run_dir", "revision", "renderer", "status", "scene_family", "error_rate", "time_ms_median"):
+        assert col in res.columns
+    assert len(res) == 2 * 1 + 4 + 2  # per scene: the truth and each configuration (one light each)
+    for scene in ("box_on_plane", "sv_camera_in_shadow"):
+        run = out / "runs" / scene
+        metrics = pd.read_csv(run / "metrics.csv")
+        masks = np.load(run / "masks.npz")
+        assert set(metrics["label"]) == set(masks.files) - {"ground_truth"} | {metrics["label"][0]}
+        assert (run / "report.html").is_file() and (run / "run.json").is_file()
+        assert masks["ground_truth"].shape == (72, 96)
+    # the truth's own rows are exact, and z-pass fails where the camera is in shadow (SV1)
+    zpass = res[(res["scene"] == "sv_camera_in_shadow") & (res["technique"] == "shadow_volume")]
+    assert zpass["error_rate"].iloc[0] > 0.5
+    assert (res[res["reference"]]["error_rate"] == 0).all()
+    # every wrong configuration points at a magnified crop of its worst region
+    wrong = res[(~res["reference"]) & (res["worst_errors"] > 0)]
+    assert len(wrong) and all((out / p).is_file() for p in wrong["worst_crop_image"])
+
+
+def test_two_workers_give_the_same_metrics(one_worker, tmp_path):
+    path, ref = one_worker
+    two = run_study(path, out=tmp_path / "two", workers=2, log=lambda _: None)
+    pd.testing.assert_frame_equal(metrics_of(two.results), metrics_of(ref.results))
+
+
+def test_repeated_study_runs_nothing_and_changes_rerun_only_what_changed(one_worker, tmp_path):
+    _, ref = one_worker
+    path = write_suite(tmp_path)  # a copy of its own: this test edits the suite
+    out = tmp_path / "out"
+    shutil.copytree(ref.out, out)
+    again = run_study(path, out=out, workers=1, log=lambda _: None)
+    assert again.ran == 0 and again.cached == 8 * 2
+    # one more configuration: its accuracy and timing tasks only
+    path.write_text(SMALL.replace('"planar"]', '"planar", "shadow_volume:mode=zfail"]'))
+    more = run_study(path, out=out, workers=1, log=lambda _: None)
+    assert more.ran == 2 * 2  # one configuration on two scenes, each accuracy + timing
+    forced = run_study(path, out=out, workers=1, force=True, log=lambda _: None)
+    assert forced.ran == 10 * 2
+    pd.testing.assert_frame_equal(metrics_of(forced.results), metrics_of(more.results))
+
+
+class _Interrupt(Progress):
+    def __init__(self, after: int):
+        self.after, self.done = after, 0
+
+    def step(self, what: str) -> None:
+        self.done += 1
+        if self.done == self.after:
+            raise KeyboardInterrupt
+
+
+def test_interrupted_study_resumes_from_a_consistent_cache(one_worker, tmp_path):
+    path, ref = one_worker
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        run_study(path, out=out, workers=1, progress=_Interrupt(after=3), log=lambda _: None)
+    cached = list((out / "cache").rglob("*"))
+    assert not [p for p in cached if p.name.startswith(".")]  # no half-written entries
+    resumed = run_study(path, out=out, workers=1, log=lambda _: None)
+    assert 0 < resumed.cached < 16 and not resumed.failed
+    pd.testing.assert_frame_equal(metrics_of(resumed.results), metrics_of(ref.results))
+
+
+def test_a_failing_run_is_recorded_and_the_others_go_on(tmp_path, capsys):
+    broken = tmp_path / "broken_mesh.toml"
+    broken.write_text((Path(__file__).parent.parent / "shadowlab/scenes/box_on_plane.toml").read_text()
+                      .replace('mesh = "box"\nsize = [1.0, 1.0, 1.0]', 'mesh = "missing.obj"')
+                      .replace('name = "box_on_plane"', 'name = "broken_mesh"'))
+    text = SMALL.replace('"box_on_plane", "sv_camera_in_shadow"', f'"box_on_plane", "{broken}"') \
+                .replace('scenes = ["box_on_plane"]\n', "")
+    path = write_suite(tmp_path, text)
+    assert cli.main(["study", str(path), "--out", str(tmp_path / "out"), "--workers", "1"]) == 1
+    res = pd.read_csv(tmp_path / "out" / "results.csv")
+    bad = res[res["scene"] == "broken_mesh"]
+    assert len(bad) and (bad["status"] == "failed").all()
+    assert bad["error"].str.contains("missing.obj").all()
+    assert (res[res["scene"] == "box_on_plane"]["status"] == "ok").all()
+    assert "FAILED" in capsys.readouterr().out
+
+
+def test_dask_local_cluster_gives_the_local_results(one_worker, tmp_path):
+    distributed = pytest.importorskip("distributed")
+    path, ref = one_worker
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        on_dask = run_study(path, out=tmp_path / "dask", dask=client, log=lambda _: None)
+    assert not on_dask.failed and on_dask.ran == 16
+    pd.testing.assert_frame_equal(metrics_of(on_dask.results), metrics_of(ref.results))
+
+
+# ----------------------------------------------------------------------------- baseline check
+
+def test_check_holds_the_baseline_and_catches_regressions(one_worker, tmp_path, capsys):
+    _, outcome = one_worker
+    base = tmp_path / "base.csv"
+    assert cli.main(["check", str(outcome.out), str(base), "--update"]) == 0
+    assert cli.main(["check", str(outcome.out), str(base)]) == 0
+    table = pd.read_csv(base)
+    # a baseline that was better than the study (as if the study had regressed)
+    worse = table.copy()
+    worse.loc[worse["label"].str.startswith("shadow_volume:mode=zpass"), "error_rate"] = 0.1
+    worse.to_csv(base, index=False)
+    capsys.readouterr()
+    assert cli.main(["check", str(outcome.out), str(base)]) == 1
+    printed = capsys.readouterr().out
+    assert "REGRESSIONS" in printed and "error_rate" in printed and "sv_camera_in_shadow" in printed
+    # a configuration the study no longer has is a regression too
+    extra = pd.concat([table, table.iloc[[0]].assign(config="shadow_map:gone")])
+    result = chk.check(outcome.results, extra)
+    assert list(result.regressions["problem"]) == ["missing from the study"]
+    # a configuration whose defaults changed is still the same configuration: its metrics are
+    # compared, and the new resolution is reported
+    respec = table.copy()
+    i = respec.index[respec["config"].str.startswith("shadow_map")][0]
+    assert "bias=0.002," in respec.loc[i, "label"]
+    respec.loc[i, "label"] = respec.loc[i, "label"].replace("bias=0.002,", "bias=0.02,")
+    result = chk.check(outcome.results, respec)
+    assert result.ok and len(result.respecified) == 1 and result.respecified[0].endswith("bias 0.02 → 0.002")
+    # within tolerance is fine: a change of half the absolute tolerance
+    nudged = table.copy()
+    nudged["error_rate"] = (nudged["error_rate"] - RATE_TOLERANCE[0] / 2).clip(lower=0)
+    assert chk.check(outcome.results, nudged).ok
+
+
+def test_check_rejects_what_is_not_a_baseline(one_worker, tmp_path):
+    _, outcome = one_worker
+    bogus = tmp_path / "bogus.csv"
+    bogus.write_text("scene,light,label,speed\nx,0,y,1\n")
+    assert cli.main(["check", str(outcome.out), str(bogus)]) == cli.EXIT_BAD_INPUT
+    assert cli.main(["check", str(tmp_path), str(bogus)]) == cli.EXIT_BAD_INPUT
+
+
+# ----------------------------------------------------------------------------- cache
+
+def test_cache_keys_follow_scene_content_meshes_and_code(tmp_path):
+    from shadowlab.study.cache import run_key, scene_content_hash
+
+    mesh = tmp_path / "m.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    scene = tmp_path / "s.toml"
+    scene.write_text('name = "s"\n[[objects]]\nmesh = "m.obj"\n')
+    h = scene_content_hash(scene)
+    mesh.write_text("v 0 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\n")
+    assert scene_content_hash(scene) != h  # the mesh is part of the scene's content
+    mesh.unlink()
+    assert scene_content_hash(scene) != h
+    base = dict(scene_hash="a", spec="shadow_map", size=(8, 8), revision="r1", renderer="llvmpipe")
+    key = run_key(**base)
+    assert key == run_key(**base)
+    for change in (dict(spec="planar"), dict(size=(8, 9)), dict(revision="r2"), dict(renderer="NVIDIA")):
+        assert run_key(**{**base, **change}) != key
+    assert run_key(**base, repeat=5) != run_key(**base, repeat=3)
+
+
+def test_cache_entries_round_trip_and_a_corrupt_entry_is_a_miss(tmp_path):
+    from shadowlab.study.cache import Cache
+
+    cache = Cache(tmp_path / "cache")
+    vis = np.linspace(0, 1, 12, dtype=np.float32).reshape(3, 4)
+    cache.store_result("k", {"meta": {"rows": [{"error_rate": 0.5, "x": float("nan")}]}, "arrays": {"mask_0": vis},
+                             "files": {"a.png": b"\x89PNG..."}})
+    back = cache.load_result("k")
+    assert back["meta"]["rows"][0]["error_rate"] == 0.5 and np.isnan(back["meta"]["rows"][0]["x"])
+    assert np.array_equal(back["arrays"]["mask_0"], vis) and back["files"]["a.png"] == b"\x89PNG..."
+    (tmp_path / "cache" / "acc" / "k.npz").write_bytes(b"truncated")
+    assert cache.load_result("k") is None
+    cache.store_timing("t", {"columns": [{"time_ms_median": 1.5}]})
+    assert cache.load_timing("t") == {"columns": [{"time_ms_median": 1.5}]}
+    assert cache.load_timing("missing") is None

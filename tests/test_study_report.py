@@ -1,0 +1,350 @@
+"""The study report (DESIGN §12): per-configuration pooling over lights, the Pareto front, the
+Pareto figure, summary.md and study.html — on a synthetic results table (no GL)."""
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from shadowlab.report import save_png
+from shadowlab.study import report as sr
+
+TRUTH = "raytrace:offset_scale=1e-06"
+#: A label with characters HTML must escape.
+ODD = 'planar:note=<b>&"x"'
+
+
+def _row(scene, family, light, spec, *, evaluated=1000, error=0.0, fs=None, fl=None, lit=None, time=1.0, iqr=0.1,
+         boundary=0.0, status="ok", err_msg=""):
+    tech = spec.split(":")[0]
+    lit = evaluated if lit is None else lit
+    fs = 0 if fs is None else fs        # wrong pixel counts
+    fl = round(error * evaluated) - fs if fl is None else fl
+    shadowed = evaluated - lit
+    row = {"scene": scene, "light": light, "technique": tech, "params": spec.partition(":")[2], "width": 64,
+           "height": 48, "evaluated_pixels": evaluated, "error_rate": error,
+           "false_shadow_rate": fs / lit if lit else 0.0, "false_lit_rate": fl / shadowed if shadowed else 0.0,
+           "boundary_error_px": boundary, "time_ms_median": time, "time_ms_iqr": iqr, "label": spec,
+           "short_label": "raytrace" if spec == TRUTH else spec, "reference": spec == TRUTH,
+           "truth_lit_pixels": lit, "truth_shadowed_pixels": shadowed, "false_shadow_pixels": fs,
+           "false_lit_pixels": fl, "scene_family": family, "status": status, "error": err_msg,
+           "run_dir": f"runs/{scene}" if status == "ok" else "", "revision": "abc123", "renderer": "llvmpipe",
+           "shaded_image": "", "error_image": "", "worst_crop_image": "", "worst_box": "", "worst_errors": math.nan}
+    if status != "ok":
+        for k in ("evaluated_pixels", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
+                  "time_ms_median", "time_ms_iqr", "truth_lit_pixels", "truth_shadowed_pixels",
+                  "false_shadow_pixels", "false_lit_pixels"):
+            row[k] = math.nan
+    return row
+
+
+def _with_images(root: Path, row: dict, worst: int | None) -> dict:
+    """Light-0 image columns, with tiny PNGs written under ``root`` (no crop when ``worst`` is 0)."""
+    stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", row["short_label"])
+    images = root / row["run_dir"] / "images"
+    images.mkdir(parents=True, exist_ok=True)
+    rgb = np.full((6, 8, 3), 0.5)
+    save_png(images / f"{stem}_shaded.png", rgb)
+    row["shaded_image"] = f"{row['run_dir']}/images/{stem}_shaded.png"
+    if row["reference"]:
+        return row
+    save_png(images / f"{stem}_error.png", rgb)
+    row["error_image"] = f"{row['run_dir']}/images/{stem}_error.png"
+    row["worst_errors"] = worst
+    if worst:
+        save_png(images / f"{stem}_worst.png", np.repeat(np.repeat(rgb[:2, :2], 8, 0), 8, 1))
+        row["worst_crop_image"] = f"{row['run_dir']}/images/{stem}_worst.png"
+        row["worst_box"] = "1,2,9,10"
+    return row
+
+
+def synthetic(root: Path | None = None) -> pd.DataFrame:
+    """Three scenes (one with two lights), the truth on each, a zero-error configuration, one
+    failed run, one configuration over the fail threshold; images under ``root`` if given."""
+    rows = []
+
+    def add(row, worst=None):
+        if root is not None and row["light"] == 0 and row["status"] == "ok":
+            row = _with_images(root, row, worst)
+        rows.append(row)
+
+    # box_on_plane (general), one light of 1000 evaluated pixels
+    add(_row("box_on_plane", "general", 0, TRUTH, time=50.0, iqr=1.0))
+    add(_row("box_on_plane", "general", 0, "shadow_map", error=0.02, fs=5, time=2.0, iqr=0.2, lit=800), worst=7)
+    add(_row("box_on_plane", "general", 0, "shadow_volume", error=0.0, time=4.0, lit=800), worst=0)
+    add(_row("box_on_plane", "general", 0, "planar", error=0.005, fs=1, time=1.0, lit=800), worst=3)
+    # sv_two_lights (shadow volumes): light 0 has 1000 evaluated pixels, light 1 has 3000
+    for li, ev, lit in ((0, 1000, 800), (1, 3000, 1000)):
+        add(_row("sv_two_lights", "shadow volumes", li, TRUTH, evaluated=ev, lit=lit, time=30.0, iqr=2.0))
+    add(_row("sv_two_lights", "shadow volumes", 0, "shadow_volume", evaluated=1000, lit=800, error=0.01, fs=4,
+             time=3.0, iqr=0.1, boundary=1.0), worst=6)
+    add(_row("sv_two_lights", "shadow volumes", 1, "shadow_volume", evaluated=3000, lit=1000, error=0.002, fs=2,
+             time=5.0, iqr=0.3, boundary=3.0))
+    add(_row("sv_two_lights", "shadow volumes", 0, "shadow_map", evaluated=1000, lit=800, error=0.03, time=1.5),
+        worst=20)
+    add(_row("sv_two_lights", "shadow volumes", 1, "shadow_map", evaluated=3000, lit=1000, error=0.01, time=1.5))
+    for li in (0, 1):
+        add(_row("sv_two_lights", "shadow volumes", li, "planar", status="failed",
+                 err_msg="RuntimeError: no planar receiver <here>"))
+    # sm_thin (shadow maps)
+    add(_row("sm_thin", "shadow maps", 0, TRUTH, time=40.0))
+    add(_row("sm_thin", "shadow maps", 0, "shadow_map", error=0.001, time=2.0, lit=900), worst=1)
+    add(_row("sm_thin", "shadow maps", 0, "shadow_volume", error=0.003, time=3.0, lit=900), worst=2)
+    add(_row("sm_thin", "shadow maps", 0, "planar", error=0.2, time=0.5, lit=900), worst=90)
+    add(_row("sm_thin", "shadow maps", 0, ODD, error=0.05, time=0.7, lit=900), worst=40)
+    if root is not None:
+        for scene in ("box_on_plane", "sv_two_lights", "sm_thin"):
+            (root / "runs" / scene / "report.html").write_text("<html></html>")
+    return pd.DataFrame(rows)
+
+
+META = {"name": "synthetic <suite>", "description": "a made-up study & its report", "size": [64, 48], "repeat": 3,
+        "warmup": 1, "device": "llvmpipe (test)", "revision": "abc123", "date": "2026-01-01T00:00:00+00:00",
+        "timing": "wall clock around ctx.finish()", "workers": 2, "elapsed_s": 12.5, "runs": 14, "cached": 3,
+        "failed": 1, "suite_file": "/somewhere/suite.toml"}
+
+
+def _cfg(results, scene, label) -> pd.Series:
+    c = sr.per_configuration(results)
+    hit = c[(c["scene"] == scene) & (c["label"] == label)]
+    assert len(hit) == 1
+    return hit.iloc[0]
+
+
+# ----------------------------------------------------------------------------- per configuration
+
+def test_per_configuration_pools_lights():
+    res = synthetic()
+    cfg = sr.per_configuration(res)
+    # one row per (scene, label) that ran: 4 + 3 (planar failed) + 5
+    assert len(cfg) == 12
+    assert list(cfg.columns) == sr.CONFIG_COLUMNS
+    sv = _cfg(res, "sv_two_lights", "shadow_volume")
+    assert sv["lights"] == 2 and sv["evaluated_pixels"] == 4000
+    assert sv["time_ms"] == pytest.approx(8.0)            # 3 + 5: a frame renders both lights
+    assert sv["time_iqr_ms"] == pytest.approx(0.4)
+    assert sv["error_rate"] == pytest.approx(16 / 4000)   # (10 + 6) wrong of 4000, not mean(1 %, 0.2 %)
+    assert sv["false_shadow_rate"] == pytest.approx(6 / 1800)   # by truly lit pixels 800 + 1000
+    assert sv["false_lit_rate"] == pytest.approx(10 / 2200)     # by truly shadowed pixels 200 + 2000
+    assert sv["boundary_error_px"] == pytest.approx(2.0)
+    assert sv["wrong_pixels"] == 16
+    assert sv["scene_family"] == "shadow volumes" and sv["technique"] == "shadow_volume"
+    truth = _cfg(res, "sv_two_lights", TRUTH)
+    assert bool(truth["reference"]) and truth["time_ms"] == pytest.approx(60.0)
+    sm = _cfg(res, "sv_two_lights", "shadow_map")
+    assert sm["error_rate"] == pytest.approx(60 / 4000)
+
+
+def test_per_configuration_without_count_columns_weights_by_evaluated_pixels():
+    res = synthetic().drop(columns=["truth_lit_pixels", "truth_shadowed_pixels"])
+    sv = _cfg(res, "sv_two_lights", "shadow_volume")
+    assert sv["false_shadow_rate"] == pytest.approx((4 / 800 * 1000 + 2 / 1000 * 3000) / 4000)
+    assert sv["error_rate"] == pytest.approx(16 / 4000)
+
+
+def test_per_configuration_nan_time_and_csv_round_trip(tmp_path):
+    res = synthetic()
+    res.loc[(res["scene"] == "sv_two_lights") & (res["label"] == "shadow_volume") & (res["light"] == 1),
+            "time_ms_median"] = math.nan
+    assert math.isnan(_cfg(res, "sv_two_lights", "shadow_volume")["time_ms"])
+    # read back from results.csv: reference as text or bool, empty strings as NaN
+    res = synthetic(tmp_path)
+    res.to_csv(tmp_path / "results.csv", index=False)
+    back = pd.read_csv(tmp_path / "results.csv")
+    a, b = sr.per_configuration(res), sr.per_configuration(back)
+    assert a["label"].tolist() == b["label"].tolist()
+    assert b["reference"].tolist() == a["reference"].tolist()
+    np.testing.assert_allclose(a["error_rate"], b["error_rate"])
+    np.testing.assert_allclose(a["time_ms"], b["time_ms"])
+
+
+def test_failed_runs_one_row_per_configuration():
+    f = sr.failed_runs(synthetic())
+    assert f[["scene", "label"]].values.tolist() == [["sv_two_lights", "planar"]]
+    assert f["error"].iloc[0] == "RuntimeError: no planar receiver <here>"
+
+
+# ----------------------------------------------------------------------------- Pareto front
+
+def test_pareto_front_hand_made():
+    t = [1, 2, 3, 2, 4, 4, 5, np.nan, 0.5]
+    e = [5, 3, 4, 3, 1, 2, 1, 0.1, np.nan]
+    # (3,4) dominated by (2,3); the two (2,3) tie and are both kept; (4,2) and (5,1) dominated by (4,1);
+    # NaN points are never on the front
+    assert sr.pareto_front(t, e).tolist() == [True, True, False, True, True, False, False, False, False]
+    assert sr.pareto_front([7.0], [0.2]).tolist() == [True]
+    assert sr.pareto_front([], []).tolist() == []
+    assert sr.pareto_front([1, 1], [0, 0]).tolist() == [True, True]
+    with pytest.raises(ValueError):
+        sr.pareto_front([1, 2], [1])
+
+
+# ----------------------------------------------------------------------------- Pareto figure
+
+def _panels(fig):
+    return {ax.get_title().split()[0]: ax for ax in fig.axes if ax.axison}
+
+
+def _gid(ax, gid):
+    return [ln for ln in ax.lines if ln.get_gid() == gid]
+
+
+def test_pareto_figure_content():
+    fig = sr.pareto_figure(synthetic())
+    panels = _panels(fig)
+    assert list(panels) == ["box_on_plane", "sv_two_lights", "sm_thin"]
+    box = panels["box_on_plane"]
+    assert box.get_xscale() == "log" and box.get_yscale() == "log"
+    # the truth is a vertical line at its time, not a point
+    (truth,) = _gid(box, "truth")
+    assert truth.get_xdata()[0] == pytest.approx(50.0)
+    # zero error drawn at half a pixel of 1000 evaluated pixels, in percent
+    (floor,) = _gid(box, "zero-floor")
+    assert floor.get_ydata()[0] == pytest.approx(100 * 0.5 / 1000)
+    # front: planar (1 ms, 0.5 %) and shadow_volume (4 ms, 0 → floor); shadow_map (2 ms, 2 %) is dominated
+    (front,) = _gid(box, "pareto-front")
+    x, y = front.get_xdata(), front.get_ydata()
+    assert x[1:3].tolist() == [1.0, 4.0] and y[1:3] == pytest.approx([0.5, 0.05])
+    assert x[0] == 1.0 and y[0] >= 0.5 and y[-1] == pytest.approx(0.05)   # staircase from the top, to the right
+    # the failed configuration is named in its panel; the two-light scene's truth time is summed
+    sv = panels["sv_two_lights"]
+    texts = " ".join(t.get_text() for t in sv.texts)
+    assert "failed: planar" in texts
+    assert _gid(sv, "truth")[0].get_xdata()[0] == pytest.approx(60.0)
+    # one legend for the figure, by technique family
+    (legend,) = fig.legends
+    labels = [t.get_text() for t in legend.get_texts()]
+    assert labels[:3] == ["shadow_map", "shadow_volume", "planar"]
+    assert any("no wrong pixel" in s for s in labels)
+
+
+def test_pareto_plot_one_and_many_scenes(tmp_path):
+    import matplotlib.image as mpimg
+
+    one = synthetic()
+    one = one[one["scene"] == "sm_thin"]
+    p1 = sr.pareto_plot(one, tmp_path / "one.png")
+    many = pd.concat([_row_frame(f"scene_{k:02d}", k) for k in range(30)], ignore_index=True)
+    fig = sr.pareto_figure(many)
+    assert len(_panels(fig)) == 30
+    p30 = sr.pareto_plot(many, tmp_path / "many.png")
+    h1, w1 = mpimg.imread(p1).shape[:2]
+    h30, w30 = mpimg.imread(p30).shape[:2]
+    assert h30 > 4 * h1   # the figure grows with the rows (8 rows of 4 panels)
+    assert w30 > w1
+
+
+def _row_frame(scene, k):
+    rows = [_row(scene, "general", 0, TRUTH, time=10.0)]
+    rows.append(_row(scene, "general", 0, "shadow_map", error=0.001 * (k % 5), time=1.0 + k))
+    if k % 3 == 0:
+        rows.append(_row(scene, "general", 0, "planar", status="failed", err_msg="boom"))
+    return pd.DataFrame(rows)
+
+
+def test_pareto_plot_single_configuration_and_nan_time(tmp_path):
+    single = pd.DataFrame([_row("lonely", "general", 0, "shadow_volume", error=0.01, time=2.0)])
+    fig = sr.pareto_figure(single)
+    (front,) = _gid(_panels(fig)["lonely"], "pareto-front")
+    assert 2.0 in front.get_xdata()
+    untimed = pd.DataFrame([_row("untimed", "general", 0, TRUTH, time=math.nan),
+                            _row("untimed", "general", 0, "shadow_map", error=0.01, time=math.nan)])
+    fig = sr.pareto_figure(untimed)
+    ax = _panels(fig)["untimed"]
+    assert "no time: shadow_map" in " ".join(t.get_text() for t in ax.texts)
+    assert not _gid(ax, "pareto-front")
+    assert sr.pareto_plot(untimed, tmp_path / "p.png").stat().st_size > 1000
+    assert sr.pareto_plot(pd.DataFrame(columns=["scene", "label"]), tmp_path / "empty.png").is_file()
+
+
+# ----------------------------------------------------------------------------- summary.md
+
+def test_summary_md(tmp_path):
+    res = synthetic()
+    table = sr.summary_table(res)
+    sm = table[table["label"] == "shadow_map"].iloc[0]
+    assert sm["median_error_rate"] == pytest.approx(0.015)   # median of 2 %, 1.5 %, 0.1 %
+    assert sm["median_time_ms"] == pytest.approx(2.0)        # median of 2, 3 (1.5 + 1.5), 2
+    assert sm["wins"] == [("shadow maps", "sm_thin")]
+    assert sm["fails"] == [("box_on_plane", "2.000 %"), ("sv_two_lights", "1.500 %")]
+    sv = table[table["label"] == "shadow_volume"].iloc[0]
+    assert sv["wins"] == [("general", "box_on_plane"), ("shadow volumes", "sv_two_lights")]
+    planar = table[table["label"] == "planar"].iloc[0]
+    assert planar["scenes"] == 2 and planar["failed"] == 1
+    assert [s for s, _ in planar["fails"]] == ["sv_two_lights", "sm_thin"]
+    assert table["technique"].tolist()[:2] == ["shadow_map", "shadow_volume"]   # grouped by family
+
+    fam = sr.family_table(res).set_index("scene_family")
+    assert fam.loc["shadow maps", "best"] == "shadow_map"
+    assert fam.loc["general", "best"] == "shadow_volume"
+    assert fam.loc["shadow volumes", "best"] == "shadow_volume"
+    assert fam.loc["general", "fastest"] == "planar" and fam.loc["general", "fastest_ok"] == "planar"
+    assert fam.loc["shadow maps", "fastest"] == "planar"
+    assert fam.loc["shadow maps", "fastest_ok"] == "shadow_map"   # planar's 20 % is over the threshold
+
+    path = sr.write_summary_md(res, tmp_path / "summary.md", META)
+    text = path.read_text()
+    assert text.startswith("# Study: synthetic <suite>")
+    for fact in ("64×48", "llvmpipe (test)", "abc123", "2026-01-01", "wall clock around ctx.finish()"):
+        assert fact in text
+    fam_rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]]
+                for line in text.split("## By scene family")[1].split("## By scene\n")[0].splitlines()
+                if line.startswith("| ")}
+    assert fam_rows["shadow maps"][3] == "shadow_map" and fam_rows["shadow maps"][4] == "0.100 %"
+    assert fam_rows["general"][3] == "shadow_volume"
+    failed = text.split("## Failed runs")[1]
+    assert "sv_two_lights" in failed and "planar" in failed and "RuntimeError: no planar receiver <here>" in failed
+    assert "sv_two_lights (failed: RuntimeError" in text
+    assert "box_on_plane (2.000 %)" in text
+    assert f"{100 * sr.FAIL_ERROR_RATE:g} %" in text
+
+
+# ----------------------------------------------------------------------------- study.html
+
+def test_study_html(tmp_path):
+    res = synthetic(tmp_path)
+    # a missing error map, and a crop given as an absolute path inside the study dir
+    gone = (res["scene"] == "sm_thin") & (res["label"] == "shadow_volume")
+    res.loc[gone, "error_image"] = "runs/sm_thin/images/not_there_error.png"
+    absolute = (res["scene"] == "sm_thin") & (res["label"] == "planar")
+    res.loc[absolute, "worst_crop_image"] = str(tmp_path / res.loc[absolute, "worst_crop_image"].iloc[0])
+    out = sr.write_study_report(tmp_path, res, META)
+    assert set(out) == {"pareto", "html", "summary"} and all(Path(p).is_file() for p in out.values())
+    doc = Path(out["html"]).read_text()
+    srcs = re.findall(r'<img[^>]* src="([^"]+)"', doc)
+    links = re.findall(r'<a href="([^"#][^"]*)"', doc)
+    for s in srcs + links:
+        assert not s.startswith("/") and "://" not in s and (tmp_path / s).is_file(), s
+    assert str(tmp_path) not in doc
+    expected = set()
+    for col in ("error_image", "worst_crop_image"):
+        for v in res[col].dropna():
+            v = str(v)
+            if v and (Path(v) if Path(v).is_absolute() else tmp_path / v).is_file():
+                expected.add(str(Path(v).relative_to(tmp_path)) if Path(v).is_absolute() else v)
+    assert len(expected) == 8 + 8   # 9 error maps (one missing), 8 crops (shadow_volume had no wrong pixel)
+    assert expected <= set(srcs)
+    assert "pareto.png" in srcs
+    assert "runs/sm_thin/images/not_there_error.png" not in doc and "no error map" in doc
+    # the truth's shaded image leads each strip; every scene links its run report
+    assert srcs.index("runs/box_on_plane/images/raytrace_shaded.png") < srcs.index(
+        "runs/box_on_plane/images/shadow_map_error.png")
+    assert links.count("runs/box_on_plane/report.html") == 1 and "runs/sv_two_lights/report.html" in links
+    # escaped text, never raw
+    assert "planar:note=&lt;b&gt;&amp;&quot;x&quot;" in doc and ODD not in doc
+    assert "synthetic &lt;suite&gt;" in doc and "<suite>" not in doc
+    assert "no planar receiver &lt;here&gt;" in doc
+    # zero error: no crop, said so; a crop's caption has its box and count
+    assert doc.count("no wrong pixels") == 1
+    assert "x 1–9, y 2–10: 7 wrong px" in doc
+    # header facts and the error-map legend
+    for fact in ("llvmpipe (test)", "abc123", "elapsed: 12.5 s", "14 runs", "3 cached", "1 failed", "workers: 2"):
+        assert fact in doc
+    assert "false lit (leak, missing shadow)" in doc
+    # the failed-runs table
+    failed = doc.split('id="failed"')[1].split("<h2>")[0]
+    assert "sv_two_lights" in failed and "planar" in failed

@@ -20,15 +20,10 @@ gives the full study report (Pareto plot, HTML, images of every configuration).
 """
 from __future__ import annotations
 
-import argparse
-import json
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 
-from shadowlab import provenance
-from shadowlab.study.runner import run_study
+from shadowlab.study.experiment import run_experiment_suite
 from shadowlab.techniques.shadow_map import ShadowMap
 
 SUITE = "sm_bias"
@@ -51,10 +46,6 @@ def sweep_rows(results: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
     parameters held at a non-default value that are not common to every row (axis labels)."""
     df = results[~results["reference"].astype(bool) & (results["technique"] == "shadow_map")
                  & (results["light"] == 0)].copy()
-    failed = df[df["status"] != "ok"]
-    if len(failed):
-        raise SystemExit("failed runs in the study:\n" + "\n".join(f"  {r.scene} {r.label}: {r.error}"
-                                                                    for r in failed.itertuples()))
     common = {p for p in PARAMS if df[p].nunique(dropna=False) == 1}
     parts, held = [], {}
     for variant, g in df.groupby("param_variant", sort=False):
@@ -76,29 +67,18 @@ def sweep_rows(results: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="results/sm_bias_sweep", help="CSV/PNG stem; the study goes beside it")
-    ap.add_argument("--workers", type=int, default=None, help="worker processes (default: every core)")
-    ap.add_argument("--force", action="store_true", help="ignore the study's cache")
-    args = ap.parse_args()
-    out = Path(args.out)
-    outcome = run_study(SUITE, out=out.parent / f"study-{SUITE}", workers=args.workers, force=args.force)
-    rows, held = sweep_rows(outcome.results)
+    run = run_experiment_suite(SUITE, __doc__.splitlines()[0], "results/sm_bias_sweep")
+    rows, held = sweep_rows(run.outcome.results)
     width, height = int(rows["width"].iloc[0]), int(rows["height"].iloc[0])
     resolution = int(rows["param_resolution"].iloc[0])
-    out.parent.mkdir(parents=True, exist_ok=True)
+    out = run.out
+    run.write_record(size=[width, height], resolution=resolution)
     rows.to_csv(out.with_suffix(".csv"), index=False)
-    study = json.loads((outcome.out / "study.json").read_text())["record"]  # the workers' GL device
-    renderer = study["renderer"]
-    provenance.write_record(out, {"gl": study["gl"], "size": [width, height], "resolution": resolution,
-                                  "suite": SUITE, "study": str(outcome.out), "timing": study["timing_method"]},
-                            gl_info=False)
-    plot(rows, held, out.with_suffix(".png"), resolution, (width, height), renderer)
+    plot(rows, held, out.with_suffix(".png"), resolution, (width, height), run.renderer)
     cols = ["scene", "variant", "swept", "value", "false_shadow_rate", "false_lit_rate", "contact_gap_px"]
     with pd.option_context("display.width", 200, "display.max_rows", 200):
         print(rows[cols].to_string(index=False, float_format=lambda x: f"{x:.4g}"))
-    print(f"renderer: {renderer}; study {outcome.out} ({outcome.ran} tasks run, {outcome.cached} cached); "
-          f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
+    print(run.summary_line(out.with_suffix(".csv"), out.with_suffix(".png")))
 
 
 def plot(df, held, path, resolution, size, renderer):

@@ -18,14 +18,9 @@ whichever runs second only reads it — and writes this table from the study's r
 """
 from __future__ import annotations
 
-import argparse
-import json
-from pathlib import Path
-
 import pandas as pd
 
-from shadowlab import provenance
-from shadowlab.study.runner import run_study
+from shadowlab.study.experiment import run_experiment_suite
 
 SUITE = "sm_depth_precision"
 SCENES = ["spot_scene", "sm_far_origin"]
@@ -35,10 +30,6 @@ def table_rows(results: pd.DataFrame) -> pd.DataFrame:
     """The study's shadow-map rows (light 0), in scene, near (fitted first), depth-bits order."""
     df = results[~results["reference"].astype(bool) & (results["technique"] == "shadow_map")
                  & (results["light"] == 0)].copy()
-    failed = df[df["status"] != "ok"]
-    if len(failed):
-        raise SystemExit("failed runs in the study:\n" + "\n".join(f"  {r.scene} {r.label}: {r.error}"
-                                                                    for r in failed.itertuples()))
     df["param_near"] = df["param_near"].astype(float)
     df["param_depth_bits"] = df["param_depth_bits"].astype(int)
     # fitted (near = 0) first, then the forced planes from the farthest to the closest
@@ -49,22 +40,13 @@ def table_rows(results: pd.DataFrame) -> pd.DataFrame:
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="results/sm_depth_precision", help="CSV/markdown stem; the study goes beside it")
-    ap.add_argument("--workers", type=int, default=None, help="worker processes (default: every core)")
-    ap.add_argument("--force", action="store_true", help="ignore the study's cache")
-    args = ap.parse_args()
-    out = Path(args.out)
-    outcome = run_study(SUITE, out=out.parent / f"study-{SUITE}", workers=args.workers, force=args.force)
-    df = table_rows(outcome.results)
+    run = run_experiment_suite(SUITE, __doc__.splitlines()[0], "results/sm_depth_precision")
+    df = table_rows(run.outcome.results)
     size = (int(df["width"].iloc[0]), int(df["height"].iloc[0]))
     resolutions = sorted(df["param_resolution"].astype(int).unique())
-    study = json.loads((outcome.out / "study.json").read_text())["record"]  # the workers' GL device
-    renderer = study["renderer"]
-    out.parent.mkdir(parents=True, exist_ok=True)
+    renderer, out = run.renderer, run.out
+    run.write_record(size=list(size))
     df.to_csv(out.with_suffix(".csv"), index=False)
-    provenance.write_record(out, {"gl": study["gl"], "size": list(size), "suite": SUITE, "study": str(outcome.out)},
-                            gl_info=False)
     nears = list(dict.fromkeys(df["param_near"]))
     bits = sorted(df["param_depth_bits"].unique())
     res = "/".join(f"{r}²" for r in resolutions)
@@ -83,8 +65,7 @@ def main():
         lines.append("")
     out.with_suffix(".md").write_text("\n".join(lines))
     print("\n".join(lines))
-    print(f"study {outcome.out} ({outcome.ran} tasks run, {outcome.cached} cached); "
-          f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.md')}")
+    print(run.summary_line(out.with_suffix(".csv"), out.with_suffix(".md")))
 
 
 if __name__ == "__main__":

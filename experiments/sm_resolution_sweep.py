@@ -20,14 +20,9 @@ study report.
 """
 from __future__ import annotations
 
-import argparse
-import json
-from pathlib import Path
-
 import pandas as pd
 
-from shadowlab import provenance
-from shadowlab.study.runner import run_study
+from shadowlab.study.experiment import run_experiment_suite
 
 SUITE = "sm_resolution"
 SCENES = ["sm_aliasing", "spot_scene"]
@@ -38,10 +33,6 @@ def sweep_rows(results: pd.DataFrame) -> pd.DataFrame:
     """The study's shadow-map rows (light 0), in scene, variant, resolution order."""
     df = results[~results["reference"].astype(bool) & (results["technique"] == "shadow_map")
                  & (results["light"] == 0)].copy()
-    failed = df[df["status"] != "ok"]
-    if len(failed):
-        raise SystemExit("failed runs in the study:\n" + "\n".join(f"  {r.scene} {r.label}: {r.error}"
-                                                                    for r in failed.itertuples()))
     df["param_resolution"] = df["param_resolution"].astype(int)
     rank = {v: i for i, v in enumerate(VARIANTS)}
     df = df.sort_values(["scene", "param_variant", "param_resolution"], kind="stable",
@@ -51,27 +42,17 @@ def sweep_rows(results: pd.DataFrame) -> pd.DataFrame:
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="results/sm_resolution_sweep", help="CSV/PNG stem; the study goes beside it")
-    ap.add_argument("--workers", type=int, default=None, help="worker processes (default: every core)")
-    ap.add_argument("--force", action="store_true", help="ignore the study's cache")
-    args = ap.parse_args()
-    out = Path(args.out)
-    outcome = run_study(SUITE, out=out.parent / f"study-{SUITE}", workers=args.workers, force=args.force)
-    df = sweep_rows(outcome.results)
+    run = run_experiment_suite(SUITE, __doc__.splitlines()[0], "results/sm_resolution_sweep")
+    df = sweep_rows(run.outcome.results)
     size = (int(df["width"].iloc[0]), int(df["height"].iloc[0]))
-    study = json.loads((outcome.out / "study.json").read_text())["record"]  # the workers' GL device
-    renderer = study["renderer"]
-    out.parent.mkdir(parents=True, exist_ok=True)
+    out = run.out
+    run.write_record(size=list(size))
     df.to_csv(out.with_suffix(".csv"), index=False)
-    provenance.write_record(out, {"gl": study["gl"], "size": list(size), "suite": SUITE, "study": str(outcome.out),
-                                  "timing": study["timing_method"]}, gl_info=False)
-    plot(df, out.with_suffix(".png"), size, renderer)
+    plot(df, out.with_suffix(".png"), size, run.renderer)
     cols = ["scene", "param_variant", "param_resolution", "boundary_error_px", "error_rate", "time_ms_median"]
     with pd.option_context("display.width", 200, "display.max_rows", 200):
         print(df[cols].to_string(index=False, float_format=lambda x: f"{x:.4g}"))
-    print(f"renderer: {renderer}; study {outcome.out} ({outcome.ran} tasks run, {outcome.cached} cached); "
-          f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
+    print(run.summary_line(out.with_suffix(".csv"), out.with_suffix(".png")))
 
 
 def plot(df, path, size, renderer):

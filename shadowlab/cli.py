@@ -117,7 +117,7 @@ def _parser() -> argparse.ArgumentParser:
     sub.add_parser("suites", help="list the shipped suites")
     ch = sub.add_parser("check", help="compare a study's artefact metrics with a baseline; exit 1 on regressions")
     ch.add_argument("study_dir", help="a study directory (holds results.csv)")
-    ch.add_argument("baseline", help="baseline CSV (scene, light, label, held metrics)")
+    ch.add_argument("baseline", help="baseline CSV (scene, light, config, label, held metrics)")
     ch.add_argument("--update", action="store_true", help="write the study's metrics as the new baseline instead")
     return p
 
@@ -177,6 +177,13 @@ def _cmd_check(args) -> int:
     try:
         results = chk.read_results(Path(args.study_dir))
         if args.update:
+            bad = results[results["status"] != "ok"]
+            if len(bad):
+                print(f"shadowlab: error: {len(bad)} row(s) of {args.study_dir} did not finish (status "
+                      f"{', '.join(sorted(set(bad['status'])))}), e.g. {bad['scene'].iloc[0]} / {bad['label'].iloc[0]}: "
+                      f"{bad['error'].iloc[0]}; a baseline must hold every configuration — fix and rerun the study",
+                      file=sys.stderr)
+                return EXIT_BAD_INPUT
             base = chk.baseline_from(results)
             Path(args.baseline).parent.mkdir(parents=True, exist_ok=True)
             base.to_csv(args.baseline, index=False)

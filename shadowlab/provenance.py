@@ -36,25 +36,36 @@ def revision() -> str:
 
 @lru_cache(maxsize=None)
 def code_fingerprint() -> str:
-    """:func:`revision`, plus, when the checkout is dirty, a hash of its uncommitted changes
-    (``git diff HEAD`` and the untracked files of the package): what the study's cache keys
-    its runs by, so that editing the code invalidates them even before a commit."""
+    """:func:`revision`, plus a hash of whatever code it does not pin: in a git checkout the
+    uncommitted changes (``git diff HEAD``) and the package's untracked files; in an installed
+    copy (no git) every source file of the package (``*.py``, ``*.glsl``, ``*.toml``). What the
+    study's cache keys its runs by, so that editing the code invalidates them even before a
+    commit."""
     rev = revision()
-    if not rev.endswith("-dirty"):
-        return rev
     root = Path(__file__).resolve().parent.parent
-    digest = hashlib.sha256()
+    digest, hashed = hashlib.sha256(), False
     try:
-        diff = subprocess.run(["git", "-C", str(root), "diff", "HEAD", "--binary"], capture_output=True, timeout=30)
-        digest.update(diff.stdout)
-        untracked = subprocess.run(["git", "-C", str(root), "ls-files", "--others", "--exclude-standard", "-z",
-                                    "--", "shadowlab", "shaders"], capture_output=True, timeout=30)
-        for name in sorted(filter(None, untracked.stdout.split(b"\0"))):
-            digest.update(name)
-            digest.update((root / name.decode()).read_bytes())
+        if rev.startswith("shadowlab "):  # not a git checkout
+            package = Path(__file__).resolve().parent
+            for path in sorted(p for ext in ("*.py", "*.glsl", "*.toml") for p in package.rglob(ext)):
+                digest.update(str(path.relative_to(package)).encode())
+                digest.update(path.read_bytes())
+                hashed = True
+        else:
+            if rev.endswith("-dirty"):
+                diff = subprocess.run(["git", "-C", str(root), "diff", "HEAD", "--binary"], capture_output=True,
+                                      timeout=30)
+                digest.update(diff.stdout)
+                hashed = True
+            untracked = subprocess.run(["git", "-C", str(root), "ls-files", "--others", "--exclude-standard", "-z",
+                                        "--", "shadowlab", "shaders"], capture_output=True, timeout=30)
+            for name in sorted(filter(None, untracked.stdout.split(b"\0"))):
+                digest.update(name)
+                digest.update((root / name.decode()).read_bytes())
+                hashed = True
     except (OSError, subprocess.SubprocessError):
         return rev
-    return f"{rev}+{digest.hexdigest()[:12]}"
+    return f"{rev}+{digest.hexdigest()[:12]}" if hashed else rev
 
 
 def versions() -> dict:
@@ -108,3 +119,17 @@ def write_record(data_path: Path, extra: dict | None = None, gl_info: bool = Tru
     path = Path(data_path).with_suffix(".json")
     path.write_text(json.dumps({**record(gl_info), **(extra or {})}, indent=2, default=str))
     return path
+
+
+def json_default(obj):
+    """``json.dumps(default=...)`` for the lab's records: numpy scalars and arrays as Python
+    numbers and lists, paths as strings; anything else is a TypeError (no silent ``str()``)."""
+    import numpy as np
+
+    if isinstance(obj, (np.integer, np.floating, np.bool_)):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(type(obj).__name__)

@@ -141,16 +141,9 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
         "images": images,
         **provenance.record(),
     }
-    (folder / "run.json").write_text(json.dumps(run, indent=2, default=_json_default))
+    (folder / "run.json").write_text(json.dumps(run, indent=2, default=provenance.json_default))
     report.write_html(folder / "report.html", run, df, images)
 
-
-def _json_default(obj):
-    if isinstance(obj, (np.integer, np.floating, np.bool_)):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    raise TypeError(type(obj).__name__)
 
 
 def _write_images(folder: Path, stem: str, label: str, title: str, shader: Shader, frame: Frame, vis_all,

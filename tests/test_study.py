@@ -150,6 +150,44 @@ def test_repeated_study_runs_nothing_and_changes_rerun_only_what_changed(one_wor
     forced = run_study(path, out=out, workers=1, force=True, log=lambda _: None)
     assert forced.ran == 10 * 2
     pd.testing.assert_frame_equal(metrics_of(forced.results), metrics_of(more.results))
+    # more repeats: every run re-timed, nothing re-rendered for accuracy
+    path.write_text(path.read_text().replace("repeat = 1", "repeat = 2"))
+    retimed = run_study(path, out=out, workers=1, log=lambda _: None)
+    assert retimed.ran == 10 and not retimed.failed
+    # a truncated cache entry is a miss: redone, not reported as a failure
+    entry = sorted((out / "cache" / "acc").glob("*.npz"))[0]
+    entry.write_bytes(entry.read_bytes()[:100])
+    healed = run_study(path, out=out, workers=1, log=lambda _: None)
+    assert healed.ran == 1 and not healed.failed
+    pd.testing.assert_frame_equal(metrics_of(healed.results), metrics_of(more.results))
+
+
+def test_an_edited_scene_reruns_that_scene_only(tmp_path):
+    scene = tmp_path / "lit_box.toml"
+    box = (Path(__file__).parent.parent / "shadowlab/scenes/box_on_plane.toml").read_text()
+    scene.write_text(box.replace('name = "box_on_plane"', 'name = "lit_box"'))
+    path = write_suite(tmp_path, SMALL.replace('"box_on_plane", "sv_camera', f'"{scene}", "sv_camera')
+                       .replace('scenes = ["box_on_plane"]\n', ""))
+    first = run_study(path, out=tmp_path / "out", workers=1, log=lambda _: None)
+    assert not first.failed
+    before = first.results.set_index(["scene", "config"])["truth_shadowed_pixels"]
+    # the light moves: the edited scene's truth and configurations rerun, the other scene's not
+    import re
+    moved = re.sub(r"position = \[[^\]]*\]", "position = [0.5, 9.0, 0.5]", scene.read_text(), count=1)
+    assert moved != scene.read_text()
+    scene.write_text(moved)
+    second = run_study(path, out=tmp_path / "out", workers=1, log=lambda _: None)
+    n_lit_box = 1 + len(load_suite(path).configurations["lit_box"])
+    assert second.ran == 2 * n_lit_box and not second.failed
+    after = second.results.set_index(["scene", "config"])["truth_shadowed_pixels"]
+    assert (after["lit_box"] != before["lit_box"]).all()
+    assert (after["sv_camera_in_shadow"] == before["sv_camera_in_shadow"]).all()
+    # the timing phase ran alone, with every core's llvmpipe threads
+    from shadowlab.study.cache import Cache
+    from shadowlab.study.executors import cores
+    timings = [Cache(tmp_path / "out" / "cache").load_timing(p.stem)
+               for p in (tmp_path / "out" / "cache" / "time").glob("*.json")]
+    assert timings and all(t["lp_num_threads"] == str(cores()) for t in timings)
 
 
 class _Interrupt(Progress):

@@ -3,11 +3,13 @@ what changed and an interrupted study resumes.
 
 A run is keyed by a SHA-256 of (scene file content — the TOML and every mesh file it names —,
 configuration spec, image size, code revision — with a hash of uncommitted changes —, GL
-renderer); the timing of a run also by its repeat, warm-up and pass-timing settings, so that
+device: renderer, vendor and driver version); the timing of a run also by its repeat, warm-up and pass-timing settings, so that
 asking for more repeats re-times without re-rendering. Entries live in ``<study>/cache/``:
 ``acc/<key>.npz`` (visibility, metrics rows, images) and ``time/<key>.json`` (timing columns).
 Every entry is written to a temporary file and renamed into place, so an interrupted study
-(Ctrl-C, a killed worker) leaves only complete entries; an unreadable entry is a miss.
+(Ctrl-C, a killed worker) leaves only complete entries. A truncated entry is a miss when the
+study is planned (:meth:`Cache.has_result`) and redone; one damaged inside is found only when
+it is read, and the run is then reported as failed ("run the study again"), never used.
 Only the main process writes entries: workers — local or on a Dask cluster — return results.
 """
 from __future__ import annotations
@@ -21,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import provenance
 from ..scene import PRIMITIVES
 
 #: Bumped when the layout or meaning of cached entries changes.
@@ -79,8 +82,17 @@ class Cache:
         return self.root / "time" / f"{key}.json"
 
     def has_result(self, key: str) -> bool:
-        """Whether an accuracy entry exists (it may still turn out unreadable: see :meth:`load_result`)."""
-        return self._acc(key).is_file()
+        """Whether a complete accuracy entry exists: the file is there and its zip directory and
+        metadata member can be read (a truncated file is a miss; reading the arrays themselves is
+        left to :meth:`load_result`, which also returns None for an entry damaged inside)."""
+        path = self._acc(key)
+        if not path.is_file():
+            return False
+        try:
+            with zipfile.ZipFile(path) as z:
+                return "__meta__.npy" in z.namelist()
+        except (OSError, zipfile.BadZipFile):
+            return False
 
     def load_result(self, key: str) -> dict | None:
         """An accuracy entry: ``{"meta": dict, "arrays": {name: ndarray}, "files": {name: bytes}}``,
@@ -99,7 +111,7 @@ class Cache:
 
     def store_result(self, key: str, result: dict) -> None:
         """Write an accuracy entry (same layout as :meth:`load_result` returns), atomically."""
-        payload = {"__meta__": np.frombuffer(json.dumps(result["meta"], default=_json_default).encode(), np.uint8)}
+        payload = {"__meta__": np.frombuffer(json.dumps(result["meta"], default=provenance.json_default).encode(), np.uint8)}
         payload.update({f"a:{k}": np.asarray(v) for k, v in result.get("arrays", {}).items()})
         payload.update({f"f:{k}": np.frombuffer(v, np.uint8) for k, v in result.get("files", {}).items()})
         _atomic_write(self._acc(key), lambda fh: np.savez_compressed(fh, **payload))
@@ -114,15 +126,6 @@ class Cache:
 
     def store_timing(self, key: str, timing: dict) -> None:
         """Write a timing entry, atomically."""
-        data = json.dumps(timing, default=_json_default).encode()
+        data = json.dumps(timing, default=provenance.json_default).encode()
         _atomic_write(self._time(key), lambda fh: fh.write(data))
 
-
-def _json_default(obj):
-    if isinstance(obj, (np.integer, np.floating, np.bool_)):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, Path):
-        return str(obj)
-    raise TypeError(type(obj).__name__)

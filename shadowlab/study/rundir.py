@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .. import metrics, report
+from .. import metrics, provenance, report
 from ..pipeline import pass_order
 from ..run import GROUND_TRUTH_KEY, move_into_place, safe_name
 
@@ -86,7 +86,7 @@ def _write(folder: Path, scene: SceneRuns, df: pd.DataFrame, record: dict) -> No
     run = {**record, "scene": truth["meta"]["scene"], "camera": truth["meta"]["camera"],
            "configurations": configurations, "pass_times_image": passes_png, "masks_light": 0, "notes": notes,
            "images": images}
-    (folder / "run.json").write_text(json.dumps(run, indent=2, default=_json_default))
+    (folder / "run.json").write_text(json.dumps(run, indent=2, default=provenance.json_default))
     report.write_html(folder / "report.html", run, df, images)
 
 
@@ -104,10 +104,3 @@ def ordered(df: pd.DataFrame) -> pd.DataFrame:
     """Metrics rows in metrics.csv column order (contract columns first, passes in drawing order)."""
     return df[metrics.order_columns(df.columns, pass_order())]
 
-
-def _json_default(obj):
-    if isinstance(obj, (np.integer, np.floating, np.bool_)):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    raise TypeError(type(obj).__name__)

@@ -76,6 +76,7 @@ class _Run:
     reference: bool
     acc_key: str
     time_key: str
+    scene_hash: str        # the scene's content when the study was planned (workers check it)
 
 
 def default_out_dir(suite: Suite) -> Path:
@@ -103,6 +104,9 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
     out = Path(out) if out is not None else default_out_dir(suite)
     if out.exists() and not out.is_dir():
         raise RunError(f"--out {out} exists and is not a directory")
+    if workers is not None and workers > cores() and dask is None:
+        log(f"--workers {workers} is more than the {cores()} cores: using {cores()} (GL work does not gain from more)")
+        workers = cores()
     workers = workers or cores()
     cache = Cache(out / "cache")
     revision = provenance.code_fingerprint()
@@ -111,7 +115,7 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
     try:
         device = _probe(executor)
         renderer = device["renderer"]
-        runs = _plan(suite, revision, renderer)
+        runs = _plan(suite, revision, device["device"])  # renderer, vendor and driver version
         todo_truth = [r for r in runs if r.reference and (force or not cache.has_result(r.acc_key))]
         todo_config = [r for r in runs if not r.reference and (force or not cache.has_result(r.acc_key))]
         todo_time = [r for r in runs if force or cache.load_timing(r.time_key) is None]
@@ -127,7 +131,8 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
         log(f"study {suite.name}: {len(suite.scenes)} scenes, {suite.runs()} configuration runs "
             f"+ {len(suite.scenes)} ground truths; {n_tasks} tasks to run, "
             f"{2 * len(runs) - n_tasks} cached ({out / 'cache'})")
-        failed: dict[tuple[str, str], str] = {}
+        failed: dict[tuple[str, str], str] = {}         # accuracy: no metrics
+        timing_failed: dict[tuple[str, str], str] = {}  # metrics, but no time
         phases = {}
         if n_tasks:
             progress.start(n_tasks)
@@ -143,11 +148,16 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
                     executor_acc.close()
             phases["accuracy_s"] = time.perf_counter() - t0
             t0 = time.perf_counter()
+            for r in todo_time:  # nothing to time where the accuracy run failed
+                if (r.scene.name, r.spec) in failed:
+                    progress.step(f"timing {r.scene.name}: skipped")
             todo_time = [r for r in todo_time if (r.scene.name, r.spec) not in failed]
             if todo_time:
-                executor_time = executor or LocalExecutor(1, threads=cores())
+                restart = None if executor is not None else (lambda: LocalExecutor(1, threads=cores()))
+                executor_time = executor or restart()
                 log(f"timing phase, one task at a time, on {executor_time.description}")
-                _timing_phase(executor_time, suite, todo_time, cache, failed, progress)
+                executor_time = _timing_phase(executor_time, suite, todo_time, cache, timing_failed, progress,
+                                              restart)
                 if executor_time is not executor:
                     executor_time.close()
             phases["timing_s"] = time.perf_counter() - t0
@@ -162,16 +172,16 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
               "pass_timing": timing.pass_timing_method_for(renderer) if suite.pass_timing else None,
               "repeat": suite.repeat, "warmup": suite.warmup, "study": suite.name, "size": list(suite.size),
               **provenance.record(gl_info=False)}
-    results, written = _assemble(suite, runs, cache, failed, out, revision, record)
+    results, problems = _assemble(suite, runs, cache, failed, timing_failed, out, record)
     elapsed = time.perf_counter() - t_start
     meta = {"name": suite.name, "description": suite.description, "size": list(suite.size), "repeat": suite.repeat,
             "warmup": suite.warmup, "device": device["device"], "renderer": renderer,
             "revision": provenance.revision(), "date": record["date"], "timing": timing_text,
             "workers": f"dask {executor.description}" if executor is not None else workers,
             "elapsed_s": elapsed, "runs": len(runs), "cached": 2 * len(runs) - n_tasks,
-            "failed": len(failed), "suite_file": suite.file, "phases_s": phases}
+            "failed": len(problems), "suite_file": suite.file, "phases_s": phases}
     report_files = _write_study_files(out, results, meta, record)
-    failures = [f"{scene} / {spec}: {err}" for (scene, spec), err in failed.items()]
+    failures = [f"{scene} / {spec}: {err}" for (scene, spec), err in problems.items()]
     phases["report_s"] = time.perf_counter() - t_start - elapsed
     return StudyOutcome(out, results, n_tasks, 2 * len(runs) - n_tasks, failures, time.perf_counter() - t_start,
                         report_files, phases)
@@ -195,23 +205,21 @@ def _plan(suite: Suite, revision: str, renderer: str) -> list[_Run]:
         h = scene_content_hash(scene.path)
         for spec, ref in [(suite.truth, True)] + [(s, False) for s in suite.configurations[scene.name]]:
             acc = run_key(h, spec, suite.size, revision, renderer)
-            runs.append(_Run(scene, spec, ref, acc, run_key(h, spec, suite.size, revision, renderer, **timing_settings)))
+            runs.append(_Run(scene, spec, ref, acc, run_key(h, spec, suite.size, revision, renderer, **timing_settings),
+                             h))
     return runs
 
 
 def _task(run: _Run, suite: Suite, kind: str, **extra) -> dict:
-    return {"kind": kind, "scene_path": str(run.scene.path), "scene_hash": scene_content_hash_cached(run.scene.path),
+    return {"kind": kind, "scene_path": str(run.scene.path), "scene_hash": run.scene_hash,
             "size": list(suite.size), "spec": run.spec, **extra}
 
 
-_HASHES: dict[Path, str] = {}
-
-
-def scene_content_hash_cached(path: Path) -> str:
-    """:func:`scene_content_hash`, computed once per file per study process."""
-    if path not in _HASHES:
-        _HASHES[path] = scene_content_hash(path)
-    return _HASHES[path]
+def _lost(exc: BaseException) -> dict:
+    """The result of a task whose worker died under it (a crash, the out-of-memory killer, a
+    lost Dask worker): a failed run, retried when the study is run again."""
+    return {"ok": False, "error": f"the worker process was lost ({type(exc).__name__}: {exc}); "
+                                  f"run the study again to retry", "meta": {}, "arrays": {}, "files": {}}
 
 
 def _truth_arrays(result: dict) -> list[np.ndarray]:
@@ -230,20 +238,30 @@ def _accuracy_phase(executor, suite, todo_truth, todo_config, known_truths: dict
         waiting.setdefault(r.scene.name, []).append(r)
     pending: dict = {}
 
+    def submit(r: _Run, task: dict) -> None:
+        try:
+            pending[executor.submit(run_task, task)] = r
+        except Exception as exc:  # noqa: BLE001 - a pool broken by a lost worker takes no more tasks
+            failed[(r.scene.name, r.spec)] = _lost(exc)["error"]
+            progress.step(f"{r.scene.name}: lost")
+
     def submit_configs(scene_name: str, truth_result: dict) -> None:
         arrays = _truth_arrays(truth_result)
         for r in waiting.pop(scene_name, []):
-            pending[executor.submit(run_task, _task(r, suite, "config", truth=arrays))] = r
+            submit(r, _task(r, suite, "config", truth=arrays))
 
     try:
         for r in todo_truth:
-            pending[executor.submit(run_task, _task(r, suite, "truth"))] = r
+            submit(r, _task(r, suite, "truth"))
         for scene_name, truth_result in known_truths.items():
             submit_configs(scene_name, truth_result)
         while pending:
             for fut in executor.wait_first(pending.keys()):
                 r = pending.pop(fut)
-                result = fut.result()
+                try:
+                    result = fut.result()
+                except Exception as exc:  # noqa: BLE001 - run_task never raises: the worker died
+                    result = _lost(exc)
                 progress.step(f"{r.scene.name}: {'truth' if r.reference else from_spec(r.spec).short_label()}")
                 if not result["ok"]:
                     failed[(r.scene.name, r.spec)] = result["error"]
@@ -261,23 +279,32 @@ def _accuracy_phase(executor, suite, todo_truth, todo_config, known_truths: dict
         raise
 
 
-def _timing_phase(executor, suite, todo_time, cache: Cache, failed: dict, progress) -> None:
-    """Each timing task alone: submitted only when the previous one has returned."""
+def _timing_phase(executor, suite, todo_time, cache: Cache, timing_failed: dict, progress, restart=None):
+    """Each timing task alone: submitted only when the previous one has returned. ``restart``:
+    makes a fresh local executor after a worker was lost (None on Dask, which replaces its own);
+    returns the executor in use at the end."""
     from .tasks import run_task
 
     try:
         for r in sorted(todo_time, key=lambda r: (r.scene.name, not r.reference)):
-            result = executor.submit(run_task, _task(r, suite, "timing", repeat=suite.repeat, warmup=suite.warmup,
-                                                     pass_timing=suite.pass_timing)).result()
+            try:
+                result = executor.submit(run_task, _task(r, suite, "timing", repeat=suite.repeat, warmup=suite.warmup,
+                                                         pass_timing=suite.pass_timing)).result()
+            except Exception as exc:  # noqa: BLE001 - run_task never raises: the worker died
+                result = _lost(exc)
+                if restart is not None:
+                    executor.kill()
+                    executor = restart()
             progress.step(f"timing {r.scene.name}: {'truth' if r.reference else from_spec(r.spec).short_label()}")
             if not result["ok"]:
-                failed[(r.scene.name, r.spec)] = f"timing failed: {result['error']}"
+                timing_failed[(r.scene.name, r.spec)] = f"timing failed: {result['error']}"
                 continue
             cache.store_timing(r.time_key, result["meta"])
     except BaseException:
         if hasattr(executor, "kill"):
             executor.kill()
         raise
+    return executor
 
 
 def _timing_sentence(suite: Suite, renderer: str, dask) -> str:
@@ -287,19 +314,22 @@ def _timing_sentence(suite: Suite, renderer: str, dask) -> str:
             f"{timing.method_for(renderer)}; {suite.repeat} repeats after {suite.warmup} warm-up")
 
 
-def _failed_row(scene, spec: str, error: str, light: int, suite: Suite, revision: str, renderer: str) -> dict:
+def _failed_row(scene, spec: str, error: str, light: int, suite: Suite, renderer: str) -> dict:
     tech = from_spec(spec)
     return {"scene": scene.name, "light": light, "technique": tech.name, "params": tech.params_string(),
             "label": tech.spec(), "short_label": tech.short_label(), "reference": spec == suite.truth,
             "config": suite.config_name(spec),
             "width": suite.size[0], "height": suite.size[1], "scene_family": scene.family, "status": "failed",
-            "error": error, "run_dir": "", "revision": revision, "renderer": renderer}
+            "error": error, "run_dir": "", "revision": provenance.revision(), "renderer": renderer}
 
 
-def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, out: Path, revision: str,
-              record: dict) -> tuple[pd.DataFrame, int]:
-    """Per scene: rows with timings, the run directory; all rows as results.csv's DataFrame."""
-    all_rows, written = [], 0
+def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, timing_failed: dict, out: Path,
+              record: dict) -> tuple[pd.DataFrame, dict]:
+    """Per scene: rows with timings, the run directory; all rows as results.csv's DataFrame, and
+    every run that did not finish — failed, untimed, or whose cache entry could not be read —
+    with its error ((scene, spec) → error)."""
+    all_rows = []
+    problems = dict(failed)
     by_scene: dict[str, list[_Run]] = {}
     for r in runs:
         by_scene.setdefault(r.scene.name, []).append(r)
@@ -310,24 +340,32 @@ def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, out: P
         truth = None if (name, truth_run.spec) in failed else cache.load_result(truth_run.acc_key)
         lights = truth["meta"]["lights"] if truth else 1
         sr = rundir.SceneRuns(name, truth, {})
-        rows = []
+        rows, bad_rows = [], []
         for r in scene_runs:
-            res = truth if r.reference else (None if (name, r.spec) in failed or truth is None
-                                             else cache.load_result(r.acc_key))
-            tim = cache.load_timing(r.time_key) if res is not None else None
-            if res is None or tim is None:
-                err = failed.get((name, r.spec), "no result (interrupted?)")
-                all_rows.extend(_failed_row(scene, r.spec, err, li, suite, provenance.revision(), record["renderer"])
+            key = (name, r.spec)
+            res = truth if r.reference else (None if key in failed or truth is None else cache.load_result(r.acc_key))
+            if res is None:
+                if key not in problems:
+                    problems[key] = ("not run: the ground truth has no result" if truth is None and not r.reference
+                                     else "its cache entry is missing or unreadable; run the study again")
+                bad_rows.extend(_failed_row(scene, r.spec, problems[key], li, suite, record["renderer"])
                                 for li in range(lights))
                 continue
+            tim = cache.load_timing(r.time_key)
+            if tim is None:
+                problems[key] = timing_failed.get(key, "no timing: its cache entry is missing or unreadable; "
+                                                       "run the study again")
             if not r.reference:
                 sr.configs[r.spec] = res
-            sr.keys += [r.acc_key, r.time_key]
+            sr.keys += [r.acc_key, r.time_key if tim is not None else "untimed"]
             stem = "ground_truth" if r.reference else rundir.image_stem(res["meta"]["rows"][0]["short_label"])
             worst = None if r.reference else res["meta"].get("worst")
-            for li, (row, cols) in enumerate(zip(res["meta"]["rows"], tim["columns"])):
+            columns = tim["columns"] if tim is not None else [{}] * len(res["meta"]["rows"])
+            for li, (row, cols) in enumerate(zip(res["meta"]["rows"], columns)):
                 row = {**row, **cols}
-                extra = {"config": suite.config_name(r.spec), "scene_family": scene.family, "status": "ok", "error": "", "run_dir": run_dir,
+                extra = {"config": suite.config_name(r.spec), "scene_family": scene.family,
+                         "status": "ok" if tim is not None else "untimed",
+                         "error": "" if tim is not None else problems[key], "run_dir": run_dir,
                          "revision": provenance.revision(), "renderer": record["renderer"]}
                 if li == 0:
                     extra["shaded_image"] = f"{run_dir}/images/{stem}_shaded.png"
@@ -341,14 +379,14 @@ def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, out: P
         if truth is not None and rows:
             df = rundir.ordered(pd.DataFrame(rows))
             metric_cols = [c for c in df.columns if c not in STUDY_COLUMNS]
-            written += rundir.write_run_dir(out / run_dir, sr, df[metric_cols], record)
-        all_rows.extend(rows)
+            rundir.write_run_dir(out / run_dir, sr, df[metric_cols], record)
+        all_rows.extend(rows + bad_rows)
     results = pd.DataFrame(all_rows)
     if len(results):
         results = rundir.ordered(results)
         front = [c for c in results.columns if c not in STUDY_COLUMNS]
         results = results[front + [c for c in STUDY_COLUMNS if c in results.columns]]
-    return results, written
+    return results, problems
 
 
 def _write_study_files(out: Path, results: pd.DataFrame, meta: dict, record: dict) -> dict:

@@ -44,14 +44,19 @@ def init_worker(threads: int | None) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def run_task(task: dict) -> dict:
-    """Run one task on this process's GL thread; never raises: a failure is a result with
-    ``ok`` False and the error (type, message and where it happened)."""
+def _on_gl_thread(fn, *args):
+    """``fn(*args)`` on this process's one GL thread (made on first use)."""
     global _gl_thread
     with _gl_thread_lock:
         if _gl_thread is None:
             _gl_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shadowlab-gl")
-    return _gl_thread.submit(_run_here, task).result()
+    return _gl_thread.submit(fn, *args).result()
+
+
+def run_task(task: dict) -> dict:
+    """Run one task on this process's GL thread; never raises: a failure is a result with
+    ``ok`` False and the error (type, message and where it happened)."""
+    return _on_gl_thread(_run_here, task)
 
 
 def _run_here(task: dict) -> dict:
@@ -74,6 +79,7 @@ def _frame(task: dict):
     tasks of the same scene)."""
     from ..frame import Frame
     from ..scene import load_scene
+    from .cache import scene_content_hash
 
     key = (task["scene_hash"], tuple(task["size"]))
     if key in _frames:
@@ -82,7 +88,12 @@ def _frame(task: dict):
     while len(_frames) >= FRAMES_KEPT:
         _, old = _frames.popitem(last=False)
         old.release()
-    frame = Frame(load_scene(task["scene_path"]), *task["size"])
+    scene = load_scene(task["scene_path"])
+    # the run is cached under the hash the study planned with: the files must still be those
+    if scene_content_hash(task["scene_path"]) != task["scene_hash"]:
+        raise RuntimeError(f"{task['scene_path']} (or a mesh it names) changed after the study was planned; "
+                           f"run the study again")
+    frame = Frame(scene, *task["size"])
     _frames[key] = frame
     return frame
 
@@ -96,9 +107,15 @@ def _forget_frames() -> None:
             pass
 
 
+def _is_time_column(name: str) -> bool:
+    """Whether a metrics column is a time (the timing phase measures those, alone on the host):
+    the frame times and every ``*_ms`` cost figure (``preprocess_ms``, ``pass_<name>_ms``)."""
+    return name in _TIMING_COLUMNS or name.endswith("_ms")
+
+
 def _accuracy_row(row: dict) -> dict:
     """A metrics row without its time columns (the timing phase supplies those)."""
-    return {k: v for k, v in row.items() if k not in _TIMING_COLUMNS}
+    return {k: v for k, v in row.items() if not _is_time_column(k)}
 
 
 def _images(frame, visibilities, truth0):
@@ -189,7 +206,8 @@ def _timing(task: dict) -> dict:
     for li in range(len(frame.scene.lights)):
         m = measure(tech, frame, li, repeat=task["repeat"], warmup=task["warmup"],
                     pass_timing=task.get("pass_timing", False))
-        columns.append({**m.timing.columns(), **m.pass_times})
+        columns.append({**m.timing.columns(), **m.pass_times,
+                        **{k: v for k, v in m.stats.items() if _is_time_column(k)}})
     return {"meta": {"columns": columns, "lp_num_threads": os.environ.get("LP_NUM_THREADS")},
             "arrays": {}, "files": {}}
 
@@ -206,8 +224,4 @@ def probe_here() -> dict:
 def probe(_: object = None) -> dict:
     """The GL device of the worker that runs it (cache keys name the renderer), on the worker's
     GL thread, where its tasks run."""
-    global _gl_thread
-    with _gl_thread_lock:
-        if _gl_thread is None:
-            _gl_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shadowlab-gl")
-    return _gl_thread.submit(probe_here).result()
+    return _on_gl_thread(probe_here)

@@ -125,14 +125,16 @@ def _parser() -> argparse.ArgumentParser:
 def _cmd_suites() -> int:
     from .study.suite import SuiteError, builtin_suites, load_suite
 
-    for name, path in builtin_suites().items():
+    suites = builtin_suites()
+    width = max(map(len, suites), default=0) + 2
+    for name, path in suites.items():
         try:
             s = load_suite(path)
             desc = (f"{len(s.scenes)} scenes, {s.runs()} runs, {s.size[0]}x{s.size[1]}, repeat {s.repeat}"
                     f"{' — ' + s.description.splitlines()[0] if s.description else ''}")
         except SuiteError as exc:
             desc = f"INVALID: {exc}"
-        print(f"{name:16s} {desc}")
+        print(f"{name:{width}s}{desc}")
     return 0
 
 

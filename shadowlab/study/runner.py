@@ -115,7 +115,7 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
     try:
         device = _probe(executor)
         renderer = device["renderer"]
-        runs = _plan(suite, revision, device["device"])  # renderer, vendor and driver version
+        runs = _plan(suite, revision, device["device"])
         todo_truth = [r for r in runs if r.reference and (force or not cache.has_result(r.acc_key))]
         todo_config = [r for r in runs if not r.reference and (force or not cache.has_result(r.acc_key))]
         todo_time = [r for r in runs if force or cache.load_timing(r.time_key) is None]
@@ -197,15 +197,16 @@ def _probe(executor) -> dict:
     return executor.submit(probe, None).result()
 
 
-def _plan(suite: Suite, revision: str, renderer: str) -> list[_Run]:
-    """Every run of the suite with its cache keys: per scene the truth, then its configurations."""
+def _plan(suite: Suite, revision: str, device: str) -> list[_Run]:
+    """Every run of the suite with its cache keys (``device``: the GL device line — renderer,
+    vendor, driver): per scene the truth, then its configurations."""
     runs = []
     timing_settings = {"repeat": suite.repeat, "warmup": suite.warmup, "pass_timing": suite.pass_timing}
     for scene in suite.scenes:
         h = scene_content_hash(scene.path)
         for spec, ref in [(suite.truth, True)] + [(s, False) for s in suite.configurations[scene.name]]:
-            acc = run_key(h, spec, suite.size, revision, renderer)
-            runs.append(_Run(scene, spec, ref, acc, run_key(h, spec, suite.size, revision, renderer, **timing_settings),
+            acc = run_key(h, spec, suite.size, revision, device)
+            runs.append(_Run(scene, spec, ref, acc, run_key(h, spec, suite.size, revision, device, **timing_settings),
                              h))
     return runs
 

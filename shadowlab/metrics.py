@@ -236,6 +236,9 @@ COLUMNS: tuple[Column, ...] = (
     Column("time_ms_median", "median time of the technique's timed passes, ms", "ms", contract=True, summary=True,
            report=True),
     Column("time_ms_iqr", "interquartile range of those times, ms", "ms", contract=True, report=True),
+    Column("setup_ms", "set-up for the light (preprocessing, GL objects, programs), ms: paid once for a static "
+                       "light, every frame for a moving one", "ms", summary=True, report=True),
+    Column("peak_rss_mib", "peak resident memory of the process during the measurement, MiB", "value"),
     Column("light_type", "point, directional, spot or target_direct", "text"),
     Column("label", "the full spec, name:key=value,...", "text"),
     Column("short_label", "name and the parameters that differ from their defaults", "text"),

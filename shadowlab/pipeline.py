@@ -16,13 +16,14 @@ run.json, the report) is :mod:`shadowlab.run`'s job, not this loop's.
 """
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
 
-from . import gl, metrics, timing
+from . import gl, memory, metrics, timing
 from .frame import Frame
 from .scene import load_scene
 from .techniques import Technique, TechniqueError, from_spec
@@ -45,6 +46,11 @@ class Measurement:
     notes: list[str] = field(default_factory=list)
     #: ``pass_<name>_ms`` per pass (only when per-pass timing was asked for).
     pass_times: dict = field(default_factory=dict)
+    #: Wall time of ``setup`` for this light (GL work finished), ms: what a static light pays
+    #: once and a moving light pays every frame (programs compiled there included).
+    setup_ms: float = float("nan")
+    #: Peak resident memory of the process during the measurement, bytes (:mod:`shadowlab.memory`).
+    peak_rss_bytes: int = 0
 
 
 def measure(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, warmup: int = 1,
@@ -57,8 +63,12 @@ def measure(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, wa
     (:class:`shadowlab.timing.PassTimer`); they run after the timed renders, so the finishes
     between passes do not perturb ``time_ms_median``."""
     before = len(tech.notes)
+    memory.reset_peak()
+    t0 = time.perf_counter()
     tech.setup(frame, light_index)
     try:
+        frame.ctx.finish()
+        setup_ms = 1e3 * (time.perf_counter() - t0)
         t = timing.time_passes(tech.render, repeat=repeat, warmup=warmup, gpu=not tech.cpu, on_step=on_step)
         pass_times = {}
         if pass_timing:
@@ -74,12 +84,14 @@ def measure(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, wa
         vis = tech.visibility()
         stats = tech.stats()
         gl.check_errors(f"{tech.name} on light {light_index}")
+        peak = memory.peak_bytes()
     except BaseException:
         tech.release()  # a failed measurement leaves no GL objects (nor a borrowed depth-stencil) behind
         raise
     if release:
         tech.release()
-    return Measurement(tech, light_index, vis, t, stats, list(dict.fromkeys(tech.notes[before:])), pass_times)
+    return Measurement(tech, light_index, vis, t, stats, list(dict.fromkeys(tech.notes[before:])), pass_times,
+                       setup_ms, peak)
 
 
 class Evaluator:
@@ -132,6 +144,8 @@ class Evaluator:
         truth = m.visibility if reference else self.truth(li).visibility
         row.update(metrics.compare(m.visibility, truth, frame.evaluated(li), self.contact_lines(li)))
         row.update(m.timing.columns())
+        row["setup_ms"] = m.setup_ms
+        row["peak_rss_mib"] = memory.mib(m.peak_rss_bytes) if m.peak_rss_bytes else float("nan")
         row.update(m.pass_times)
         row.update({f"param_{k}": v for k, v in tech.params().items()})
         row.update(m.stats)

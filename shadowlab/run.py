@@ -137,6 +137,8 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
         "repeat": repeat,
         "warmup": warmup,
         "masks_light": 0,
+        # peak resident memory of the run's measurements (each config's is in metrics.csv)
+        "peak_rss_mib": peak_mib(df),
         "notes": result.notes,
         "images": images,
         **provenance.record(),
@@ -160,3 +162,10 @@ def _write_images(folder: Path, stem: str, label: str, title: str, shader: Shade
         classes = metrics.error_classes(vis_all[0], truth0, ev0)
         report.save_png(folder / files["error"], report.error_picture(classes, shaded))
     return files
+
+
+def peak_mib(df) -> float | None:
+    """The largest ``peak_rss_mib`` of a run's rows (None when not measured)."""
+    if "peak_rss_mib" not in df.columns or df["peak_rss_mib"].isna().all():
+        return None
+    return float(df["peak_rss_mib"].max())

@@ -56,7 +56,7 @@ _SPARE_STYLES = [("#8c564b", "P"), ("#e377c2", "X"), ("#7f7f7f", "v"), ("#bcbd22
 #: Columns of :func:`per_configuration`, in order.
 CONFIG_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "reference", "lights",
                   "evaluated_pixels", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
-                  "time_ms", "time_iqr_ms", "wrong_pixels", "run_dir", "shaded_image", "error_image",
+                  "time_ms", "time_iqr_ms", "setup_ms", "wrong_pixels", "run_dir", "shaded_image", "error_image",
                   "worst_crop_image", "worst_box", "worst_errors"]
 #: (rate, its pixel-count denominator column) — the rates pooled over lights by their denominators.
 _RATE_WEIGHTS = {"error_rate": "evaluated_pixels", "false_shadow_rate": "truth_lit_pixels",
@@ -175,7 +175,8 @@ def per_configuration(results: pd.DataFrame) -> pd.DataFrame:
     a pooled denominator of 0 gives 0 (DESIGN §7); ``boundary_error_px`` = the mean over lights;
     ``time_ms`` = sum of ``time_ms_median`` over lights (NaN if any light has no time);
     ``time_iqr_ms`` = sum of ``time_ms_iqr`` (the lights were timed separately, so this is the
-    spread of a frame if their fluctuations go together — a conservative bar);
+    spread of a frame if their fluctuations go together — a conservative bar); ``setup_ms`` =
+    sum of the lights' set-up times (NaN where not measured);
     ``wrong_pixels`` = error_rate × evaluated_pixels (rounded); and from the first light's row
     (the one with images): ``run_dir, shaded_image, error_image, worst_crop_image, worst_box,
     worst_errors`` ('' / NaN where absent).
@@ -201,6 +202,7 @@ def per_configuration(results: pd.DataFrame) -> pd.DataFrame:
         t, iqr = _num(g, "time_ms_median"), _num(g, "time_ms_iqr")
         row["time_ms"] = float(t.sum())  # NaN when any light has no time
         row["time_iqr_ms"] = float(np.nansum(iqr)) if not np.isnan(iqr).all() else math.nan
+        row["setup_ms"] = float(_num(g, "setup_ms").sum()) if "setup_ms" in g.columns else math.nan
         n = row["evaluated_pixels"]
         row["wrong_pixels"] = (float(round(row["error_rate"] * n)) if not (_is_missing(n) or
                                                                             _is_missing(row["error_rate"]))
@@ -446,9 +448,10 @@ def summary_table(results: pd.DataFrame) -> pd.DataFrame:
         rows.append({"technique": info["technique"], "label": label, "short_label": info["short_label"],
                      "median_error_rate": g["error_rate"].median() if len(g) else math.nan,
                      "median_time_ms": g["time_ms"].median() if len(g) else math.nan,
+                     "median_setup_ms": g["setup_ms"].median() if len(g) else math.nan,
                      "scenes": len(g), "failed": len(f), "wins": wins.get(label, []), "fails": bad})
     out = pd.DataFrame(rows, columns=["technique", "label", "short_label", "median_error_rate", "median_time_ms",
-                                      "scenes", "failed", "wins", "fails"])
+                                      "median_setup_ms", "scenes", "failed", "wins", "fails"])
     if len(out):
         rank = {fam: i for i, fam in enumerate(_family_order(out["technique"]))}
         out["_fam"] = out["technique"].map(rank)
@@ -571,7 +574,8 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> P
     n_scenes = len(_scenes(results)) if len(results) else 0
     lines += [f"- {n_scenes} scenes, {len(table)} configurations, {len(fails)} failed runs", ""]
     lines += ["Error rate = wrong / evaluated pixels, pooled over a scene's lights; time = ms per frame, the "
-              "sum of the lights' median times. Medians are taken across the scenes a configuration ran on. "
+              "sum of the lights' median times; setup = ms to set up for the lights (paid once for static lights, every "
+              "frame for moving ones). Medians are taken across the scenes a configuration ran on. "
               "A win = the lowest error rate among a scene's configurations (ties count for each); a fail = "
               f"the run failed or its error rate exceeds {100 * FAIL_ERROR_RATE:g} % of the evaluated pixels.",
               ""]
@@ -581,8 +585,10 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> P
     lines += ["## Configurations", ""]
     for tech, g in table.groupby("technique", sort=False):
         lines += [f"### {tech}", ""]
-        lines.append(_md_table(["configuration", "median error", "median time ms", "scenes", "wins", "fails"],
+        lines.append(_md_table(["configuration", "median error", "median time ms", "setup ms", "scenes", "wins",
+                                "fails"],
                                [[r["short_label"], _pct(r["median_error_rate"]), _ms(r["median_time_ms"]),
+                                 _ms(r["median_setup_ms"]),
                                  f"{r['scenes']}" + (f" (+{r['failed']} failed)" if r["failed"] else ""),
                                  _wins_count(r["wins"]), str(len(r["fails"]))] for _, r in g.iterrows()]))
         notes = []
@@ -689,6 +695,7 @@ def _summary_html(results: pd.DataFrame) -> str:
     shown = pd.DataFrame({
         "technique": table["technique"], "configuration": table["short_label"],
         "median error": table["median_error_rate"].map(_pct), "median time, ms": table["median_time_ms"].map(_ms),
+        "median setup, ms": table["median_setup_ms"].map(_ms),
         "scenes": [f"{s}" + (f" (+{f} failed)" if f else "") for s, f in zip(table["scenes"], table["failed"])],
         "wins": table["wins"].map(lambda w: _wins_text(w) or "—"),
         "fails": table["fails"].map(lambda fl: ", ".join(f"{s} ({why})" for s, why in fl) or "—")})

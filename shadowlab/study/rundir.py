@@ -17,7 +17,7 @@ import pandas as pd
 
 from .. import metrics, provenance, report
 from ..pipeline import pass_order
-from ..run import GROUND_TRUTH_KEY, move_into_place, safe_name
+from ..run import GROUND_TRUTH_KEY, peak_mib, move_into_place, safe_name
 
 MANIFEST = ".study-inputs.json"
 
@@ -84,7 +84,8 @@ def _write(folder: Path, scene: SceneRuns, df: pd.DataFrame, record: dict) -> No
     for spec, res in scene.configs.items():
         notes.extend(f"{spec}: {n}" for n in res["meta"]["notes"])
     run = {**record, "scene": truth["meta"]["scene"], "camera": truth["meta"]["camera"],
-           "configurations": configurations, "pass_times_image": passes_png, "masks_light": 0, "notes": notes,
+           "configurations": configurations, "pass_times_image": passes_png, "masks_light": 0,
+           "peak_rss_mib": peak_mib(df), "notes": notes,
            "images": images}
     (folder / "run.json").write_text(json.dumps(run, indent=2, default=provenance.json_default))
     report.write_html(folder / "report.html", run, df, images)

@@ -206,7 +206,7 @@ def _timing(task: dict) -> dict:
     for li in range(len(frame.scene.lights)):
         m = measure(tech, frame, li, repeat=task["repeat"], warmup=task["warmup"],
                     pass_timing=task.get("pass_timing", False))
-        columns.append({**m.timing.columns(), **m.pass_times,
+        columns.append({**m.timing.columns(), "setup_ms": m.setup_ms, **m.pass_times,
                         **{k: v for k, v in m.stats.items() if _is_time_column(k)}})
     return {"meta": {"columns": columns, "lp_num_threads": os.environ.get("LP_NUM_THREADS")},
             "arrays": {}, "files": {}}

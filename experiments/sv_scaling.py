@@ -6,7 +6,10 @@ One torus (10k … 1M triangles) over a floor, a point light, 640x480. For each 
 - ``cpu_geometry_ms``: the above plus building the volume's vertex arrays;
 - ``gpu_silhouette_ms``: the geometry-shader pass alone (rasteriser discard: no fill);
 - ``cpu_total_ms`` / ``gpu_total_ms``: the technique's whole timed render (z-fail);
-plus silhouette edges, volume triangles and fill per pixel. Timings: wall clock (with
+- ``zpass_ms`` / ``zfail_ms`` / ``auto_ms``: the whole timed render (CPU silhouette) per counting
+  mode, the modes interleaved (``--repeat`` rounds of 3 renders each) — ``auto`` picks z-pass or z-fail per caster (Everitt & Kilgard's near-plane test); the
+  camera here is outside every volume, so auto should cost about what z-pass does (issue 11);
+plus silhouette edges, volume triangles and fill per pixel (z-fail), and auto's z-fail casters. Timings: wall clock (with
 ``ctx.finish()`` around GL work), median of ``--repeat``. Writes CSV, plot and provenance (.json).
 
     python experiments/sv_scaling.py [--sizes 10000,100000] [--repeat 5]
@@ -29,6 +32,10 @@ from shadowlab.scene import parse_scene
 from shadowlab.techniques import from_spec
 from shadowlab.techniques.shadow_volume import GS_STAGE_VOLUME
 from shadowlab.timing import time_passes
+
+
+#: Counting modes timed on their own (CPU silhouette), one column each.
+MODES = ("zpass", "zfail", "auto")
 
 
 def torus_scene(triangles: int):
@@ -79,7 +86,7 @@ def measure(n, repeat):
     frame = Frame(scene, 640, 480)
     row = {"triangles": len(torus.faces), "edge_table_ms": edge_ms, "cpu_silhouette_ms": cpu_sil}
     for path in ("cpu", "gpu"):
-        tech = from_spec(f"shadow_volume:silhouette={path}")
+        tech = from_spec(f"shadow_volume:mode=zfail,silhouette={path}")
         m = measure_technique(tech, frame, 0, repeat=repeat, warmup=1, release=False)
         row[f"{path}_total_ms"] = m.timing.median_ms
         if path == "cpu":
@@ -87,6 +94,17 @@ def measure(n, repeat):
         row.update({k: m.stats[k] for k in ("silhouette_edges", "volume_triangles", "fill_per_pixel")})
         tech.release()
     row["gpu_silhouette_ms"] = gs_only_timer(frame, table, light, repeat)
+    # The modes take turns, ``repeat`` rounds of 3 renders each, so that a busy spell on a shared
+    # machine falls on all of them alike; the figure is the median over all renders.
+    samples = {mode: [] for mode in MODES}
+    for _ in range(repeat):
+        for mode in MODES:
+            m = measure_technique(from_spec(f"shadow_volume:mode={mode},silhouette=cpu"), frame, 0, repeat=3, warmup=1)
+            samples[mode] += m.timing.samples_ms
+            if mode == "auto":
+                row["auto_zfail_casters"] = m.stats["zfail_casters"]
+                row["auto_fill_per_pixel"] = m.stats["fill_per_pixel"]
+    row.update({f"{mode}_ms": float(np.median(v)) for mode, v in samples.items()})
     frame.release()
     return row
 
@@ -100,11 +118,12 @@ def plot(df, path):
     fig, ax = plt.subplots(figsize=(6.8, 4.4), dpi=110)
     for col, label in (("cpu_silhouette_ms", "CPU silhouette (numpy)"), ("gpu_silhouette_ms", "GPU silhouette (geometry shader, no fill)"),
                        ("cpu_total_ms", "whole technique, CPU silhouette"), ("gpu_total_ms", "whole technique, GPU silhouette"),
-                       ("edge_table_ms", "edge table build (once per mesh)")):
+                       ("edge_table_ms", "edge table build (once per mesh)"), ("zpass_ms", "z-pass (CPU silhouette)"),
+                       ("auto_ms", "mode=auto (CPU silhouette)")):
         ax.loglog(df["triangles"], df[col], "o-", label=label)
     ax.set_xlabel("caster triangles")
     ax.set_ylabel("time, ms (median)")
-    ax.set_title(f"Shadow volumes (z-fail) vs triangle count\n{gl.renderer()}, 640x480")
+    ax.set_title(f"Shadow volumes vs triangle count (z-fail unless named)\n{gl.renderer()}, 640x480")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
     fig.tight_layout()

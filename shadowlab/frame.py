@@ -21,11 +21,22 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import gl, glstate
-from .geometry.rays import ray_plane_hits
 from .glstate import PassState
 from .geometry.triangles import triangle_normals
 from .lights import Light
 from .scene import Scene
+
+
+def _pixel_ray_terms(camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """The two terms :meth:`Camera.pixel_rays` sums for pixel (row, col), as tables: per column
+    ``−back + x·right`` (width, 3) and per row ``y·up`` (height, 3), each computed with the same
+    operations, so ``col_term[col] + row_term[row]`` is bitwise ``pixel_rays(...)[row, col]``."""
+    view = camera.view()
+    right, up, back = view[0, :3], view[1, :3], view[2, :3]
+    t = np.tan(np.radians(camera.fov_y) / 2.0)
+    x = (2.0 * (np.arange(width) + 0.5) / width - 1.0) * t * width / height
+    y = (1.0 - 2.0 * (np.arange(height) + 0.5) / height) * t
+    return -back[None, :] + x[:, None] * right[None, :], y[:, None] * up[None, :]
 
 
 @dataclass
@@ -147,14 +158,44 @@ class Frame:
     def compute_exact_points(self) -> None:
         """(Re)compute the float64 hit points of the pixel-centre rays with the triangles the
         G-buffer saw (``compact_position``, ``compact_normal`` turned to the camera,
-        ``compact_valid``: False where a degenerate triangle or a grazing ray gives no point)."""
-        self.pixel_index = np.flatnonzero(self.covered)
-        tri = self.triangle_id.ravel()[self.pixel_index]
-        rays = self.camera.pixel_rays(self.width, self.height).reshape(-1, 3)[self.pixel_index]
-        pts, normals, valid = ray_plane_hits(self.camera.eye, rays, self.triangles[tri, 0], self.triangle_normals[tri])
-        self.compact_position = pts  # (M, 3) float64
+        ``compact_valid``: False where a degenerate triangle or a grazing ray gives no point).
+
+        Bit for bit the straightforward computation — ``ray_plane_hits(eye, pixel_rays[covered],
+        v0[tri], n[tri])`` (:func:`shadowlab.geometry.rays.ray_plane_hits`, pinned by
+        tests/test_ground_truth.py) — but only on covered pixels and with every arithmetic result
+        formed by the same operation on the same operands: the rays from per-column and per-row
+        tables (the same two terms :meth:`Camera.pixel_rays` adds), the plane's numerator
+        (v0 − eye)·n once per triangle and gathered, N·d with the same ``einsum``."""
+        w, h = self.width, self.height
+        idx = np.flatnonzero(self.covered)  # row-major, so rows ascend
+        self.pixel_index = idx
+        tri = np.take(self.triangle_id.reshape(-1), idx)
+        per_row = np.count_nonzero(self.covered, axis=1)
+        col = idx - np.repeat(np.arange(h), per_row) * w
+        col_term, row_term = _pixel_ray_terms(self.camera, w, h)
+        dirs = np.take(col_term, col, axis=0)  # (M, 3): (−back + x·right) + y·up, as in pixel_rays
+        dirs += np.repeat(row_term, per_row, axis=0)
+        eye = np.asarray(self.camera.eye, np.float64)
+        unit = self.triangle_normals
+        # Per triangle: (v0 − eye)·n — the same einsum, row by row, as on the gathered (M, 3) arrays.
+        numerator = np.einsum("ij,ij->i", self.triangles[:, 0] - eye, unit)
+        normals = np.take(unit, tri, axis=0)  # (M, 3)
+        denom = np.einsum("ij,ij->i", dirs, normals)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.take(numerator, tri)
+            t /= denom
+        points = dirs  # eye + t·d, in place, a column at a time (1-D loops, no (M, 3) broadcast)
+        flip = denom > 0  # turn the normal towards the camera
+        for k in range(3):
+            np.multiply(points[:, k], t, out=points[:, k])
+            np.add(points[:, k], eye[k], out=points[:, k])
+            np.negative(normals[:, k], out=normals[:, k], where=flip)
+        valid = np.take(np.any(unit != 0, axis=1), tri)  # per triangle: negation keeps zero-ness
+        valid &= t > 0
+        valid &= t < np.inf  # with t > 0: isfinite(t)
+        self.compact_position = points  # (M, 3) float64
         self.compact_normal = normals  # (M, 3) float64, unit, facing the camera (two-sided surfaces, DESIGN §7)
-        self.compact_object = self.object_id.ravel()[self.pixel_index]
+        self.compact_object = np.take(self.object_id.reshape(-1), idx)
         self.compact_valid = valid
 
     def to_image(self, compact: np.ndarray, fill=np.nan, dtype=np.float32) -> np.ndarray:

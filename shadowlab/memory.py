@@ -38,3 +38,15 @@ def peak_bytes() -> int:
 def mib(n_bytes: int) -> float:
     """Bytes in MiB."""
     return n_bytes / 2**20
+
+
+def available_bytes() -> int | None:
+    """Memory the system could give this process now without swapping, bytes (Linux:
+    ``MemAvailable`` of /proc/meminfo); None where unknown."""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None

@@ -24,7 +24,8 @@ from scipy.spatial import ConvexHull
 
 from shadowlab.frame import Frame
 from shadowlab.run import compare
-from shadowlab.techniques.raytrace import RayTraced, occluded
+from shadowlab.scene import load_scene
+from shadowlab.techniques.raytrace import RayTraced, occluded, offset_origins
 
 from conftest import floor_points, make_scene
 
@@ -273,3 +274,85 @@ def scene_file(folder, objects, lights, camera):
     path = folder / "scene.toml"
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+# --------------------------------------------------------------------- exact points, bit for bit
+def reference_exact_points(frame):
+    """The straightforward computation the fast path in Frame.compute_exact_points must match
+    bit for bit (issue 11): every pixel-centre ray, picked at the covered pixels, met in float64
+    with the plane of the triangle the G-buffer saw; normals turned to the camera."""
+    idx = np.flatnonzero(frame.covered)
+    tri = frame.triangle_id.ravel()[idx]
+    dirs = frame.camera.pixel_rays(frame.width, frame.height).reshape(-1, 3)[idx]
+    origin, normals = frame.camera.eye, frame.triangle_normals[tri]
+    denom = np.einsum("ij,ij->i", dirs, normals)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.einsum("ij,ij->i", frame.triangles[tri, 0] - origin, normals) / denom
+    points = origin + t[:, None] * dirs
+    facing = np.where((denom > 0)[:, None], -normals, normals)
+    valid = np.isfinite(t) & (t > 0) & np.any(facing != 0, axis=1)
+    return idx, points, facing, valid
+
+
+def reference_offset_origins(frame, offset_scale):
+    """The straightforward float32(P + offset_scale · max(‖P‖∞, extent) · N)."""
+    p, n = frame.compact_position, frame.compact_normal
+    scale = np.maximum(np.abs(p).max(axis=1), frame.scene.extent())
+    return (p + (offset_scale * scale)[:, None] * n).astype(np.float32)
+
+
+def same_bits(a, b):
+    """Equal dtype, shape and bytes (NaNs and signed zeros included)."""
+    a, b = np.ascontiguousarray(a), np.ascontiguousarray(b)
+    return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def assert_exact_points_match_reference(frame):
+    idx, points, facing, valid = reference_exact_points(frame)
+    assert same_bits(frame.pixel_index, idx)
+    assert same_bits(frame.compact_position, points)
+    assert same_bits(frame.compact_normal, facing)
+    assert same_bits(frame.compact_valid, valid)
+    assert same_bits(frame.compact_object, frame.object_id.ravel()[idx])
+    for scale in (2.0 ** -18, 1e-3):
+        assert same_bits(offset_origins(frame, scale, cached=False), reference_offset_origins(frame, scale))
+
+
+@pytest.mark.parametrize("name", ["box_on_plane", "rm_bunny", "sm_far_origin"])
+def test_exact_points_and_origins_are_bitwise_the_reference(name):
+    """The fast exact points and offset origins equal the straightforward float64 computation
+    bit for bit (positions, camera-facing normals, validity, float32 origins) on shipped scenes,
+    at a size whose width and height share no factor with the tables' layout."""
+    frame = Frame(load_scene(name), 203, 151)
+    try:
+        assert frame.covered.sum() > 1000
+        assert_exact_points_match_reference(frame)
+    finally:
+        frame.release()
+
+
+@pytest.mark.filterwarnings("ignore:invalid value:RuntimeWarning")
+def test_exact_points_bitwise_on_degenerate_and_grazing_triangles():
+    """The cases with no point (zero normal: 0/0 and x/0; a plane containing the ray: t = ±inf
+    or NaN; hits behind the eye) give the reference's bits too, NaNs and infinities included:
+    the frame's own triangles are altered after the G-buffer pass, then recomputed."""
+    frame = Frame(load_scene("box_on_plane"), 160, 120)
+    try:
+        seen = np.unique(frame.triangle_id[frame.covered])
+        assert len(seen) >= 4
+        frame.triangle_normals = frame.triangle_normals.copy()
+        frame.triangles = frame.triangles.copy()
+        frame.triangle_normals[seen[0]] = 0.0                       # degenerate: no normal
+        frame.triangle_normals[seen[1]] = -0.0                      # signed zeros
+        frame.triangles[seen[2], 0] = frame.camera.eye              # plane through the eye: t = 0
+        # a plane (nearly) containing the ray through one pixel of seen[3]: denom ≈ 0
+        pix = np.flatnonzero(frame.triangle_id.ravel() == seen[3])[0]
+        d = frame.camera.pixel_rays(frame.width, frame.height).reshape(-1, 3)[pix]
+        n = np.cross(d, [0.0, 1.0, 0.0] if abs(d[1]) < 0.9 else [1.0, 0.0, 0.0])
+        frame.triangle_normals[seen[3]] = n / np.linalg.norm(n)
+        frame.compute_exact_points()
+        assert not frame.compact_valid.all()
+        assert not np.isfinite(frame.compact_position).all()
+        assert_exact_points_match_reference(frame)
+    finally:
+        frame.release()

@@ -29,25 +29,20 @@ from __future__ import annotations
 import numpy as np
 
 from .frusta import side_planes
+from .vectors import dot, dot3
 
 
 def plane_of(poly: np.ndarray) -> np.ndarray:
     """The plane (n, d), unit n, of a convex polygon (K, 3) (Newell's method, robust to
-    collinear leading vertices)."""
-    nxt = np.roll(poly, -1, axis=0)
-    n = np.array([np.sum((poly[:, 1] - nxt[:, 1]) * (poly[:, 2] + nxt[:, 2])),
-                  np.sum((poly[:, 2] - nxt[:, 2]) * (poly[:, 0] + nxt[:, 0])),
-                  np.sum((poly[:, 0] - nxt[:, 0]) * (poly[:, 1] + nxt[:, 1]))])
-    length = np.linalg.norm(n)
-    if length == 0:
-        return np.zeros(4)
-    n = n / length
-    return np.append(n, -n @ poly.mean(axis=0))
+    collinear leading vertices); zero for a degenerate polygon."""
+    from .batch_clipping import full, planes_of
+
+    return planes_of(full(np.asarray(poly, np.float64)[None]))[0]
 
 
 def signed(plane: np.ndarray, pts: np.ndarray) -> np.ndarray:
     """Signed distances of (K, 3) points to ``plane`` (scaled by |n|)."""
-    return pts @ plane[:3] + plane[3]
+    return dot3(pts, plane[:3]) + plane[3]
 
 
 def split(poly: np.ndarray, plane: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarray]:
@@ -83,7 +78,8 @@ def _tidy(poly: np.ndarray, eps: float) -> np.ndarray:
     """Drop consecutive duplicates; polygons with fewer than 3 vertices become empty."""
     if len(poly) == 0:
         return np.zeros((0, 3))
-    keep = np.linalg.norm(poly - np.roll(poly, 1, axis=0), axis=1) > eps
+    step = poly - np.roll(poly, 1, axis=0)
+    keep = np.sqrt(dot3(step, step)) > eps
     if not keep.any():
         return np.zeros((0, 3))
     poly = poly[keep]
@@ -94,8 +90,8 @@ def area(poly: np.ndarray) -> float:
     """Area of a planar polygon (K, 3)."""
     if len(poly) < 3:
         return 0.0
-    nxt = np.roll(poly, -1, axis=0)
-    return 0.5 * float(np.linalg.norm(np.cross(poly, nxt).sum(axis=0)))
+    total = np.cross(poly, np.roll(poly, -1, axis=0)).sum(axis=0)
+    return 0.5 * float(np.sqrt(dot3(total, total)))
 
 
 def frustum_planes(caster: np.ndarray, light_h: np.ndarray) -> np.ndarray:
@@ -107,12 +103,12 @@ def frustum_planes(caster: np.ndarray, light_h: np.ndarray) -> np.ndarray:
 
 def oriented_to_light(plane: np.ndarray, light_h: np.ndarray) -> np.ndarray:
     """``plane`` with its sign chosen so that the light is on the positive side."""
-    return plane if plane @ light_h >= 0 else -plane
+    return plane if dot(plane, light_h) >= 0 else -plane
 
 
 def light_side_value(plane: np.ndarray, light_h: np.ndarray) -> float:
     """How far the light is on the positive side of ``plane`` (0: the light lies in it)."""
-    return float(plane @ light_h)
+    return float(dot(plane, light_h))
 
 
 def shadow_fragment(receiver: np.ndarray, caster: np.ndarray, light_h: np.ndarray, eps: float

@@ -55,8 +55,17 @@ def offset_origins(frame, offset_scale: float, cached: bool = True) -> np.ndarra
     if cached and offset_scale in per_frame:
         return per_frame[offset_scale]
     p, n = frame.compact_position, frame.compact_normal
-    scale = np.maximum(np.abs(p).max(axis=1), frame.scene.extent())
-    origins = (p + (offset_scale * scale)[:, None] * n).astype(np.float32)
+    # float32(p + (offset_scale · max(|p|∞, extent)) · n), bit for bit, with fewer temporaries:
+    # the row maximum over the three columns (max is exact, in any order), the product and sum
+    # in float64, rounded once to float32 on the way into ``origins``.
+    scale = np.abs(p[:, 0])
+    np.maximum(scale, np.abs(p[:, 1]), out=scale)
+    np.maximum(scale, np.abs(p[:, 2]), out=scale)
+    np.maximum(scale, frame.scene.extent(), out=scale)
+    scale *= offset_scale
+    moved = np.multiply(n, scale[:, None])
+    moved += p
+    origins = moved.astype(np.float32)
     if cached:
         per_frame[offset_scale] = origins
     return origins

@@ -2,13 +2,21 @@
 
 For every convex receiver polygon (a receiver triangle) and every convex caster polygon (a
 caster triangle; only the light-facing ones of a closed mesh, whose shadows already make up the
-whole shadow), :func:`shadowlab.geometry.polygon_clipping.shadow_fragment` computes the receiver's
-shadowed part exactly, in float64, with the tolerance ``epsilon`` (× the scene's size). Pairs are
-culled first, all pairs at once in numpy: the light must see the receiver, some receiver vertex
-must lie behind the caster's plane, and no side plane of the caster's frustum may have the whole
-receiver outside. The fragments are computed once per light (``setup``: the preprocessing,
-timed separately as ``preprocess_ms``) and drawn each frame as geometry (``render``), each
-fragment only on the pixels where the G-buffer saw its own receiver triangle.
+whole shadow), the receiver's shadowed part is computed exactly, in float64, with the tolerance
+``epsilon`` (× the scene's size): :func:`shadowlab.geometry.polygon_clipping.shadow_fragment`
+defines it for one pair, and :func:`shadowlab.geometry.batch_clipping.shadow_fragments` computes
+it for tens of thousands of pairs at once, bit for bit the same. Pairs are culled first, in bulk
+(:func:`candidate_pairs`): some receiver vertex must lie behind the caster's plane, and no side
+plane of the caster's frustum may have the whole receiver outside. The fragments are computed
+once per light (``setup``: the preprocessing, reported as ``preprocess_ms`` and inside
+``setup_ms``) and drawn each frame as geometry (``render``), each fragment only on the pixels
+where the G-buffer saw its own receiver triangle.
+
+Size: the culling streams over the casters and the clipping over the pairs, so neither the
+pairs nor their temporaries are ever all held (a few hundred MB at most); what grows is the
+fragments' geometry, 120 bytes a triangle while it is gathered, allowed up to half the memory
+available at setup (``MEMORY_SHARE``: on a machine with 20 GiB free, about 90 million fragment
+triangles) and an error beyond. Long preprocessing shows a progress bar on a terminal.
 
 Several lights: for each receiver triangle, only the ``max_lights`` lights with the largest
 unshadowed contribution (λ · N·L · luminance at its centroid) get fragments; the others leave it
@@ -16,21 +24,35 @@ lit, and the metrics show what dropping them costs (``dropped_faces`` counts the
 """
 from __future__ import annotations
 
+import os
+import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
-from .. import gl, glstate
+from .. import gl, glstate, memory
 from ..geometry import adjacency as adj
+from ..geometry import batch_clipping as bc
 from ..geometry import polygon_clipping as pc
 from ..geometry.frusta import side_planes
 from ..geometry.triangles import triangle_normals, triangle_planes
 from ..glstate import PassState
 from .base import Param, Technique, TechniqueError
 
-#: Candidate pairs above which the technique refuses (a Python loop per pair: meant for
-#: polyhedral scenes of modest size, the static-light trade-off it exists to show).
-MAX_PAIRS = 200_000
+#: Receiver/caster pair tests of the bulk culling per step (bounds its temporaries, ~200 MB).
+PAIR_TESTS_PER_STEP = 1 << 22
+#: Receivers per cluster in the first culling stage (neighbours along a Morton curve).
+#: Candidate pairs clipped together (bounds the batch clipper's temporaries, ~150 MB).
+CLIP_BATCH = 1 << 16
+#: Share of the memory available at setup that the fragments' geometry may take: beyond it the
+#: technique stops with an error rather than push the machine into swap.
+MEMORY_SHARE = 0.5
+#: Bytes a fragment triangle holds while the fragments are gathered: float64 vertices (72),
+#: their float32 copy (36) and the receiver ids (12).
+BYTES_PER_FRAGMENT_TRIANGLE = 120
 _LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -51,10 +73,33 @@ class ShadowPolygons(Technique):
         """Compute the fragments for this light (the preprocessing) and upload them."""
         t0 = time.perf_counter()
         self.frame = frame
+        light_h = frame.scene.lights[light_index].homogeneous()
+        eps = self.epsilon * frame.scene.extent()
+        rec_tris, rec_ids, caster_tris = self.polygons(frame, light_index)
+        work = fragment_triangles(rec_tris, caster_tris, light_h, eps, progress=_progress_bar(self.name))
+        self.pairs_clipped = work.pairs
+        self.fragment_count = work.fragments
+        vertices = work.triangles.reshape(-1, 3).astype("f4")
+        triangle_ids = np.repeat(rec_ids[work.receiver].astype(np.int32), 3)
+        self.preprocess_ms = 1e3 * (time.perf_counter() - t0)
+        ctx = frame.ctx
+        self.prog = gl.program("shadow_fragments.glsl")
+        self.prog["u_view_proj"].write(gl.mat_bytes(frame.view_projection))
+        gl.set_uniforms(self.prog, {"u_ids": 0, "u_shadowed": 0.0})
+        self.count = len(vertices)
+        self.vbo = ctx.buffer(vertices.tobytes() if len(vertices) else b"\0" * 12)
+        self.ibo_ids = ctx.buffer(triangle_ids.tobytes() if len(triangle_ids) else b"\0" * 4)
+        self.vao = ctx.vertex_array(self.prog, [(self.vbo, "3f", "in_pos"), (self.ibo_ids, "1i", "in_triangle")])
+        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
+        self.vis_fbo = gl.framebuffer([self.vis_tex])
+
+    def polygons(self, frame, light_index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What this light's preprocessing clips: the receiver triangles (R, 3, 3) float64 that
+        get its shadows (see ``max_lights``), their indices (R,) in the frame's triangle order,
+        and the caster triangles (C, 3, 3) (a closed mesh's light-facing faces only)."""
+        self.frame = frame
         scene = frame.scene
         light = scene.lights[light_index]
-        light_h = light.homogeneous()
-        eps = self.epsilon * scene.extent()
         starts = np.cumsum([0] + [len(o.faces) for o in scene.objects])
         casters = []
         for obj in scene.objects:
@@ -76,33 +121,7 @@ class ShadowPolygons(Technique):
                 receiver_ids.append(starts[i] + np.flatnonzero(keep))
         rec_tris = np.concatenate(receivers) if receivers else np.zeros((0, 3, 3))
         rec_ids = np.concatenate(receiver_ids) if receiver_ids else np.zeros(0, np.int64)
-        pairs = self._candidate_pairs(rec_tris, caster_tris, light_h, eps)
-        if len(pairs) > MAX_PAIRS:
-            raise TechniqueError(f"{self.name}: {len(pairs)} receiver/caster polygon pairs to clip (limit "
-                                 f"{MAX_PAIRS}); exact shadow polygons are meant for polyhedral scenes of modest size")
-        verts, ids = [], []
-        self.fragment_count = 0
-        for r, c in pairs:
-            frag, _ = pc.shadow_fragment(rec_tris[r], caster_tris[c], light_h, eps)
-            if len(frag):
-                tris = pc.triangulate(frag)
-                verts.append(tris.reshape(-1, 3))
-                ids.append(np.full(len(tris) * 3, rec_ids[r], np.int32))
-                self.fragment_count += 1
-        self.pairs_clipped = len(pairs)
-        vertices = np.concatenate(verts).astype("f4") if verts else np.zeros((0, 3), "f4")
-        triangle_ids = np.concatenate(ids) if ids else np.zeros(0, np.int32)
-        self.preprocess_ms = 1e3 * (time.perf_counter() - t0)
-        ctx = frame.ctx
-        self.prog = gl.program("shadow_fragments.glsl")
-        self.prog["u_view_proj"].write(gl.mat_bytes(frame.view_projection))
-        gl.set_uniforms(self.prog, {"u_ids": 0, "u_shadowed": 0.0})
-        self.count = len(vertices)
-        self.vbo = ctx.buffer(vertices.tobytes() if len(vertices) else b"\0" * 12)
-        self.ibo_ids = ctx.buffer(triangle_ids.tobytes() if len(triangle_ids) else b"\0" * 4)
-        self.vao = ctx.vertex_array(self.prog, [(self.vbo, "3f", "in_pos"), (self.ibo_ids, "1i", "in_triangle")])
-        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
-        self.vis_fbo = gl.framebuffer([self.vis_tex])
+        return rec_tris, rec_ids, caster_tris
 
     def _kept_faces(self, obj, light_index: int) -> np.ndarray:
         """Bool per face: this light is among the face's ``max_lights`` strongest lights."""
@@ -120,29 +139,6 @@ class ShadowPolygons(Technique):
         contrib = np.array(contrib)  # (lights, faces)
         rank = (contrib > contrib[light_index]).sum(axis=0)  # lights strictly stronger
         return rank < self.max_lights
-
-    @staticmethod
-    def _candidate_pairs(rec: np.ndarray, cas: np.ndarray, light_h: np.ndarray, eps: float,
-                         chunk: int = 256) -> np.ndarray:
-        """(receiver, caster) index pairs whose shadow and receiver can overlap, culled in bulk
-        and conservatively: some receiver vertex behind (or on) the caster's plane, and no side
-        plane of the caster's frustum with every receiver vertex outside it."""
-        if len(rec) == 0 or len(cas) == 0:
-            return np.zeros((0, 2), np.int64)
-        n, d = triangle_planes(cas)
-        sign = np.where(n @ light_h[:3] + d * light_h[3] >= 0, 1.0, -1.0)  # light on the positive side
-        planes = side_planes(cas, light_h)  # (C, 3, 4): the frustum's side planes, inward
-        sn, sd = planes[..., :3], planes[..., 3]
-        out = []
-        for c0 in range(0, len(cas), chunk):
-            c = slice(c0, c0 + chunk)
-            dist = sign[c, None, None] * (np.einsum("ck,rvk->crv", n[c], rec) + d[c, None, None])
-            behind = (dist < eps).any(axis=2)  # (C, R)
-            side = np.einsum("cek,rvk->cerv", sn[c], rec) + sd[c][:, :, None, None]
-            outside = (side < -eps).all(axis=3).any(axis=1)  # (C, R): all vertices outside one plane
-            ci, ri = np.nonzero(behind & ~outside)
-            out.append(np.stack([ri, ci + c0], axis=1))
-        return np.concatenate(out)
 
     def render(self) -> None:
         """Draw the precomputed fragments over the G-buffer."""
@@ -171,3 +167,161 @@ class ShadowPolygons(Technique):
         gl.park()
         for obj in (self.vao, self.vbo, self.ibo_ids, self.prog, self.vis_fbo, self.vis_tex):
             obj.release()
+
+
+@dataclass
+class FragmentTriangles:
+    """The exact shadow of one light as triangles: ``triangles`` (T, 3, 3) float64, the index
+    into the receiver triangles (T,) each lies on, and how many candidate pairs were clipped and
+    how many gave a fragment."""
+
+    triangles: np.ndarray
+    receiver: np.ndarray
+    pairs: int
+    fragments: int
+
+
+def candidate_pairs(rec: np.ndarray, cas: np.ndarray, light_h: np.ndarray, eps: float,
+                    casters: slice | None = None) -> np.ndarray:
+    """(receiver, caster) index pairs (N, 2), caster-major and receiver-ascending, whose shadow
+    and receiver can overlap, culled in bulk and conservatively: some receiver vertex behind (or
+    on) the caster's plane, and no side plane of the caster's frustum with every receiver vertex
+    outside it. ``casters`` restricts the test to a range of caster triangles (indices stay
+    global).
+
+    The same pairs as testing the three vertices of every receiver against every caster's four
+    planes (tests/test_batch_clipping.py holds it to that), found in two stages: each receiver's
+    bounding sphere against the four planes (one float32 matrix product for all pairs), which
+    only drops pairs the vertex test drops too, then the vertex test on the pairs left."""
+    casters = casters or slice(0, len(cas))
+    c0 = casters.start or 0
+    cas = cas[casters]
+    if len(rec) == 0 or len(cas) == 0:
+        return np.zeros((0, 2), np.int64)
+    n, d = triangle_planes(cas)
+    sign = np.where(n @ light_h[:3] + d * light_h[3] >= 0, 1.0, -1.0)  # light on the positive side
+    planes = side_planes(cas, light_h)  # (C, 3, 4): the frustum's side planes, inward
+    # Stage 1: spheres (centre q, radius r) around the receivers. For a unit normal,
+    # n·v + d ≤ n·q + d + r for every vertex v, so a sphere wholly outside a plane (or wholly
+    # in front of the caster) has all its vertices there. The product runs in float32 (half the
+    # memory traffic of the largest array). Its rounding is below 6 float32 ulps of
+    # |n|·|q| + |d| per value, and the radius's below 2 √3 ulps of the largest coordinate, so
+    # ``slack``, 64 ulps of the largest coordinate or offset, keeps the sphere test from ever
+    # dropping a pair the vertex test keeps.
+    centre = rec.mean(axis=1)
+    radius = np.sqrt(np.max(np.sum((rec - centre[:, None]) ** 2, axis=2), axis=1))
+    front = np.concatenate([sign[:, None] * n, (sign * d)[:, None]], axis=1)  # (C, 4), light side positive
+    stacked = np.concatenate([front[:, None], planes], axis=1).reshape(-1, 4)  # (4C, 4)
+    magnitude = 1.0 + max(float(np.abs(rec).max()), float(np.abs(stacked[:, 3]).max()))
+    slack = 64 * float(np.finfo(np.float32).eps) * magnitude
+    homogeneous = np.concatenate([centre, np.ones((len(rec), 1))], axis=1).T.astype(np.float32)
+    value = (stacked.astype(np.float32) @ homogeneous).reshape(len(cas), 4, len(rec))
+    reach = (radius + slack).astype(np.float32)
+    maybe = value[:, 0] < eps + reach  # some point of the sphere behind (or on) the caster's plane
+    for k in (1, 2, 3):  # no side plane with the whole sphere outside
+        maybe &= value[:, k] >= -(eps + reach)
+    ci, ri = np.nonzero(maybe)
+    # Stage 2: the vertex test on the pairs left (the definition above).
+    v = rec[ri]  # (N, 3, 3)
+    dist = sign[ci, None] * (np.einsum("nk,nvk->nv", n[ci], v) + d[ci, None])
+    behind = (dist < eps).any(axis=1)
+    side = np.einsum("nek,nvk->nev", planes[ci, :, :3], v) + planes[ci, :, 3][:, :, None]
+    outside = (side < -eps).all(axis=2).any(axis=1)
+    keep = behind & ~outside
+    return np.stack([ri[keep], ci[keep] + c0], axis=1)
+
+
+def fragment_triangles(rec: np.ndarray, cas: np.ndarray, light_h: np.ndarray, eps: float,
+                       clipper: str = "batch", progress: Callable[[int, int], None] | None = None,
+                       memory_limit: int | None = None, threads: int | None = None) -> FragmentTriangles:
+    """Every receiver triangle (R, 3, 3) clipped against the shadow of every caster triangle
+    (C, 3, 3) from ``light_h``: the bulk culling (:func:`candidate_pairs`) a run of casters at a
+    time, each run's pairs clipped ``CLIP_BATCH`` at a time, so the pairs are never all held;
+    the fragments are fan-triangulated in pair order.
+
+    ``clipper='batch'`` uses :func:`shadowlab.geometry.batch_clipping.shadow_fragments`, with
+    the runs of casters shared among ``threads`` threads (default: the cores this process may
+    use; numpy works outside the GIL) — the result does not depend on how many; ``'scalar'``
+    runs the one-pair :func:`~shadowlab.geometry.polygon_clipping.shadow_fragment` in a Python
+    loop, on one thread (the reference: kept for tests and before/after experiments).
+    ``progress(done, total)`` is called as the casters are done. The fragments may take at most
+    ``memory_limit`` bytes (default: ``MEMORY_SHARE`` of the memory available now); beyond it a
+    :class:`TechniqueError` says so."""
+    if clipper not in ("batch", "scalar"):
+        raise ValueError(f"clipper must be 'batch' or 'scalar', not {clipper!r}")
+    if memory_limit is None:
+        available = memory.available_bytes()
+        memory_limit = int(MEMORY_SHARE * available) if available else None
+    light_h = np.asarray(light_h, np.float64)
+    threads = 1 if clipper == "scalar" else max(1, threads or len(os.sched_getaffinity(0)))
+    step = max(1, PAIR_TESTS_PER_STEP // max(1, len(rec)))
+    if threads > 1:  # at least two runs a thread, so that the threads finish together
+        step = max(1, min(step, -(-len(cas) // (2 * threads))))
+    starts = range(0, len(cas), step)
+
+    def one_run(c0: int):
+        found = candidate_pairs(rec, cas, light_h, eps, slice(c0, c0 + step))
+        tris, owners, fragments = [], [], 0
+        for b0 in range(0, len(found), CLIP_BATCH):
+            batch = found[b0:b0 + CLIP_BATCH]
+            t, row, n = _clip(rec, cas, batch, light_h, eps, clipper)
+            tris.append(t)
+            owners.append(batch[row, 0])
+            fragments += n
+        return c0, len(found), tris, owners, fragments
+
+    tris, owners = [], []
+    pairs = fragments = held = 0
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        for c0, n_pairs, t, o, n_frag in (pool.map(one_run, starts) if threads > 1 else map(one_run, starts)):
+            pairs += n_pairs
+            fragments += n_frag
+            tris += t
+            owners += o
+            held += sum(len(x) for x in t) * BYTES_PER_FRAGMENT_TRIANGLE
+            if memory_limit is not None and held > memory_limit:
+                raise TechniqueError(
+                    f"shadow_polygons: the exact shadow fragments outgrew {memory_limit / 2**30:.1f} GiB "
+                    f"({MEMORY_SHARE:.0%} of the memory available at setup) after {pairs} candidate pairs; "
+                    f"exact shadow polygons are meant for polyhedral scenes of modest size")
+            if progress is not None:
+                progress(min(c0 + step, len(cas)), len(cas))
+    triangles = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+    receiver = np.concatenate(owners) if owners else np.zeros(0, np.int64)
+    return FragmentTriangles(triangles, receiver, pairs, fragments)
+
+
+def _clip(rec, cas, batch, light_h, eps, clipper):
+    """Fragments of the (receiver, caster) pairs ``batch`` (N, 2), fan-triangulated: triangles
+    (T, 3, 3), the batch row (T,) of each, and how many pairs gave a fragment."""
+    if clipper == "batch":
+        frags = bc.shadow_fragments(bc.full(rec[batch[:, 0]]), bc.full(cas[batch[:, 1]]), light_h, eps)
+        t, row = bc.fan_triangles(frags)
+        return t, row, int(np.count_nonzero(frags.count))
+    t, row = [], []
+    for k, (r, c) in enumerate(batch):
+        frag, _ = pc.shadow_fragment(rec[r], cas[c], light_h, eps)
+        if len(frag):
+            t.append(pc.triangulate(frag))
+            row.append(np.full(len(frag) - 2, k))
+    t_all = np.concatenate(t) if t else np.zeros((0, 3, 3))
+    return t_all, (np.concatenate(row) if row else np.zeros(0, np.int64)), len(t)
+
+
+def _progress_bar(name: str, after_s: float = 2.0) -> Callable[[int, int], None]:
+    """A ``progress(done, total)`` callback that shows a bar on a terminal once the work has
+    taken ``after_s`` seconds (tqdm's ``delay``); silent when stderr is not a terminal."""
+    from tqdm import tqdm
+
+    state = {}
+
+    def progress(done: int, total: int) -> None:
+        bar = state.get("bar")
+        if bar is None:
+            bar = state["bar"] = tqdm(total=total, desc=f"{name}: clipping", unit="caster", leave=False,
+                                      delay=after_s, disable=not sys.stderr.isatty(), file=sys.stderr)
+        bar.update(done - bar.n)
+        if done >= total:
+            bar.close()
+
+    return progress

@@ -9,7 +9,7 @@ in the one-pair clipper (:func:`~shadowlab.geometry.vectors.dot3` for every plan
 fragments, and ``tests/test_batch_clipping.py`` holds them to it.
 
 Polygons are padded: ``verts`` (P, K, 3) float64 with ``count`` (P,) int, the vertices of
-polygon p in ``verts[p, :count[p]]``, in order; the padding slots hold no meaning (zeros here).
+polygon p in ``verts[p, :count[p]]``, in order; the padding slots hold no meaning.
 A count of 0 is an empty polygon.
 """
 from __future__ import annotations

@@ -96,7 +96,8 @@ class ShadowPolygons(Technique):
     def polygons(self, frame, light_index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """What this light's preprocessing clips: the receiver triangles (R, 3, 3) float64 that
         get its shadows (see ``max_lights``), their indices (R,) in the frame's triangle order,
-        and the caster triangles (C, 3, 3) (a closed mesh's light-facing faces only)."""
+        and the caster triangles (C, 3, 3) (a closed mesh's light-facing faces only); counts the
+        faces left without this light's shadows in ``dropped_faces``."""
         self.frame = frame
         scene = frame.scene
         light = scene.lights[light_index]

@@ -1,7 +1,7 @@
-"""The batch clipper and the bulk pair culling of exact shadow polygons (issue 11) against the
-one-pair clipper they replace: the same fragments, bit for bit, on random convex polygons of
-mixed sizes, on the hard configurations, and on whole shipped scenes; the same candidate pairs
-as the plain vertex test."""
+"""The compiled and the batch clippers and the bulk pair culling of exact shadow polygons
+(issue 11) against the one-pair clipper they replace: the same fragments, bit for bit, on
+random convex polygons of mixed sizes, on the hard configurations, and on whole shipped scenes;
+the same candidate pairs as the plain vertex test."""
 from __future__ import annotations
 
 import numpy as np
@@ -11,9 +11,11 @@ from hypothesis import strategies as st
 
 from shadowlab.frame import Frame
 from shadowlab.geometry import batch_clipping as bc
+from shadowlab.geometry import compiled_clipping as cc
 from shadowlab.geometry import polygon_clipping as pc
 from shadowlab.geometry.frusta import side_planes
 from shadowlab.geometry.triangles import triangle_planes
+from shadowlab.geometry.vectors import dot3
 from shadowlab.scene import load_scene
 from shadowlab.techniques import from_spec
 from shadowlab.techniques.base import TechniqueError
@@ -34,13 +36,14 @@ def padded(polys):
 
 
 def assert_batch_is_scalar(receivers, casters, light, eps):
-    """Row by row, the batch fragment has the scalar fragment's vertices, bit for bit."""
+    """Row by row, the batch fragment and the compiled clipper's have the scalar fragment's
+    vertices, bit for bit."""
     out = bc.shadow_fragments(padded(receivers), padded(casters), light, eps)
     for i, (r, c) in enumerate(zip(receivers, casters)):
         want, _ = pc.shadow_fragment(r, c, light, eps)
-        got = out.polygon(i)
-        assert got.shape == want.shape, (i, got.shape, want.shape)
-        assert got.tobytes() == want.tobytes(), i
+        for got in (out.polygon(i), cc.shadow_fragment(r, c, light, eps)):
+            assert got.shape == want.shape, (i, got.shape, want.shape)
+            assert got.tobytes() == want.tobytes(), i
     return out
 
 
@@ -105,8 +108,9 @@ def vertex_test_pairs(rec, cas, light_h, eps):
     n, d = triangle_planes(cas)
     sign = np.where(n @ light_h[:3] + d * light_h[3] >= 0, 1.0, -1.0)
     planes = side_planes(cas, light_h)
-    dist = sign[:, None, None] * (np.einsum("ck,rvk->crv", n, rec) + d[:, None, None])
-    side = np.einsum("cek,rvk->cerv", planes[..., :3], rec) + planes[..., 3][:, :, None, None]
+    front = np.concatenate([sign[:, None] * n, (sign * d)[:, None]], axis=1)  # light side positive
+    dist = dot3(front[:, None, None, :3], rec[None]) + front[:, 3, None, None]
+    side = dot3(planes[:, :, None, None, :3], rec[None, None]) + planes[..., 3][:, :, None, None]
     keep = (dist < eps).any(axis=2) & ~(side < -eps).all(axis=3).any(axis=1)
     ci, ri = np.nonzero(keep)
     return np.stack([ri, ci], axis=1)
@@ -114,8 +118,9 @@ def vertex_test_pairs(rec, cas, light_h, eps):
 
 @pytest.mark.parametrize("name", ["spot_scene", "sv_directional", "sm_far_origin", "sv_light_close"])
 def test_culling_keeps_exactly_the_vertex_test_pairs(name):
-    """The sphere pre-test (float32) only drops pairs the vertex test drops: the pairs are the
-    plain vertex test's, in the same caster-major order, also far from the origin."""
+    """The sphere pre-tests (float32 in numpy, float64 in the compiled kernel) only drop pairs
+    the vertex test drops: the pairs are the plain vertex test's, in the same caster-major
+    order, also far from the origin (the kernel reports how many it clipped)."""
     frame = Frame(load_scene(name), 64, 48)
     try:
         rec, _, cas = from_spec("shadow_polygons").polygons(frame, 0)
@@ -126,15 +131,17 @@ def test_culling_keeps_exactly_the_vertex_test_pairs(name):
         got = np.concatenate([candidate_pairs(rec, cas, light_h, eps, slice(c, c + 97)) for c in range(0, len(cas), 97)])
         assert len(want) > 100
         assert np.array_equal(got, want)
+        compiled = fragment_triangles(rec, cas, light_h, eps, clipper="compiled")
+        assert compiled.pairs == len(want)
     finally:
         frame.release()
 
 
 @pytest.mark.parametrize("name", ["sv_light_close", "multi_light"])
 def test_scene_fragments_batch_equal_scalar(name):
-    """Whole shipped scenes, every light: the batch preprocessing yields the scalar loop's
-    triangles and receivers, bit for bit, on one thread or several, and reports progress to
-    the end."""
+    """Whole shipped scenes, every light: the compiled and the batch preprocessing yield the
+    scalar loop's triangles and receivers, bit for bit, on one thread or several, and report
+    progress to the end."""
     frame = Frame(load_scene(name), 64, 48)
     try:
         for li, light in enumerate(frame.scene.lights):
@@ -143,9 +150,11 @@ def test_scene_fragments_batch_equal_scalar(name):
             seen = []
             fast = fragment_triangles(rec, cas, light.homogeneous(), eps, progress=lambda d, t: seen.append((d, t)))
             slow = fragment_triangles(rec, cas, light.homogeneous(), eps, clipper="scalar")
-            assert fast.fragments == slow.fragments > 0 and fast.pairs == slow.pairs
-            assert fast.triangles.tobytes() == slow.triangles.tobytes()
-            assert np.array_equal(fast.receiver, slow.receiver)
+            numpy = fragment_triangles(rec, cas, light.homogeneous(), eps, clipper="batch")
+            for got in (fast, numpy):
+                assert got.fragments == slow.fragments > 0 and got.pairs == slow.pairs
+                assert got.triangles.tobytes() == slow.triangles.tobytes()
+                assert np.array_equal(got.receiver, slow.receiver)
             assert seen and seen[-1] == (len(cas), len(cas))
             single = fragment_triangles(rec, cas, light.homogeneous(), eps, threads=1)
             several = fragment_triangles(rec, cas, light.homogeneous(), eps, threads=3)

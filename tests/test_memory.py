@@ -2,6 +2,8 @@
 reset, so that a measurement reports its own peak, not the process's history."""
 from __future__ import annotations
 
+import mmap
+
 import numpy as np
 
 from shadowlab import memory
@@ -10,9 +12,12 @@ from shadowlab import memory
 def test_peak_rises_with_touched_memory_and_resets():
     memory.reset_peak()
     before = memory.peak_bytes()
-    block = np.ones(64 * 2**20 // 8)  # 64 MiB, every page written
+    # 64 MiB of fresh pages, every one written: an anonymous mapping, not malloc, which may
+    # hand back heap pages that an earlier test left resident (then the peak would not move).
+    block = mmap.mmap(-1, 64 * 2**20)
+    np.frombuffer(block, np.uint8)[::4096] = 1
     during = memory.peak_bytes()
-    del block
+    block.close()
     assert during - before >= 60 * 2**20
     if memory.reset_peak():  # Linux: the peak restarts at the current (smaller) resident size
         assert memory.peak_bytes() < during - 32 * 2**20

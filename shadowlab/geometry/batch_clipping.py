@@ -1,10 +1,13 @@
 """Exact shadow polygons for many (receiver, caster) pairs at once: the clipping of
 :func:`shadowlab.geometry.polygon_clipping.shadow_fragment`, step for step, on numpy arrays.
 
-Why numpy and not numba: the clipper is a fixed sequence of at most ``3 + K`` half-space splits,
-so it vectorises over pairs with padded arrays, with no new dependency and no compile step on a
-fresh machine; every arithmetic result is formed by the same operation on the same operands as
-in the one-pair clipper (:func:`~shadowlab.geometry.vectors.dot3` for every plane distance,
+The clipper is a fixed sequence of at most ``3 + K`` half-space splits, so it vectorises over
+pairs with padded arrays. It is the numpy back-end of the preprocessing (the compiled one,
+:mod:`.compiled_clipping`, is the default and several times faster; this one needs no compile
+step and is a second, independent implementation the tests hold the first to). Every
+arithmetic result is formed by the same operation on the same operands as in the one-pair
+clipper (:func:`~shadowlab.geometry.vectors.dot3` for every plane distance,
+:func:`~shadowlab.geometry.vectors.dot4` for the light's side,
 :func:`~shadowlab.geometry.frusta.side_planes` for the frusta), so the two give the same
 fragments, and ``tests/test_batch_clipping.py`` holds them to it.
 
@@ -19,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .frusta import side_planes
-from .vectors import dot, dot3
+from .vectors import dot3, dot4
 
 
 @dataclass
@@ -186,7 +189,7 @@ def frustum_planes(polys: PaddedPolygons, light_h: np.ndarray) -> np.ndarray:
 
 def _oriented_to_light(planes: np.ndarray, light_h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Planes with the light on their positive side, and the light's value before orienting."""
-    value = dot(planes, light_h)
+    value = dot4(planes, light_h)
     return np.where((value >= 0)[:, None], planes, -planes), value
 
 

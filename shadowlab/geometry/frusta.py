@@ -14,7 +14,7 @@ import numpy as np
 
 from . import transforms as tf
 from .bounds import box_corners, box_distance
-from .vectors import dot
+from .vectors import dot3
 
 #: Relative padding of fitted ranges, so that fitted points do not sit exactly on a clip plane.
 PAD = 1e-3
@@ -47,11 +47,11 @@ def side_planes(polys: np.ndarray, light_h: np.ndarray) -> np.ndarray:
         n = np.cross(a - L, b - L)
     else:  # directional: the plane through a and b containing the light's direction
         n = np.cross(b - a, np.broadcast_to(light_h[:3], a.shape))
-    length = np.linalg.norm(n, axis=2, keepdims=True)
+    length = np.sqrt(dot3(n, n))[..., None]
     n = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
-    d = -dot(n, a)
+    d = -dot3(n, a)
     centre = polys.mean(axis=1)
-    inward = np.where(dot(n, centre[:, None, :]) + d < 0, -1.0, 1.0)
+    inward = np.where(dot3(n, centre[:, None, :]) + d < 0, -1.0, 1.0)
     return np.concatenate([n * inward[..., None], (d * inward)[..., None]], axis=2)
 
 

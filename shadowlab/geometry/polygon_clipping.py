@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from .frusta import side_planes
-from .vectors import dot, dot3
+from .vectors import dot3, dot4
 
 
 def plane_of(poly: np.ndarray) -> np.ndarray:
@@ -103,12 +103,12 @@ def frustum_planes(caster: np.ndarray, light_h: np.ndarray) -> np.ndarray:
 
 def oriented_to_light(plane: np.ndarray, light_h: np.ndarray) -> np.ndarray:
     """``plane`` with its sign chosen so that the light is on the positive side."""
-    return plane if dot(plane, light_h) >= 0 else -plane
+    return plane if dot4(plane, light_h) >= 0 else -plane
 
 
 def light_side_value(plane: np.ndarray, light_h: np.ndarray) -> float:
     """How far the light is on the positive side of ``plane`` (0: the light lies in it)."""
-    return float(dot(plane, light_h))
+    return float(dot4(plane, light_h))
 
 
 def shadow_fragment(receiver: np.ndarray, caster: np.ndarray, light_h: np.ndarray, eps: float

@@ -4,10 +4,14 @@ For every convex receiver polygon (a receiver triangle) and every convex caster 
 caster triangle; only the light-facing ones of a closed mesh, whose shadows already make up the
 whole shadow), the receiver's shadowed part is computed exactly, in float64, with the tolerance
 ``epsilon`` (× the scene's size): :func:`shadowlab.geometry.polygon_clipping.shadow_fragment`
-defines it for one pair, and :func:`shadowlab.geometry.batch_clipping.shadow_fragments` computes
-it for tens of thousands of pairs at once, bit for bit the same. Pairs are culled first, in bulk
-(:func:`candidate_pairs`): some receiver vertex must lie behind the caster's plane, and no side
-plane of the caster's frustum may have the whole receiver outside. The fragments are computed
+defines it for one pair. Pairs are culled first (:func:`candidate_pairs` defines a candidate):
+some receiver vertex must lie behind the caster's plane, and no side plane of the caster's
+frustum may have the whole receiver outside. Three back-ends give the same fragments bit for
+bit (``fragment_triangles(clipper=...)``): by default culling and clipping run in one compiled
+loop (:mod:`shadowlab.geometry.compiled_clipping`, numba); ``'batch'`` culls with dense matrix
+tests and clips tens of thousands of pairs at once in numpy
+(:mod:`shadowlab.geometry.batch_clipping`); ``'scalar'`` loops over the one-pair clipper (the
+reference, for tests and before/after experiments). The fragments are computed
 once per light (``setup``: the preprocessing, reported as ``preprocess_ms`` and inside
 ``setup_ms``) and drawn each frame as geometry (``render``), each fragment only on the pixels
 where the G-buffer saw its own receiver triangle.
@@ -39,14 +43,17 @@ from ..geometry import batch_clipping as bc
 from ..geometry import polygon_clipping as pc
 from ..geometry.frusta import side_planes
 from ..geometry.triangles import triangle_normals, triangle_planes
+from ..geometry.vectors import dot3
 from ..glstate import PassState
 from .base import Param, Technique, TechniqueError
 
 #: Receiver/caster pair tests of the bulk culling per step (bounds its temporaries, ~200 MB).
 PAIR_TESTS_PER_STEP = 1 << 22
-#: Receivers per cluster in the first culling stage (neighbours along a Morton curve).
 #: Candidate pairs clipped together (bounds the batch clipper's temporaries, ~150 MB).
 CLIP_BATCH = 1 << 16
+#: The preprocessing's back-ends, fastest first: compiled (numba) culling and clipping, numpy
+#: batch clipping, the one-pair clipper in a Python loop (the reference). Same fragments.
+CLIPPERS = ("compiled", "batch", "scalar")
 #: Share of the memory available at setup that the fragments' geometry may take: beyond it the
 #: technique stops with an error rather than push the machine into swap.
 MEMORY_SHARE = 0.5
@@ -70,7 +77,12 @@ class ShadowPolygons(Technique):
     }
 
     def setup(self, frame, light_index: int) -> None:
-        """Compute the fragments for this light (the preprocessing) and upload them."""
+        """Compute the fragments for this light (the preprocessing) and upload them. The compiled
+        kernel is loaded (or, on a fresh install, compiled) first, once per process: that time
+        is in ``setup_ms`` and reported as ``compile_ms``, not in ``preprocess_ms``."""
+        from ..geometry import compiled_clipping
+
+        self.compile_ms = compiled_clipping.warm()
         t0 = time.perf_counter()
         self.frame = frame
         light_h = frame.scene.lights[light_index].homogeneous()
@@ -158,8 +170,9 @@ class ShadowPolygons(Technique):
         return gl.read_texture(self.vis_tex, 1)[..., 0]
 
     def stats(self) -> dict:
-        """Preprocessing time, pairs clipped, fragments and triangles produced, faces dropped."""
-        return {"preprocess_ms": self.preprocess_ms, "pairs_clipped": self.pairs_clipped,
+        """Preprocessing time (and the kernel's one-time load or compile), pairs clipped,
+        fragments and triangles produced, faces dropped."""
+        return {"preprocess_ms": self.preprocess_ms, "compile_ms": self.compile_ms, "pairs_clipped": self.pairs_clipped,
                 "polygons": self.fragment_count, "fragment_triangles": self.count // 3,
                 "dropped_faces": self.dropped_faces}
 
@@ -224,32 +237,35 @@ def candidate_pairs(rec: np.ndarray, cas: np.ndarray, light_h: np.ndarray, eps: 
     ci, ri = np.nonzero(maybe)
     # Stage 2: the vertex test on the pairs left (the definition above).
     v = rec[ri]  # (N, 3, 3)
-    dist = sign[ci, None] * (np.einsum("nk,nvk->nv", n[ci], v) + d[ci, None])
+    dist = dot3(front[ci, None, :3], v) + front[ci, 3, None]
     behind = (dist < eps).any(axis=1)
-    side = np.einsum("nek,nvk->nev", planes[ci, :, :3], v) + planes[ci, :, 3][:, :, None]
+    side = dot3(planes[ci, :, None, :3], v[:, None]) + planes[ci, :, 3][:, :, None]
     outside = (side < -eps).all(axis=2).any(axis=1)
     keep = behind & ~outside
     return np.stack([ri[keep], ci[keep] + c0], axis=1)
 
 
 def fragment_triangles(rec: np.ndarray, cas: np.ndarray, light_h: np.ndarray, eps: float,
-                       clipper: str = "batch", progress: Callable[[int, int], None] | None = None,
+                       clipper: str = "compiled", progress: Callable[[int, int], None] | None = None,
                        memory_limit: int | None = None, threads: int | None = None) -> FragmentTriangles:
     """Every receiver triangle (R, 3, 3) clipped against the shadow of every caster triangle
     (C, 3, 3) from ``light_h``: the bulk culling (:func:`candidate_pairs`) a run of casters at a
     time, each run's pairs clipped ``CLIP_BATCH`` at a time, so the pairs are never all held;
     the fragments are fan-triangulated in pair order.
 
-    ``clipper='batch'`` uses :func:`shadowlab.geometry.batch_clipping.shadow_fragments`, with
-    the runs of casters shared among ``threads`` threads (default: the cores this process may
-    use; numpy works outside the GIL) — the result does not depend on how many; ``'scalar'``
+    ``clipper='compiled'`` (the default) culls and clips each run of casters in one call of
+    :func:`shadowlab.geometry.compiled_clipping.fragment_run`; ``'batch'`` uses
+    :func:`candidate_pairs` and :func:`shadowlab.geometry.batch_clipping.shadow_fragments`;
+    both share the runs of casters among ``threads`` threads (default: the cores this process
+    may use; numpy and the compiled kernel work outside the GIL) — the result does not depend
+    on how many; ``'scalar'``
     runs the one-pair :func:`~shadowlab.geometry.polygon_clipping.shadow_fragment` in a Python
     loop, on one thread (the reference: kept for tests and before/after experiments).
     ``progress(done, total)`` is called as the casters are done. The fragments may take at most
     ``memory_limit`` bytes (default: ``MEMORY_SHARE`` of the memory available now); beyond it a
     :class:`TechniqueError` says so."""
-    if clipper not in ("batch", "scalar"):
-        raise ValueError(f"clipper must be 'batch' or 'scalar', not {clipper!r}")
+    if clipper not in CLIPPERS:
+        raise ValueError(f"clipper must be one of {', '.join(CLIPPERS)}, not {clipper!r}")
     if memory_limit is None:
         available = memory.available_bytes()
         memory_limit = int(MEMORY_SHARE * available) if available else None
@@ -260,7 +276,12 @@ def fragment_triangles(rec: np.ndarray, cas: np.ndarray, light_h: np.ndarray, ep
         step = max(1, min(step, -(-len(cas) // (2 * threads))))
     starts = range(0, len(cas), step)
 
+    if clipper == "compiled":
+        culling = _CompiledCulling(rec, cas, light_h, eps)
+
     def one_run(c0: int):
+        if clipper == "compiled":
+            return (c0,) + culling.run(c0, min(c0 + step, len(cas)))
         found = candidate_pairs(rec, cas, light_h, eps, slice(c0, c0 + step))
         tris, owners, fragments = [], [], 0
         for b0 in range(0, len(found), CLIP_BATCH):
@@ -290,6 +311,40 @@ def fragment_triangles(rec: np.ndarray, cas: np.ndarray, light_h: np.ndarray, ep
     triangles = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
     receiver = np.concatenate(owners) if owners else np.zeros(0, np.int64)
     return FragmentTriangles(triangles, receiver, pairs, fragments)
+
+
+class _CompiledCulling:
+    """What the compiled kernel (:func:`shadowlab.geometry.compiled_clipping.fragment_run`)
+    needs once per light: the casters' planes and frusta, the receivers' spheres."""
+
+    def __init__(self, rec, cas, light_h, eps):
+        from ..geometry import compiled_clipping as cc
+
+        self.kernel = cc.fragment_run
+        self.rec, self.cas = np.ascontiguousarray(rec, np.float64), np.ascontiguousarray(cas, np.float64)
+        self.light_h, self.eps = np.ascontiguousarray(light_h, np.float64), float(eps)
+        if len(rec) == 0 or len(cas) == 0:
+            return
+        n, d = triangle_planes(cas)
+        sign = np.where(n @ light_h[:3] + d * light_h[3] >= 0, 1.0, -1.0)  # as in candidate_pairs
+        self.front = np.ascontiguousarray(np.concatenate([sign[:, None] * n, (sign * d)[:, None]], axis=1))
+        self.sides = np.ascontiguousarray(side_planes(cas, light_h))
+        self.centre = rec.mean(axis=1)
+        radius = np.sqrt(np.max(np.sum((rec - self.centre[:, None]) ** 2, axis=2), axis=1))
+        # The sphere test in float64: its values round by a few ulps of |n|·|q| + |d|, the
+        # radius by a few ulps of the largest coordinate; 64 ulps of the largest magnitude
+        # keeps it from dropping a pair the vertex test keeps (see candidate_pairs).
+        magnitude = 1.0 + max(float(np.abs(rec).max()), float(np.abs(self.front[:, 3]).max()),
+                              float(np.abs(self.sides[..., 3]).max()))
+        self.reach = radius + 64 * float(np.finfo(np.float64).eps) * magnitude
+
+    def run(self, c0: int, c1: int):
+        """Casters c0..c1: (pairs, [fan triangles], [their receivers], fragments)."""
+        if len(self.rec) == 0 or len(self.cas) == 0:
+            return 0, [], [], 0
+        tris, owner, pairs, fragments = self.kernel(self.rec, self.cas, self.front, self.sides, self.centre,
+                                                    self.reach, self.light_h, self.eps, c0, c1)
+        return pairs, [tris], [owner], fragments
 
 
 def _clip(rec, cas, batch, light_h, eps, clipper):

@@ -4,9 +4,10 @@
 #define LIGHT_DIRECTIONAL 1
 #define LIGHT_SPOT 2
 #define LIGHT_TARGET_DIRECT 3
+#define LIGHT_AREA 4          // rect, disc, sphere: shaded as a point light at the centre (DESIGN §7)
 
 uniform int light_type;
-uniform vec3 light_position;      // point, spot, target-direct
+uniform vec3 light_position;      // point, spot, target-direct, area (the centre)
 uniform vec3 light_direction;     // unit; the direction the light travels
 uniform vec3 light_color;         // diffuse and specular intensity
 uniform float light_ambient;      // ambient intensity

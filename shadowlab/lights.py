@@ -1,4 +1,5 @@
-"""Light sources: point, directional, spot and target-direct (DESIGN §4, §8).
+"""Light sources: point, directional, spot and target-direct (DESIGN §4, §8); the area lights
+(rect, disc, sphere) are in :mod:`shadowlab.area_lights`.
 
 Each light owns its geometry, so techniques never ask which type a light is:
 
@@ -304,21 +305,23 @@ class TargetDirectLight(Light):
 LIGHT_TYPES: dict[str, type[Light]] = {cls.type_name: cls for cls in
                                        (PointLight, DirectionalLight, SpotLight, TargetDirectLight)}
 #: Integer ids shared with ``shaders/lights.glsl`` (``LIGHT_POINT`` ...); a test checks both agree.
-LIGHT_TYPE_IDS = {name: cls.type_id for name, cls in LIGHT_TYPES.items()}
+LIGHT_TYPE_IDS = {**{name: cls.type_id for name, cls in LIGHT_TYPES.items()}, "area": 4}
 
 
 def parse_light(table, where: str, file: str) -> Light:
     """Build a Light from one ``[[lights]]`` table, rejecting impossible values."""
     rd = TableReader(table, where, file)
     kind = rd.string("type", choices=list(LIGHT_TYPES) + ["area"])
-    if kind == "area":
-        raise rd.error("type", "area lights are not implemented yet (they come with the soft-shadow work); "
-                               "use point, directional, spot or target_direct")
     color = rd.vector("color", 3, default=[1.0, 1.0, 1.0])
     if np.any(color < 0):
         raise rd.error("color", "entries must be >= 0")
     common = dict(color=color, ambient=rd.number("ambient", 0.15, min=0.0))
-    light = LIGHT_TYPES[kind].parse(rd, common)
+    if kind == "area":
+        from .area_lights import AREA_SHAPES
+
+        light = AREA_SHAPES[rd.string("shape", choices=list(AREA_SHAPES))].parse(rd, common)
+    else:
+        light = LIGHT_TYPES[kind].parse(rd, common)
     rd.finish()
     return light
 

@@ -1,0 +1,256 @@
+"""Area lights (DESIGN §4, §7, §9): a rectangle, a disc and a sphere, each a light you can sample.
+
+An area light is, for everything that needs one position (the Blinn terms of the shading, the
+evaluated-pixel mask, a hard technique run on it without light sampling), a point light at its
+centre: the classes derive from :class:`shadowlab.lights.PointLight`. What makes it an area
+light is its surface, sampled two ways:
+
+- :meth:`AreaLight.pattern`: N fixed points (and their emitting normals) shared by every pixel —
+  the light-sampling average of the hard techniques renders once from each
+  (:mod:`shadowlab.light_sampling`). The points are the centres of N equal-area strata of the
+  unit square (:func:`strata`), mapped onto the surface by area-preserving maps, so one sample
+  is the centre and a regular pattern shows its banding on purpose.
+- :meth:`AreaLight.sample_for`: per shaded point, N stratified points jittered independently
+  for every point (decorrelated between pixels), for the sampled ground truth.
+
+Visibility of an area light from a point P (DESIGN §7): the fraction, by area, of the emitting
+surface facing P that P sees unoccluded. A one-sided ``rect`` or ``disc`` emits towards its
+normal only (u × v, or ``direction``): a point behind its plane sees none of it. A ``sphere``
+emits all around; from P it shows the cap bounded by its silhouette, and visibility is the
+unoccluded fraction of that cap. Samples below P's own tangent plane are hidden by P's surface
+(:func:`above_horizon`), so a light partly below a receiver's plane is partly hidden from it.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .geometry import transforms as tf
+from .lights import PointLight
+from .validation import TableReader
+
+
+def strata(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """N equal-area cells tiling the unit square: lower corners (n, 2) and sizes (n, 2).
+
+    round(√n) rows, the n cells dealt out among them as evenly as possible; a row of k cells
+    is k/n high and its cells 1/k wide, so every cell has area 1/n for any n (a perfect square
+    gives the usual √n × √n grid). One jittered sample per cell is stratified sampling, whose
+    variance never exceeds independent sampling's."""
+    if n < 1:
+        raise ValueError(f"need at least one sample, got {n}")
+    rows = max(1, int(round(np.sqrt(n))))
+    per_row = np.full(rows, n // rows)
+    per_row[: n % rows] += 1
+    lo, size = [], []
+    y = 0.0
+    for k in per_row:
+        h = k / n
+        x = np.arange(k) / k
+        lo.append(np.stack([x, np.full(k, y)], axis=1))
+        size.append(np.tile([1.0 / k, h], (k, 1)))
+        y += h
+    return np.concatenate(lo), np.concatenate(size)
+
+
+def concentric_disc(uv: np.ndarray) -> np.ndarray:
+    """Shirley & Chiu's concentric map (1997), unit square (..., 2) → unit disc (..., 2):
+    area-preserving and continuous, so strata of the square stay strata of the disc; (½, ½) →
+    the centre."""
+    a = 2.0 * uv[..., 0] - 1.0
+    b = 2.0 * uv[..., 1] - 1.0
+    first = np.abs(a) > np.abs(b)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(first, a, b)
+        phi = np.where(first, (np.pi / 4) * (b / a), np.pi / 2 - (np.pi / 4) * (a / b))
+    phi = np.where((a == 0) & (b == 0), 0.0, phi)
+    return np.stack([r * np.cos(phi), r * np.sin(phi)], axis=-1)
+
+
+def basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors (3,) that complete the unit ``normal`` to a right-handed frame."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    t = tf.normalize(np.cross(helper, normal))
+    return t, np.cross(normal, t)
+
+
+def above_horizon(samples: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """Bool (M, N): sample (M, N, 3) strictly above the tangent plane of its point (M, 3) with
+    the camera-facing normal (M, 3) — below it, the point's own surface hides the light."""
+    return np.einsum("mnk,mk->mn", samples - points[:, None, :], normals) > 0
+
+
+@dataclass
+class AreaLight(PointLight):
+    """Base of the area lights: ``position`` is the centre (DESIGN §4)."""
+
+    type_name = "area"
+    type_id = 4  # LIGHT_AREA in shaders/lights.glsl: lit as a point light at the centre
+    shape = "area"
+    #: True for a light that emits towards its normal only (rect, disc).
+    one_sided = True
+
+    @property
+    def area(self) -> float:
+        """Emitting area (world units²)."""
+        raise NotImplementedError
+
+    def _surface(self, uv: np.ndarray) -> np.ndarray:
+        """Points (..., 3) of the surface at unit-square coordinates ``uv`` (..., 2), by an
+        area-preserving map."""
+        raise NotImplementedError
+
+    def emits_towards(self, points: np.ndarray) -> np.ndarray:
+        """Bool (M,): points on the emitting side (always true for a sphere)."""
+        return (np.asarray(points, np.float64) - self.position) @ self.normal > 0
+
+    def pattern(self, n: int, towards: np.ndarray | None = None) -> np.ndarray:
+        """N fixed sample points (n, 3) on the surface, the centres of :func:`strata` (n = 1:
+        the centre); what the light-sampling average renders from. ``towards`` is used by the
+        sphere only."""
+        lo, size = strata(n)
+        return self._surface(lo + 0.5 * size)
+
+    def sample_for(self, points: np.ndarray, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """Per point (M, 3): n stratified samples (M, n, 3) jittered independently per point,
+        uniform by area over the surface facing the point, and which of them emit towards it
+        (M, n) bool (a one-sided light's points behind its plane get none)."""
+        lo, size = strata(n)
+        uv = lo + rng.random((len(points), n, 2)) * size
+        samples = self._surface(uv)
+        facing = np.broadcast_to(self.emits_towards(points)[:, None], (len(points), n))
+        return samples, facing
+
+    def describe(self) -> dict:
+        """Parameters for run.json, the shape included."""
+        return {**super().describe(), "shape": self.shape, "area": self.area}
+
+
+@dataclass
+class RectLight(AreaLight):
+    """A rectangle centred at ``position`` with full edge vectors ``u`` and ``v``, emitting
+    towards u × v."""
+
+    u: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
+    v: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    shape = "rect"
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Unit emitting normal u × v / |u × v|."""
+        return tf.normalize(np.cross(self.u, self.v))
+
+    @property
+    def area(self) -> float:
+        """|u × v| (the edges need not be perpendicular: a parallelogram)."""
+        return float(np.linalg.norm(np.cross(self.u, self.v)))
+
+    def _surface(self, uv):
+        return self.position + (uv[..., :1] - 0.5) * self.u + (uv[..., 1:] - 0.5) * self.v
+
+    def corners(self) -> np.ndarray:
+        """The four corners (4, 3), counter-clockwise seen from the emitting side."""
+        return self._surface(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))
+
+    @classmethod
+    def parse(cls, rd: TableReader, common: dict) -> "RectLight":
+        """position, u, v; rejects edges whose cross product vanishes (zero area)."""
+        u, v = rd.vector("u", 3, nonzero=True), rd.vector("v", 3, nonzero=True)
+        cross = np.linalg.norm(np.cross(u, v))
+        if not cross > 1e-12 * np.linalg.norm(u) * np.linalg.norm(v):
+            raise rd.error("v", "u and v are parallel: the rectangle has zero area")
+        return cls(position=rd.vector("position", 3), u=u, v=v, **common)
+
+
+@dataclass
+class DiscLight(AreaLight):
+    """A disc centred at ``position`` of ``radius``, emitting towards the unit ``direction``."""
+
+    direction: np.ndarray = field(default_factory=lambda: np.array([0.0, -1.0, 0.0]))
+    radius: float = 0.5
+    shape = "disc"
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Unit emitting normal (``direction``)."""
+        return self.direction
+
+    @property
+    def area(self) -> float:
+        """π r²."""
+        return float(np.pi * self.radius ** 2)
+
+    def _surface(self, uv):
+        t, b = basis(self.direction)
+        d = concentric_disc(uv) * self.radius
+        return self.position + d[..., :1] * t + d[..., 1:] * b
+
+    @classmethod
+    def parse(cls, rd: TableReader, common: dict) -> "DiscLight":
+        """position, direction (non-zero), radius > 0."""
+        direction = rd.vector("direction", 3, nonzero=True)
+        return cls(position=rd.vector("position", 3), direction=direction / np.linalg.norm(direction),
+                   radius=rd.number("radius", min=0.0, min_open=True), **common)
+
+
+@dataclass
+class SphereLight(AreaLight):
+    """A sphere centred at ``position`` of ``radius``, emitting all around."""
+
+    radius: float = 0.5
+    shape = "sphere"
+    one_sided = False
+
+    @property
+    def area(self) -> float:
+        """4 π r²."""
+        return float(4.0 * np.pi * self.radius ** 2)
+
+    def emits_towards(self, points):
+        """Every point outside the sphere sees part of it."""
+        return np.linalg.norm(np.asarray(points, np.float64) - self.position, axis=-1) > self.radius
+
+    def pattern(self, n, towards=None):
+        """N fixed points on the sphere's silhouette disc seen from ``towards`` (the receivers'
+        centre; default: straight down): a sphere light seen from far away is that disc, and
+        every pixel shares one set of points (n = 1: the centre). Points far off that direction
+        see another silhouette — the approximation the light-sampling average makes."""
+        axis = np.array([0.0, -1.0, 0.0]) if towards is None else tf.normalize(np.asarray(towards) - self.position)
+        t, b = basis(axis)
+        lo, size = strata(n)
+        d = concentric_disc(lo + 0.5 * size) * self.radius
+        return self.position + d[:, :1] * t + d[:, 1:] * b
+
+    def sample_for(self, points, n, rng):
+        """Uniform by area over the cap each point sees (bounded by the silhouette): about the
+        axis from the centre to the point, cos θ uniform in [r/d, 1] (Archimedes: equal heights,
+        equal areas), stratified in (cos θ, φ)."""
+        points = np.asarray(points, np.float64)
+        lo, size = strata(n)
+        uv = lo + rng.random((len(points), n, 2)) * size
+        offset = points - self.position
+        dist = np.linalg.norm(offset, axis=1)
+        inside = dist <= self.radius
+        axis = offset / np.where(inside, 1.0, dist)[:, None]
+        axis[inside] = [0.0, 1.0, 0.0]
+        helper = np.where(np.abs(axis[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+        t = np.cross(helper, axis)
+        t /= np.linalg.norm(t, axis=1, keepdims=True)
+        b = np.cross(axis, t)
+        cos_max = np.where(inside, 1.0, self.radius / np.where(inside, 1.0, dist))
+        z = 1.0 - uv[..., 0] * (1.0 - cos_max[:, None])
+        s = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+        phi = 2.0 * np.pi * uv[..., 1]
+        direction = (z[..., None] * axis[:, None] + (s * np.cos(phi))[..., None] * t[:, None]
+                     + (s * np.sin(phi))[..., None] * b[:, None])
+        return self.position + self.radius * direction, np.broadcast_to(~inside[:, None], (len(points), n))
+
+    @classmethod
+    def parse(cls, rd: TableReader, common: dict) -> "SphereLight":
+        """position, radius > 0."""
+        return cls(position=rd.vector("position", 3), radius=rd.number("radius", min=0.0, min_open=True), **common)
+
+
+#: Area light shapes a scene file may name (``type = "area"``, ``shape = "..."``).
+AREA_SHAPES: dict[str, type[AreaLight]] = {cls.shape: cls for cls in (RectLight, DiscLight, SphereLight)}

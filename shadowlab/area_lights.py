@@ -9,7 +9,8 @@ light is its surface, sampled two ways:
   the light-sampling average of the hard techniques renders once from each
   (:mod:`shadowlab.light_sampling`). The points are the centres of N equal-area strata of the
   unit square (:func:`strata`), mapped onto the surface by area-preserving maps, so one sample
-  is the centre and a regular pattern shows its banding on purpose.
+  is the centre (a sphere: the point of it nearest the receivers) and a regular pattern shows
+  its banding on purpose.
 - :meth:`AreaLight.sample_for`: per shaded point, N stratified points jittered independently
   for every point (decorrelated between pixels), for the sampled ground truth.
 
@@ -79,6 +80,27 @@ def above_horizon(samples: np.ndarray, points: np.ndarray, normals: np.ndarray) 
     """Bool (M, N): sample (M, N, 3) strictly above the tangent plane of its point (M, 3) with
     the camera-facing normal (M, 3) — below it, the point's own surface hides the light."""
     return np.einsum("mnk,mk->mn", samples - points[:, None, :], normals) > 0
+
+
+def _unit_direction(vec: np.ndarray) -> np.ndarray:
+    """``vec`` (3,) scaled to unit length without overflow or underflow: divided by its largest
+    |entry| first, so entries of any finite magnitude (1e±300) give the true direction."""
+    scaled = vec / np.abs(vec).max()
+    return scaled / np.linalg.norm(scaled)
+
+
+def _checked_area(rd: TableReader, key: str, light: "AreaLight", what: str) -> "AreaLight":
+    """``light`` if its :attr:`~AreaLight.area` is finite and > 0, else a SceneError on ``key``:
+    parameters of extreme (finite) magnitude can overflow the area to ∞ (r = 1e300 → π r²) or
+    underflow it to 0, and every sampler, weight and report divides by or prints the area."""
+    try:
+        with np.errstate(over="ignore", under="ignore"):  # an overflow is the error reported below
+            area = light.area
+    except OverflowError:  # a Python float's ** raises where numpy would give inf
+        area = float("inf")
+    if not (np.isfinite(area) and area > 0):
+        raise rd.error(key, f"{what} gives the light an area of {area!r}: it must be finite and > 0")
+    return light
 
 
 @dataclass
@@ -155,12 +177,14 @@ class RectLight(AreaLight):
 
     @classmethod
     def parse(cls, rd: TableReader, common: dict) -> "RectLight":
-        """position, u, v; rejects edges whose cross product vanishes (zero area)."""
+        """position, u, v; rejects parallel edges (sin of their angle ≤ 1e-12, tested on unit
+        vectors so that huge or tiny edges neither overflow nor underflow the test) and an area
+        |u × v| that is not finite and > 0."""
         u, v = rd.vector("u", 3, nonzero=True), rd.vector("v", 3, nonzero=True)
-        cross = np.linalg.norm(np.cross(u, v))
-        if not cross > 1e-12 * np.linalg.norm(u) * np.linalg.norm(v):
+        if not np.linalg.norm(np.cross(_unit_direction(u), _unit_direction(v))) > 1e-12:
             raise rd.error("v", "u and v are parallel: the rectangle has zero area")
-        return cls(position=rd.vector("position", 3), u=u, v=v, **common)
+        light = cls(position=rd.vector("position", 3), u=u, v=v, **common)
+        return _checked_area(rd, "u", light, "|u × v|")
 
 
 @dataclass
@@ -188,10 +212,11 @@ class DiscLight(AreaLight):
 
     @classmethod
     def parse(cls, rd: TableReader, common: dict) -> "DiscLight":
-        """position, direction (non-zero), radius > 0."""
+        """position, direction (non-zero), radius > 0 with a finite, non-zero area π r²."""
         direction = rd.vector("direction", 3, nonzero=True)
-        return cls(position=rd.vector("position", 3), direction=direction / np.linalg.norm(direction),
-                   radius=rd.number("radius", min=0.0, min_open=True), **common)
+        light = cls(position=rd.vector("position", 3), direction=_unit_direction(direction),
+                    radius=rd.number("radius", min=0.0, min_open=True), **common)
+        return _checked_area(rd, "radius", light, "the radius")
 
 
 @dataclass
@@ -212,15 +237,27 @@ class SphereLight(AreaLight):
         return np.linalg.norm(np.asarray(points, np.float64) - self.position, axis=-1) > self.radius
 
     def pattern(self, n, towards=None):
-        """N fixed points on the sphere's silhouette disc seen from ``towards`` (the receivers'
-        centre; default: straight down): a sphere light seen from far away is that disc, and
-        every pixel shares one set of points (n = 1: the centre). Points far off that direction
-        see another silhouette — the approximation the light-sampling average makes."""
-        axis = np.array([0.0, -1.0, 0.0]) if towards is None else tf.normalize(np.asarray(towards) - self.position)
+        """N fixed points on the cap of the sphere seen from ``towards`` (the receivers' centre;
+        default: from straight below), uniform by area over it as the truth samples each point's
+        own cap: the strata centres go through the concentric map to the unit disc (radius ρ,
+        angle φ), then to the cap point at cos θ = 1 − ρ² (1 − r/D) about the axis towards the
+        receivers (ρ² is uniform, so cos θ is uniform on [r/D, 1]: Archimedes, equal areas).
+        n = 1 gives the cap's apex, the point nearest the receivers. Points far off that
+        direction see another cap — the approximation a shared pattern makes."""
+        target = self.position + [0.0, -2.0 * self.radius, 0.0] if towards is None else np.asarray(towards, float)
+        offset = target - self.position
+        dist = float(np.linalg.norm(offset))
+        axis = offset / dist if dist > 0 else np.array([0.0, -1.0, 0.0])
+        cos_max = min(1.0, self.radius / dist) if dist > self.radius else 0.0  # inside: a hemisphere
         t, b = basis(axis)
         lo, size = strata(n)
-        d = concentric_disc(lo + 0.5 * size) * self.radius
-        return self.position + d[:, :1] * t + d[:, 1:] * b
+        d = concentric_disc(lo + 0.5 * size)
+        rho2 = np.sum(d * d, axis=1)
+        z = 1.0 - rho2 * (1.0 - cos_max)
+        phi = np.arctan2(d[:, 1], d[:, 0])
+        s = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+        direction = z[:, None] * axis + (s * np.cos(phi))[:, None] * t + (s * np.sin(phi))[:, None] * b
+        return self.position + self.radius * direction
 
     def sample_for(self, points, n, rng):
         """Uniform by area over the cap each point sees (bounded by the silhouette): about the
@@ -248,8 +285,9 @@ class SphereLight(AreaLight):
 
     @classmethod
     def parse(cls, rd: TableReader, common: dict) -> "SphereLight":
-        """position, radius > 0."""
-        return cls(position=rd.vector("position", 3), radius=rd.number("radius", min=0.0, min_open=True), **common)
+        """position, radius > 0 with a finite, non-zero area 4 π r²."""
+        light = cls(position=rd.vector("position", 3), radius=rd.number("radius", min=0.0, min_open=True), **common)
+        return _checked_area(rd, "radius", light, "the radius")
 
 
 #: Area light shapes a scene file may name (``type = "area"``, ``shape = "..."``).

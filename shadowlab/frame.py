@@ -16,6 +16,7 @@ clear it before use. The frame's own caches (evaluated masks) live on the frame.
 """
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -243,6 +244,30 @@ class Frame:
     def evaluated(self, light_index: int) -> np.ndarray:
         """Bool (height, width): the evaluated pixels for one light (DESIGN §7)."""
         return self.to_image(self.compact_evaluated(light_index), fill=False, dtype=bool)
+
+    @contextlib.contextmanager
+    def lit_by(self, light_index: int, light: Light):
+        """Context manager: within it, light ``light_index`` of the scene is ``light`` and its
+        evaluated mask is ``light``'s own (recomputed on first use); on leaving, even by an
+        exception, the scene's light and the cached mask (or its absence) are put back.
+
+        For the light-sampling average (:mod:`shadowlab.light_sampling`), which measures a
+        technique once per point of an area light, each time on a point light at that point
+        under the area light's index. The scene's light list is changed in place: the frame and
+        anything else sharing its scene see the stand-in while the block runs."""
+        if not 0 <= light_index < len(self.scene.lights):
+            raise IndexError(f"light {light_index} of a scene with {len(self.scene.lights)} lights")
+        lights = self.scene.lights
+        old_light = lights[light_index]
+        old_mask = self._evaluated.pop(light_index, None)
+        lights[light_index] = light
+        try:
+            yield self
+        finally:
+            lights[light_index] = old_light
+            self._evaluated.pop(light_index, None)
+            if old_mask is not None:
+                self._evaluated[light_index] = old_mask
 
     def release(self) -> None:
         """Free the frame's GL objects."""

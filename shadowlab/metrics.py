@@ -69,6 +69,11 @@ class Evaluation:
         self.false_lit = int((self.g_sh & ~self.v_sh & ev).sum())
 
     @cached_property
+    def soft(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The truth's (umbra, penumbra, fully lit) masks, :func:`soft_regions`."""
+        return soft_regions(self.truth, self.ev)
+
+    @cached_property
     def boundaries(self) -> tuple[np.ndarray, np.ndarray]:
         """Shadow boundaries of V and G, bool (H, W) each."""
         return shadow_boundary(self.v_sh, self.ev), shadow_boundary(self.g_sh, self.ev)
@@ -103,6 +108,46 @@ def _umbra_visibility_std(e: Evaluation) -> float:
 
 def _contact_gap_px(e: Evaluation) -> float:
     return contact_gap(e.vis, e.truth, e.ev, e.contact)
+
+
+# Soft-shadow metrics (DESIGN §7). Visibility of an area light from a point P is the fraction,
+# by area, of the emitting surface facing P that P sees unoccluded; light samples below P's
+# tangent plane count as occluded, and a point behind a one-sided light sees none of it (V = 0).
+# The truth's visibility splits the evaluated pixels in three: umbra (G <= PENUMBRA_LOW), fully
+# lit (G >= PENUMBRA_HIGH) and the penumbra between them. The bounds sit a little inside 0 and 1
+# so that a sampled truth's few stray samples (1/1024 per sample at the default) do not turn an
+# umbra or a lit pixel into penumbra.
+PENUMBRA_LOW = 0.02
+PENUMBRA_HIGH = 0.98
+
+
+def _visibility_rmse(e: Evaluation) -> float:
+    return float(np.sqrt(np.mean((e.vis[e.ev] - e.truth[e.ev]) ** 2))) if e.n else 0.0
+
+
+def soft_regions(truth: np.ndarray, evaluated: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The truth's umbra (G <= PENUMBRA_LOW), penumbra (PENUMBRA_LOW < G < PENUMBRA_HIGH) and
+    fully lit region (G >= PENUMBRA_HIGH) over the evaluated pixels: three disjoint bool
+    (H, W) masks whose union is ``evaluated``. ``truth`` float (H, W) in [0, 1]."""
+    ev = evaluated.astype(bool)
+    umbra = ev & (truth <= PENUMBRA_LOW)
+    lit = ev & (truth >= PENUMBRA_HIGH)
+    return umbra, ev & ~umbra & ~lit, lit
+
+
+def _penumbra_mae(e: Evaluation) -> float:
+    pen = e.soft[1]
+    return float(np.abs(e.vis[pen] - e.truth[pen]).mean()) if pen.any() else 0.0
+
+
+def _umbra_error_pixels(e: Evaluation) -> int:
+    # in the truth's umbra, G thresholded is shadowed: an error is V lit
+    return int((e.soft[0] & (e.vis >= THRESHOLD)).sum())
+
+
+def _lit_error_pixels(e: Evaluation) -> int:
+    # in the truth's fully lit region, G thresholded is lit: an error is V shadowed
+    return int((e.soft[2] & (e.vis < THRESHOLD)).sum())
 
 
 def error_classes(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) -> np.ndarray:
@@ -175,6 +220,9 @@ class Column:
     summary: bool = False
     report: bool = False
     needs: tuple[str, ...] = ()
+    #: A soft-shadow metric: the HTML report shows it only for runs with a penumbra
+    #: (:func:`format_table`); on hard shadows it repeats the thresholded rates.
+    soft: bool = False
     #: Artefact metrics a baseline holds (``shadowlab check``): (absolute, relative) tolerance —
     #: a value is a regression when it exceeds baseline + max(abs, rel × baseline). Larger is worse.
     tolerance: tuple[float, float] | None = None
@@ -203,6 +251,9 @@ class Column:
 #: receivers of sm_grazing (+0.07 %). Distances: a quarter of a pixel or 10 %.
 RATE_TOLERANCE = (2e-4, 0.05)
 DISTANCE_TOLERANCE = (0.25, 0.1)
+#: visibility_rmse: the rate tolerance's share of pixels flipped from right to wholly wrong
+#: raises the mean square by at most 2e-4, the RMSE by at most its square root (0.014).
+RMSE_TOLERANCE = (float(np.sqrt(RATE_TOLERANCE[0])), 0.05)
 
 
 def _metric(name, doc, compute, fmt="value", **kw) -> Column:
@@ -256,6 +307,25 @@ COLUMNS: tuple[Column, ...] = (
             lambda e: e.boundary_figures[1], "px"),
     _metric("boundary_p95_px", "95th percentile of the symmetric boundary distances, pixels",
             lambda e: e.boundary_figures[2], "px", tolerance=DISTANCE_TOLERANCE),
+    _metric("visibility_rmse", "root mean square of V - G over evaluated pixels, without thresholding",
+            _visibility_rmse, report=True, soft=True, tolerance=RMSE_TOLERANCE),
+    _metric("penumbra_mae", f"mean |V - G| over the truth's penumbra ({PENUMBRA_LOW} < G < {PENUMBRA_HIGH}); "
+                            "0 when it is empty", _penumbra_mae, report=True, soft=True, tolerance=(0.01, 0.1)),
+    _metric("penumbra_pixels", "evaluated pixels in the truth's penumbra", lambda e: int(e.soft[1].sum()), "count"),
+    _metric("umbra_error_rate", f"wrongly lit / umbra pixels (G <= {PENUMBRA_LOW}): light through a full shadow",
+            lambda e: _ratio(_umbra_error_pixels(e), int(e.soft[0].sum())), "percent", report=True, soft=True,
+            tolerance=RATE_TOLERANCE),
+    _metric("umbra_pixels", f"evaluated pixels in the truth's umbra (G <= {PENUMBRA_LOW})",
+            lambda e: int(e.soft[0].sum()), "count"),
+    _metric("umbra_error_pixels", "umbra pixels V has lit", _umbra_error_pixels, "count"),
+    _metric("lit_error_rate", f"wrongly shadowed / fully lit pixels (G >= {PENUMBRA_HIGH}): shadow where the "
+                              "whole light is seen", lambda e: _ratio(_lit_error_pixels(e), int(e.soft[2].sum())),
+            "percent", report=True, soft=True, tolerance=RATE_TOLERANCE),
+    _metric("lit_pixels", f"evaluated pixels the truth has fully lit (G >= {PENUMBRA_HIGH})",
+            lambda e: int(e.soft[2].sum()), "count"),
+    _metric("lit_error_pixels", "fully lit pixels V has shadowed", _lit_error_pixels, "count"),
+    Column("truth_stderr_max", "the sampled truth's per-pixel standard error bound (<= 0.5/sqrt(samples); 0 for "
+                               "a point-like light): soft-shadow errors mean something only well above it", "value"),
     _metric("contact_gap_px", "peter-panning: mean width of the false-lit band along shadowed contact lines, pixels",
             _contact_gap_px, "px", report=True, needs=("contact",), tolerance=(0.5, 0.1)),
     Column("time_repeats", "timed runs behind the median", "count"),
@@ -290,10 +360,20 @@ def order_columns(names, pass_order=()) -> list[str]:
     return known + params + passes + [n for n in rest if n not in params and n not in passes]
 
 
+def _numeric(series) -> np.ndarray:
+    """A column as float (NaN where not a number)."""
+    import pandas as pd
+
+    return pd.to_numeric(series, errors="coerce").to_numpy(dtype=float)
+
+
 def format_table(df, which: str, first: str = "short_label"):
     """The rows of ``df`` as strings for display: ``first`` (the configuration), then the table
-    columns marked ``which`` ('summary' or 'report') that ``df`` has, each in its format."""
-    cols = [c for c in COLUMNS if getattr(c, which) and c.name in df.columns and c.name != first]
+    columns marked ``which`` ('summary' or 'report') that ``df`` has, each in its format; the
+    soft-shadow columns only when some row has a penumbra (``penumbra_pixels`` > 0)."""
+    soft = "penumbra_pixels" in df.columns and bool((_numeric(df["penumbra_pixels"]) > 0).any())
+    cols = [c for c in COLUMNS if getattr(c, which) and c.name in df.columns and c.name != first
+            and (soft or not c.soft)]
     out = df[[first] + [c.name for c in cols]].copy()
     for c in cols:
         out[c.name] = out[c.name].map(c.format)

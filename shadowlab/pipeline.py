@@ -23,7 +23,7 @@ from typing import Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from . import gl, memory, metrics, timing
+from . import gl, light_sampling, memory, metrics, timing
 from .frame import Frame
 from .scene import load_scene
 from .techniques import Technique, TechniqueError, from_spec
@@ -61,7 +61,32 @@ def measure(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, wa
 
     ``pass_timing``: then ``repeat`` further renders time each named pass
     (:class:`shadowlab.timing.PassTimer`); they run after the timed renders, so the finishes
-    between passes do not perturb ``time_ms_median``."""
+    between passes do not perturb ``time_ms_median``.
+
+    A light-sampled technique (``LIGHT_SAMPLED``) on an area light is measured as the average of
+    ``light_samples`` hard measurements, one per point of the light
+    (:func:`shadowlab.light_sampling.measure_sampled`: time, setup and stats are the frame's N
+    renders'); on any other light it is measured once, its stats get ``light_samples`` = 1 and
+    a ``light_samples`` > 1 gets a note saying it was ignored."""
+    light = frame.scene.lights[light_index]
+    if light_sampling.is_sampled(tech, light):
+        return light_sampling.measure_sampled(tech, frame, light_index, _measure_hard, repeat, warmup, on_step,
+                                              release=release, pass_timing=pass_timing)
+    note = light_sampling.ignored_note(tech, light_index, light)
+    if note is not None:
+        tech.notes.append(note)
+    m = _measure_hard(tech, frame, light_index, repeat, warmup, on_step, release, pass_timing)
+    if note is not None:
+        m.notes.insert(0, note)
+    if getattr(tech, "LIGHT_SAMPLED", False):
+        m.stats["light_samples"] = 1
+    return m
+
+
+def _measure_hard(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, warmup: int = 1,
+                  on_step: Callable[[], None] | None = None, release: bool = True,
+                  pass_timing: bool = False) -> Measurement:
+    """:func:`measure` for the light that is in the scene now, rendered once per run."""
     before = len(tech.notes)
     memory.reset_peak()
     t0 = time.perf_counter()
@@ -116,13 +141,14 @@ class Evaluator:
                                                self.warmup, on_step, pass_timing=self.pass_timing)
         return self._truth[light_index]
 
-    def use_truth(self, light_index: int, visibility: np.ndarray) -> None:
+    def use_truth(self, light_index: int, visibility: np.ndarray, stats: dict | None = None) -> None:
         """Judge against a truth measured elsewhere (a study's cached truth): ``visibility``
-        float32 (height, width), row 0 = top, of the default truth technique for this frame."""
+        float32 (height, width), row 0 = top, and the cost figures ``stats`` that truth reported
+        (its ``truth_stderr_max`` goes on every row)."""
         if visibility.shape != (self.frame.height, self.frame.width):
             raise ValueError(f"truth of shape {visibility.shape} for a {self.frame.width}x{self.frame.height} frame")
         self._truth[light_index] = Measurement(self.truth_technique, light_index, visibility,
-                                               timing.Timing(float("nan"), float("nan"), []), {})
+                                               timing.Timing(float("nan"), float("nan"), []), dict(stats or {}))
 
     def contact_lines(self, light_index: int) -> np.ndarray:
         """Bool (height, width): evaluated receiver pixels where another object touches the
@@ -135,14 +161,18 @@ class Evaluator:
 
     def row(self, m: Measurement, reference: bool = False) -> dict:
         """The metrics.csv row of a measurement (columns: :data:`shadowlab.metrics.COLUMNS`, then
-        ``param_<name>`` per parameter, then the technique's cost figures)."""
+        ``param_<name>`` per parameter, then the technique's cost figures). Every row carries its
+        light's truth's ``truth_stderr_max`` (0 when the truth reports none: a point-like light,
+        or a truth measured elsewhere, :meth:`use_truth`)."""
         frame, tech, li = self.frame, m.technique, m.light
         row = {"scene": frame.scene.name, "light": li, "light_type": frame.scene.lights[li].type_name,
                "technique": tech.name, "params": tech.params_string(), "label": tech.spec(),
                "short_label": tech.short_label(), "reference": reference,
                "width": frame.width, "height": frame.height}
-        truth = m.visibility if reference else self.truth(li).visibility
-        row.update(metrics.compare(m.visibility, truth, frame.evaluated(li), self.contact_lines(li)))
+        truth_m = m if reference else self.truth(li)
+        row.update(metrics.compare(m.visibility, truth_m.visibility, frame.evaluated(li), self.contact_lines(li)))
+        # the sampled truth's standard error bound (DESIGN §9) beside every row of the light
+        row["truth_stderr_max"] = float(truth_m.stats.get("truth_stderr_max", 0.0))
         row.update(m.timing.columns())
         row["setup_ms"] = m.setup_ms
         row["peak_rss_mib"] = memory.mib(m.peak_rss_bytes) if m.peak_rss_bytes else float("nan")

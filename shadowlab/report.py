@@ -2,7 +2,10 @@
 
 Images are written beside ``report.html`` (PNG, row 0 = top). Colours of the error map:
 correct lit and correct shadow in greys, false shadow in orange, false lit in blue, pixels
-that are not evaluated dimmed from the shaded image.
+that are not evaluated dimmed from the shaded image. Soft configurations (an area light, or
+fractional visibility) also get a signed difference map V − G on a diverging colour map
+centred at 0, blue where the technique is too bright and red where it is too dark — the same
+sides as the error map's blue false lit and orange false shadow.
 """
 from __future__ import annotations
 
@@ -53,6 +56,82 @@ def error_picture(classes: np.ndarray, shaded_display: np.ndarray) -> np.ndarray
     for cls, (_, color) in ERROR_COLORS.items():
         rgb[classes == cls] = color
     return rgb
+
+
+#: Diverging colour map of the signed difference map (matplotlib name): low (V < G, too dark)
+#: red, 0 white, high (V > G, too bright) blue.
+SIGNED_COLORMAP = "RdBu"
+#: Step the signed map's symmetric limit is rounded up to, and its least value: the truth's
+#: own sampling noise (<= 0.5/sqrt(1024) = 0.016 at the default samples) stays pale.
+SIGNED_LIMIT_STEP = 0.05
+SIGNED_CAPTION = ("signed difference V − G (technique − truth, first light), in visibility units: "
+                  "positive (blue) = the technique is too bright (false light), negative (red) = too dark "
+                  "(false shadow), white = agrees; slate = not evaluated")
+
+
+def is_soft(light, vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) -> bool:
+    """Whether a configuration is judged as a soft shadow (and gets a signed difference map):
+    the light is an area light, or the technique's or the truth's visibility (float (H, W),
+    row 0 = top) is fractional (strictly between 0 and 1) on some evaluated pixel."""
+    from .area_lights import AreaLight
+
+    if isinstance(light, AreaLight):
+        return True
+    ev = evaluated.astype(bool)
+    return any(bool(((a[ev] > 0.0) & (a[ev] < 1.0)).any()) for a in (vis, truth))
+
+
+def signed_difference(light, vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) -> np.ndarray | None:
+    """V − G float (H, W), row 0 = top, NaN off the evaluated pixels, for a soft configuration
+    (:func:`is_soft`); None for a hard one (it gets no signed map)."""
+    if not is_soft(light, vis, truth, evaluated):
+        return None
+    return np.where(evaluated.astype(bool), vis - truth, np.nan)
+
+
+def signed_limit(diffs) -> float:
+    """The symmetric limit ±L of the signed maps of one run: the largest |V − G| (NaN ignored)
+    over the float arrays ``diffs``, rounded up to :data:`SIGNED_LIMIT_STEP` and at least that
+    step, and at most 1 (visibility lies in [0, 1]); one scale for every configuration, so
+    their maps compare."""
+    peak = max((float(np.nanmax(np.abs(d))) for d in diffs if np.isfinite(d).any()), default=0.0)
+    steps = max(1, int(np.ceil(peak / SIGNED_LIMIT_STEP - 1e-9)))
+    return min(1.0, steps * SIGNED_LIMIT_STEP)
+
+
+def signed_picture(diff: np.ndarray, limit: float, evaluated: np.ndarray, covered: np.ndarray) -> np.ndarray:
+    """The signed difference map: ``diff`` = V − G float (H, W), row 0 = top, through
+    :data:`SIGNED_COLORMAP` with −``limit`` → one end, 0 → the white centre, +``limit`` → the
+    other (clipped beyond); not-evaluated pixels slate, uncovered ones the background. RGB
+    float (H, W, 3) in [0, 1]."""
+    import matplotlib
+
+    if not limit > 0:
+        raise ValueError(f"the signed map's limit must be > 0, got {limit}")
+    t = np.clip((np.nan_to_num(diff, nan=0.0) + limit) / (2.0 * limit), 0.0, 1.0)
+    rgb = matplotlib.colormaps[SIGNED_COLORMAP](t)[..., :3].astype(np.float64)
+    rgb[~evaluated.astype(bool)] = NOT_EVALUATED
+    rgb[~covered.astype(bool)] = BACKGROUND
+    return rgb
+
+
+def signed_legend(path: Path, limit: float) -> None:
+    """A horizontal colour bar of the signed map (PNG): −``limit`` … 0 … +``limit``, labelled
+    in visibility units, its ends named (too dark / too bright)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import Normalize
+
+    fig, ax = plt.subplots(figsize=(5.0, 0.95), dpi=110)
+    cb = fig.colorbar(matplotlib.cm.ScalarMappable(Normalize(-limit, limit), SIGNED_COLORMAP), cax=ax,
+                      orientation="horizontal", ticks=[-limit, -limit / 2, 0.0, limit / 2, limit])
+    cb.set_label("V − G, visibility   (← too dark: false shadow | too bright: false light →)", fontsize=8)
+    cb.ax.tick_params(labelsize=8)
+    fig.subplots_adjust(left=0.05, right=0.95, top=0.92, bottom=0.55)
+    fig.savefig(path)
+    plt.close(fig)
 
 
 def save_png(path: Path, rgb: np.ndarray) -> None:
@@ -150,20 +229,29 @@ def pass_time_plot(df: pd.DataFrame, path: Path) -> str | None:
 
 def write_html(path: Path, run: dict, df: pd.DataFrame, images: list[dict]) -> None:
     """Write ``report.html``: run facts, the metrics table, the speed/error plot and an image grid
-    (shaded | visibility | error map per configuration). ``images`` holds dicts with ``label``
-    (the full spec), ``title`` (a short heading), ``shaded``, ``visibility`` and optionally
-    ``error`` (file names relative to the report)."""
+    (shaded | visibility | error map | signed map per configuration). ``images`` holds dicts with
+    ``label`` (the full spec), ``title`` (a short heading), ``shaded``, ``visibility`` and
+    optionally ``error`` and ``signed`` (file names relative to the report); ``run['signed_map']``
+    (``limit``, ``colormap``, ``legend``: the colour bar's file), when present, adds the signed
+    map's colour bar and caption."""
     table = format_table(df, "report")
     legend = "".join(f'<span class="sw" style="background:rgb({",".join(str(int(255 * v)) for v in col)})"></span>'
                      f"{html.escape(name)} &nbsp; " for name, col in ERROR_COLORS.values())
     rows = []
     for im in images:
         cells = [f'<figure><img src="{im[k]}" alt="{k}"><figcaption>{k}</figcaption></figure>'
-                 for k in ("shaded", "visibility", "error") if im.get(k)]
+                 for k in ("shaded", "visibility", "error", "signed") if im.get(k)]
         title = im.get("title", im["label"])
         rows.append(f'<h3>{html.escape(title)}</h3><p class="spec">{html.escape(im["label"])}</p>'
                     f'<div class="row">{"".join(cells)}</div>')
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in run.get("notes", []))
+    columns = 4 if any(im.get("signed") for im in images) else 3
+    signed = run.get("signed_map")
+    signed_html = ""
+    if signed:
+        signed_html = (f'<p class="signed"><img src="{html.escape(signed["legend"])}" alt="signed map colour bar"><br>'
+                       f'Signed map: {html.escape(SIGNED_CAPTION)}; colour map {html.escape(signed["colormap"])}, '
+                       f'limits ±{signed["limit"]:.2f}.</p>')
     doc = f"""<!doctype html>
 <html><head><meta charset="utf-8"><title>shadowlab — {html.escape(run['scene']['name'])}</title>
 <style>
@@ -171,7 +259,7 @@ body {{ font-family: system-ui, sans-serif; margin: 1.5em; color: #222; }}
 table {{ border-collapse: collapse; font-size: 0.85em; }}
 td, th {{ border: 1px solid #ccc; padding: 0.25em 0.5em; text-align: right; }}
 .row {{ display: flex; gap: 0.6em; flex-wrap: wrap; }}
-figure {{ margin: 0; }} .row img {{ width: calc((100vw - 6em) / 3); max-width: 640px; border: 1px solid #999; }}
+figure {{ margin: 0; }} .row img {{ width: calc((100vw - 6em) / {columns}); max-width: 640px; border: 1px solid #999; }}
 .spec {{ font-family: monospace; font-size: 0.75em; color: #555; word-break: break-all; margin: -0.6em 0 0.5em 0; }}
 .scroll {{ overflow-x: auto; }}
 figcaption {{ font-size: 0.8em; color: #555; }}
@@ -190,6 +278,7 @@ masks, metrics and error maps are for the first light; metrics.csv has every lig
 {f'<p>pass timing: {html.escape(run["pass_timing"])}</p>' if run.get("pass_timing") else ''}
 <h2>Images</h2>
 <p>Error map legend: {legend} dimmed: not evaluated (not a receiver, facing away from the light, or outside its footprint)</p>
+{signed_html}
 {''.join(rows)}
 </body></html>
 """

@@ -108,14 +108,25 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
         masks[ms[0].technique.spec()] = np.where(ev0, ms[0].visibility, np.nan).astype(np.float32)
     np.savez_compressed(folder / "masks.npz", **masks)
 
+    # signed difference maps V - G (first light) of the soft configurations, on one shared scale
+    light0 = frame.scene.lights[0]
+    diffs = {ms[0].technique.spec(): d for ms in result.results
+             if (d := report.signed_difference(light0, ms[0].visibility, gt_vis[0], ev0)) is not None}
+    signed_map = None
+    if diffs:
+        limit = report.signed_limit(diffs.values())
+        signed_map = {"limit": limit, "colormap": report.SIGNED_COLORMAP, "legend": "images/signed_legend.png",
+                      "caption": report.SIGNED_CAPTION}
+        report.signed_legend(folder / signed_map["legend"], limit)
     shader = Shader(frame)
     try:
         truth = result.truth[0].technique
         images = [_write_images(folder, "ground_truth", truth.spec(), "ground truth", shader, frame, gt_vis, None)]
         for ms in result.results:
             tech = ms[0].technique
+            signed = (diffs[tech.spec()], signed_map["limit"]) if tech.spec() in diffs else None
             images.append(_write_images(folder, safe_name(tech.short_label()), tech.spec(), tech.short_label(), shader,
-                                        frame, [m.visibility for m in ms], gt_vis[0]))
+                                        frame, [m.visibility for m in ms], gt_vis[0], signed))
     finally:
         shader.release()
     report.speed_error_plot(df, folder / "speed_vs_error.png")
@@ -137,6 +148,9 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
         "repeat": repeat,
         "warmup": warmup,
         "masks_light": 0,
+        # per light: the sampled truth's per-pixel standard error bound (DESIGN §9; 0 for a point-like light)
+        "truth_stderr_max": [float(m.stats.get("truth_stderr_max", 0.0)) for m in result.truth],
+        "signed_map": signed_map,
         # peak resident memory of the run's measurements (each config's is in metrics.csv)
         "peak_rss_mib": peak_mib(df),
         "notes": result.notes,
@@ -149,7 +163,10 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
 
 
 def _write_images(folder: Path, stem: str, label: str, title: str, shader: Shader, frame: Frame, vis_all,
-                  truth0) -> dict:
+                  truth0, signed: tuple[np.ndarray, float] | None = None) -> dict:
+    """Write one configuration's images (shaded, visibility; against ``truth0``: the error map;
+    with ``signed`` = (V − G float (H, W), limit): the signed difference map) and return their
+    file names for the report."""
     covered = frame.covered
     ev0 = frame.evaluated(0)
     shaded = report.to_display(shader.shade(vis_all), covered)
@@ -161,6 +178,9 @@ def _write_images(folder: Path, stem: str, label: str, title: str, shader: Shade
         files["error"] = f"images/{stem}_error.png"
         classes = metrics.error_classes(vis_all[0], truth0, ev0)
         report.save_png(folder / files["error"], report.error_picture(classes, shaded))
+    if signed is not None:
+        files["signed"] = f"images/{stem}_signed.png"
+        report.save_png(folder / files["signed"], report.signed_picture(signed[0], signed[1], ev0, covered))
     return files
 
 

@@ -77,7 +77,7 @@ class TableReader:
             if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
                 raise self.error(name, f"must hold {n} finite numbers, got {val!r}")
         vec = np.asarray(val, np.float64)
-        if nonzero and not np.linalg.norm(vec) > 0:
+        if nonzero and not np.abs(vec).max() > 0:  # not the norm: it under/overflows at 1e∓200
             raise self.error(name, "must not be the zero vector")
         if positive and not np.all(vec > 0):
             raise self.error(name, f"entries must be > 0, got {val!r}")

@@ -49,6 +49,36 @@ def test_compare_writes_every_contract_file(tmp_path, capsys):
             if k in im:
                 assert (out / im[k]).stat().st_size > 0
     assert "<table" in (out / "report.html").read_text()
+    # a hard run (point light, 0/1 visibility): no signed map, a truth without sampling error
+    assert run["signed_map"] is None and not list((out / "images").glob("*_signed.png"))
+    assert run["truth_stderr_max"] == [0.0] and (df["truth_stderr_max"] == 0).all()
+    assert "Signed map" not in (out / "report.html").read_text()
+
+
+def test_soft_run_report_has_the_signed_map(tmp_path):
+    """An area light: each configuration gets a signed difference map V − G (diverging, centred
+    at 0) in the report, with the colour bar and its caption; run.json records the limit and,
+    per light, the truth's standard error bound; metrics.csv has the soft-shadow columns."""
+    out = tmp_path / "run"
+    assert main(["compare", "soft_banding", "-t", "shadow_map", "--size", "64x48", "--repeat", "1", "--warmup", "0",
+                 "--out", str(out)]) == 0
+    run = json.loads((out / "run.json").read_text())
+    sm = run["signed_map"]
+    assert sm["colormap"] == "RdBu" and 0 < sm["limit"] <= 1 and (out / sm["legend"]).stat().st_size > 0
+    assert run["truth_stderr_max"] == [pytest.approx(0.5 / np.sqrt(1024))]
+    conf = [im for im in run["images"] if im["label"] != run["ground_truth"]]
+    assert len(conf) == 1 and (out / conf[0]["signed"]).stat().st_size > 0
+    page = (out / "report.html").read_text()
+    assert f'src="{conf[0]["signed"]}"' in page and f'src="{sm["legend"]}"' in page
+    assert "positive (blue) = the technique is too bright (false light)" in page and f"±{sm['limit']:.2f}" in page
+    df = pd.read_csv(out / "metrics.csv")
+    row = df[~df["reference"]].iloc[0]
+    assert row["penumbra_pixels"] > 0 and row["penumbra_mae"] > 0 and row["truth_stderr_max"] == pytest.approx(1 / 64)
+    # the map is V − G of the masks on the run's scale: the largest |V − G| fits inside ±limit
+    masks = np.load(out / "masks.npz")
+    diff = masks[conf[0]["label"]] - masks["ground_truth"]
+    assert np.nanmax(np.abs(diff)) <= sm["limit"] < np.nanmax(np.abs(diff)) + 0.05 + 1e-9
+    assert "penumbra_mae" in page and "lit_error_rate" in page
 
 
 @pytest.mark.parametrize("args,culprit", [

@@ -348,3 +348,28 @@ def test_study_html(tmp_path):
     # the failed-runs table
     failed = doc.split('id="failed"')[1].split("<h2>")[0]
     assert "sv_two_lights" in failed and "planar" in failed
+
+
+def test_study_html_shows_signed_maps_of_soft_configurations(tmp_path):
+    """A configuration whose results row names a signed difference map (soft shadows) shows it
+    in its strip, under its error map, and the page explains the colours once; a named but
+    missing file is not linked; a study without any shows no signed-map text."""
+    res = synthetic(tmp_path)
+    plain = Path(sr.write_study_html(tmp_path, res, META)).read_text()
+    assert "signed V − G" not in plain and "signed-legend" not in plain
+    soft = (res["scene"] == "box_on_plane") & (res["label"] == "shadow_map") & (res["light"] == 0)
+    gone = (res["scene"] == "sm_thin") & (res["label"] == "planar") & (res["light"] == 0)
+    assert soft.sum() == 1 and gone.sum() == 1
+    save_png(tmp_path / "runs/box_on_plane/images/shadow_map_signed.png", np.full((6, 8, 3), 0.9))
+    res["signed_image"] = ""
+    res.loc[soft, "signed_image"] = "runs/box_on_plane/images/shadow_map_signed.png"
+    res.loc[gone, "signed_image"] = "runs/sm_thin/images/planar_signed.png"
+    cfg = sr.per_configuration(res)
+    assert _cfg(cfg, "box_on_plane", "shadow_map")["signed_image"] == "runs/box_on_plane/images/shadow_map_signed.png"
+    doc = Path(sr.write_study_html(tmp_path, res, META)).read_text()
+    srcs = re.findall(r'<img[^>]* src="([^"]+)"', doc)
+    assert srcs.count("runs/box_on_plane/images/shadow_map_signed.png") == 1
+    assert srcs.index("runs/box_on_plane/images/shadow_map_error.png") < srcs.index(
+        "runs/box_on_plane/images/shadow_map_signed.png")
+    assert "planar_signed.png" not in doc and doc.count("signed V − G (first light") == 1
+    assert "positive (blue) = the technique is too bright (false light)" in doc

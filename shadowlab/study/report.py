@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from ..metrics import COLUMN_BY_NAME, format_table
-from ..report import ERROR_COLORS
+from ..report import ERROR_COLORS, SIGNED_CAPTION
 
 #: A configuration *fails* a scene when its run failed or its error rate (pooled over the scene's
 #: lights) exceeds this fraction of the evaluated pixels: 1 %.
@@ -57,11 +57,12 @@ _SPARE_STYLES = [("#8c564b", "P"), ("#e377c2", "X"), ("#7f7f7f", "v"), ("#bcbd22
 CONFIG_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "reference", "lights",
                   "evaluated_pixels", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
                   "time_ms", "time_iqr_ms", "setup_ms", "wrong_pixels", "run_dir", "shaded_image", "error_image",
-                  "worst_crop_image", "worst_box", "worst_errors"]
+                  "worst_crop_image", "worst_box", "worst_errors", "signed_image"]
 #: (rate, its pixel-count denominator column) — the rates pooled over lights by their denominators.
 _RATE_WEIGHTS = {"error_rate": "evaluated_pixels", "false_shadow_rate": "truth_lit_pixels",
                  "false_lit_rate": "truth_shadowed_pixels"}
-_IMAGE_COLUMNS = ["run_dir", "shaded_image", "error_image", "worst_crop_image", "worst_box", "worst_errors"]
+_IMAGE_COLUMNS = ["run_dir", "shaded_image", "error_image", "worst_crop_image", "worst_box", "worst_errors",
+                  "signed_image"]
 
 
 # --------------------------------------------------------------------------- small helpers
@@ -179,7 +180,8 @@ def per_configuration(results: pd.DataFrame) -> pd.DataFrame:
     sum of the lights' set-up times (NaN where not measured);
     ``wrong_pixels`` = error_rate × evaluated_pixels (rounded); and from the first light's row
     (the one with images): ``run_dir, shaded_image, error_image, worst_crop_image, worst_box,
-    worst_errors`` ('' / NaN where absent).
+    worst_errors, signed_image`` ('' / NaN where absent; ``signed_image``: the signed difference
+    map V − G of a soft configuration, :func:`shadowlab.report.signed_picture`).
     """
     if results is None or len(results) == 0:
         return pd.DataFrame(columns=CONFIG_COLUMNS)
@@ -664,7 +666,9 @@ def _box_text(box) -> str:
 
 
 def _figure(study_dir: Path, r: pd.Series) -> str:
-    """One configuration of a scene's strip: its error map, caption, and its worst-region crop."""
+    """One configuration of a scene's strip: its error map, caption, its worst-region crop, and —
+    for a soft configuration whose results row names one (``signed_image``) — its signed
+    difference map V − G under them."""
     e = html.escape
     cap = (f'<b>{e(_text(r["short_label"]))}</b><br>error {e(_pct(r["error_rate"]))}'
            f' · {e(_ms(r["time_ms"]))} ms')
@@ -684,8 +688,12 @@ def _figure(study_dir: Path, r: pd.Series) -> str:
         crop_html = '<div class="none">no wrong pixels</div>'
     else:
         crop_html = '<div class="missing">no crop</div>'
+    signed = _rel(study_dir, r.get("signed_image"))
+    signed_html = (f'<figure class="signed"><img class="map" src="{e(signed)}" alt="signed map of '
+                   f'{e(_text(r["short_label"]))}"><figcaption>signed V − G (first light; blue too bright, '
+                   f'red too dark; scale in the run report)</figcaption></figure>' if signed else "")
     return (f'<div class="cfg"><figure>{img}<figcaption>{cap}</figcaption></figure>'
-            f'<figure class="worst">{crop_html}</figure></div>')
+            f'<figure class="worst">{crop_html}</figure>{signed_html}</div>')
 
 
 def _summary_html(results: pd.DataFrame) -> str:
@@ -715,11 +723,13 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
     workers, elapsed time, runs / cached / failed counts from ``meta``); the Pareto figure
     ``pareto_png`` (relative to the study dir); the summary table (per configuration, as in
     summary.md); the failed runs (scene, configuration, error) if any; the error-map legend
-    (:data:`shadowlab.report.ERROR_COLORS`); then per scene a link to its run report
+    (:data:`shadowlab.report.ERROR_COLORS`; and the signed map's caption when a configuration has
+    one); then per scene a link to its run report
     (``run_dir``/report.html), its metrics pooled over lights, and a horizontal strip: the
     truth's shaded image, then per configuration its error map (caption: short label, error
     rate, time) with the magnified crop of its worst region under it (caption: the box and the
-    number of wrong pixels; "no wrong pixels" when there are none). Images are referenced by
+    number of wrong pixels; "no wrong pixels" when there are none) and, for a soft
+    configuration with a ``signed_image``, its signed difference map V − G. Images are referenced by
     their paths relative to the study dir (missing files are named, not linked); all text is
     HTML-escaped."""
     e = html.escape
@@ -741,6 +751,9 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
     legend = "".join(f'<span class="sw" style="background:rgb({",".join(str(int(255 * v)) for v in col)})"></span>'
                      f"{e(label)} &nbsp; " for label, col in ERROR_COLORS.values())
     pareto = _rel(study_dir, pareto_png) or quote(Path(pareto_png).as_posix())
+    has_signed = "signed_image" in cfg.columns and any(_rel(study_dir, v) for v in cfg["signed_image"])
+    signed_note = (f'<p class="signed-legend">Soft configurations: {e(SIGNED_CAPTION)}; each run report has the '
+                   f'colour bar of its scale.</p>' if has_signed else "")
     failed_html = ""
     if len(fails):
         ft = pd.DataFrame({"scene": fails["scene"], "configuration": fails["label"], "error": fails["error"]})
@@ -816,6 +829,7 @@ them). Win = lowest error rate of a scene; fail = the run failed or its error ra
 <p>{nav}</p>
 <p>Error map legend: {legend} dimmed: not evaluated. Maps and crops show the first light; errors and times
 pool every light. Crops are magnified with nearest-neighbour so single wrong pixels stay visible.</p>
+{signed_note}
 {''.join(sections)}
 </body></html>
 """

@@ -83,7 +83,14 @@ def _write(folder: Path, scene: SceneRuns, df: pd.DataFrame, record: dict) -> No
     notes = list(truth["meta"]["notes"])
     for spec, res in scene.configs.items():
         notes.extend(f"{spec}: {n}" for n in res["meta"]["notes"])
-    run = {**record, "scene": truth["meta"]["scene"], "camera": truth["meta"]["camera"],
+    signed_map = None
+    if any(im.get("signed") for im in images):  # the study draws every signed map on one fixed scale
+        from .tasks import STUDY_SIGNED_LIMIT
+
+        signed_map = {"limit": STUDY_SIGNED_LIMIT, "colormap": report.SIGNED_COLORMAP,
+                      "legend": "images/signed_legend.png", "caption": report.SIGNED_CAPTION}
+        report.signed_legend(folder / signed_map["legend"], STUDY_SIGNED_LIMIT)
+    run = {**record, "scene": truth["meta"]["scene"], "camera": truth["meta"]["camera"], "signed_map": signed_map,
            "configurations": configurations, "pass_times_image": passes_png, "masks_light": 0,
            "peak_rss_mib": peak_mib(df), "notes": notes,
            "images": images}
@@ -93,7 +100,7 @@ def _write(folder: Path, scene: SceneRuns, df: pd.DataFrame, record: dict) -> No
 
 def _images(folder: Path, stem: str, label: str, title: str, files: dict) -> dict:
     out = {"label": label, "title": title}
-    for kind in ("shaded", "visibility", "error", "worst"):
+    for kind in ("shaded", "visibility", "error", "worst", "signed"):
         data = files.get(f"{kind}.png")
         if data is not None:
             out[kind] = f"images/{stem}_{kind}.png"

@@ -38,7 +38,7 @@ from .suite import Suite, load_suite
 
 #: Columns a study adds to every metrics row in results.csv (DESIGN §12).
 STUDY_COLUMNS = ("config", "scene_family", "status", "error", "run_dir", "revision", "renderer", "shaded_image",
-                 "error_image", "worst_crop_image", "worst_box", "worst_errors")
+                 "error_image", "worst_crop_image", "worst_box", "worst_errors", "signed_image")
 
 
 @dataclass
@@ -248,8 +248,9 @@ def _accuracy_phase(executor, suite, todo_truth, todo_config, known_truths: dict
 
     def submit_configs(scene_name: str, truth_result: dict) -> None:
         arrays = _truth_arrays(truth_result)
+        stderr = [float(row.get("truth_stderr_max", 0.0)) for row in truth_result["meta"]["rows"]]
         for r in waiting.pop(scene_name, []):
-            submit(r, _task(r, suite, "config", truth=arrays))
+            submit(r, _task(r, suite, "config", truth=arrays, truth_stderr=stderr))
 
     try:
         for r in todo_truth:
@@ -372,6 +373,8 @@ def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, timing
                     extra["shaded_image"] = f"{run_dir}/images/{stem}_shaded.png"
                     if not r.reference:
                         extra["error_image"] = f"{run_dir}/images/{stem}_error.png"
+                        if "signed.png" in res.get("files", {}):
+                            extra["signed_image"] = f"{run_dir}/images/{stem}_signed.png"
                         extra["worst_errors"] = worst["count"] if worst else 0
                         if worst and worst["count"]:
                             extra["worst_crop_image"] = f"{run_dir}/images/{stem}_worst.png"

@@ -27,6 +27,9 @@ FRAMES_KEPT = 2
 #: The worst-region crop: side = this fraction of the image's smaller side (at least MIN_CROP
 #: pixels), enlarged to about CROP_DISPLAY pixels.
 CROP_FRACTION, MIN_CROP, CROP_DISPLAY = 1 / 8, 16, 192
+#: The study's signed difference maps V − G share this fixed scale (±, visibility units): tasks
+#: run apart, so no run-wide maximum is known when each map is drawn; beyond it the colours clip.
+STUDY_SIGNED_LIMIT = 0.5
 
 _TIMING_COLUMNS = ("time_ms_median", "time_ms_iqr", "time_repeats", "gpu_time_ms_median")
 _gl_thread: ThreadPoolExecutor | None = None
@@ -144,6 +147,9 @@ def _images(frame, visibilities, truth0):
             factor = max(1, CROP_DISPLAY // window)
             files["worst.png"] = report.encode_png(report.magnified(error_rgb, box, factor))
             worst["factor"] = factor
+        diff = report.signed_difference(frame.scene.lights[0], visibilities[0], truth0, ev0)
+        if diff is not None:
+            files["signed.png"] = report.encode_png(report.signed_picture(diff, STUDY_SIGNED_LIMIT, ev0, frame.covered))
     return files, worst
 
 
@@ -180,8 +186,9 @@ def _config(task: dict) -> dict:
 
     frame = _frame(task)
     evaluator = Evaluator(frame)
+    stderr = task.get("truth_stderr") or [0.0] * len(task["truth"])
     for li, vis in enumerate(task["truth"]):
-        evaluator.use_truth(li, vis)
+        evaluator.use_truth(li, vis, {"truth_stderr_max": stderr[li]})
     tech = from_spec(task["spec"])
     ms = [measure(tech, frame, li, repeat=1, warmup=0) for li in range(len(frame.scene.lights))]
     rows = [_accuracy_row(evaluator.row(m)) for m in ms]

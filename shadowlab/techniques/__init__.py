@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from .base import Param, Technique, TechniqueError, parse_spec
+from .pcss import PCSS
 from .planar import PlanarShadow
 from .raytrace import RayTraced
 from .shadow_map import ShadowMap
@@ -14,6 +15,7 @@ REGISTRY: dict[str, type[Technique]] = {
     ShadowVolume.name: ShadowVolume,
     PlanarShadow.name: PlanarShadow,
     ShadowPolygons.name: ShadowPolygons,
+    PCSS.name: PCSS,
 }
 
 

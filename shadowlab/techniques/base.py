@@ -13,6 +13,11 @@ objects and its visibility image. The one shared resource it may overwrite is th
 depth-stencil attachment, and only if it says so in :attr:`Technique.MODIFIES_FRAME` (see
 :meth:`shadowlab.frame.Frame.depth_stencil_for`). Its notes (fallbacks, skipped objects) go
 to :attr:`Technique.notes`, which the run reports.
+
+Soft shadows from hard techniques: a class that sets ``LIGHT_SAMPLED = True`` gets the shared
+parameter ``light_samples`` (:data:`LIGHT_SAMPLES`), and the pipeline measures it on an area
+light as the average of that many hard measurements from points of the light
+(:mod:`shadowlab.light_sampling`); the technique itself only ever sees point lights.
 """
 from __future__ import annotations
 
@@ -85,20 +90,49 @@ def format_value(value: Any) -> str:
     return str(value)
 
 
+#: The shared parameter of light-sampled techniques (:attr:`Technique.LIGHT_SAMPLED`): how many
+#: points of an area light the hard technique renders from and averages
+#: (:mod:`shadowlab.light_sampling`).
+LIGHT_SAMPLES = Param(1, "area lights: hard renders averaged, one from each of N stratified points of the "
+                         "light (1 = its centre); ignored, with a note, on other lights", min=1, max=4096)
+
+
 class Technique:
-    """Base class. Subclasses set ``name``, ``PARAMS`` and implement setup/render/visibility."""
+    """Base class. Subclasses set ``name``, ``PARAMS`` and implement setup/render/visibility.
+
+    A subclass that sets ``LIGHT_SAMPLED = True`` gets the shared parameter ``light_samples``
+    (:data:`LIGHT_SAMPLES`) appended to its ``PARAMS`` when the class is made, so it parses,
+    round-trips in :meth:`spec` and becomes a ``param_light_samples`` column like a declared one;
+    the pipeline then averages the technique over that many points of an area light."""
 
     name = "technique"
     summary = ""
     PARAMS: dict[str, Param] = {}
+    #: True for a hard technique that the pipeline may average over points of an area light
+    #: (Heckbert & Herf 1997): it then has the ``light_samples`` parameter.
+    LIGHT_SAMPLED = False
     #: True when the work is on the CPU (no GL finish needed around it when timing).
     cpu = False
     #: Shared frame resources this technique overwrites: empty, or {"depth_stencil"}.
     MODIFIES_FRAME: frozenset[str] = frozenset()
     #: The passes :meth:`render` names with :meth:`timed_pass`, in drawing order.
     PASSES: tuple[str, ...] = ()
+    #: True for a technique that only makes sense on an area light (it raises TechniqueError on
+    #: another light): suites and tests give it soft-shadow scenes.
+    NEEDS_AREA_LIGHT = False
     #: Set by the pipeline while it times passes (a :class:`shadowlab.timing.PassTimer`).
     pass_timer = None
+
+    def __init_subclass__(cls, **kwargs):
+        """Merge the shared ``light_samples`` parameter into an opted-in class's ``PARAMS`` (last,
+        so declared parameters keep their order), and drop it from a class that opts out again
+        while inheriting a parent's ``PARAMS``."""
+        super().__init_subclass__(**kwargs)
+        declared = {k: p for k, p in cls.PARAMS.items() if k != "light_samples" or p is not LIGHT_SAMPLES}
+        if "light_samples" in declared:
+            raise TypeError(f"{cls.__name__}: 'light_samples' is the shared parameter of light-sampled "
+                            f"techniques; set LIGHT_SAMPLED = True instead of declaring it")
+        cls.PARAMS = {**declared, "light_samples": LIGHT_SAMPLES} if cls.LIGHT_SAMPLED else declared
 
     def __init__(self, **params):
         unknown = sorted(set(params) - set(self.PARAMS))

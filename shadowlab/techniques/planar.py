@@ -89,6 +89,7 @@ class PlanarShadow(Technique):
     #: Its own depth pre-pass and the stencil of the fixes live in the G-buffer's depth-stencil.
     MODIFIES_FRAME = frozenset({"depth_stencil"})
     PASSES = ("stencil", "darken")
+    LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.light_sampling)
 
     def setup(self, frame, light_index: int) -> None:
         """Find planar receivers, build their projections, render the depth pre-pass."""

@@ -60,6 +60,9 @@ FILTERS = {"nearest": 0, "pcf3": 1, "pcf5": 2, "hw2x2": None}
 #: The shadowable test starts each segment this far off its surface (× the scene's extent), so
 #: that a flat receiver's own bounding box does not count as a caster in its way.
 SHADOWABLE_OFFSET = 1e-5
+#: The window depth :func:`depth_pass` clears the map to: a texel still holding it saw no caster
+#: between the light and the far plane (PCSS tells such empty texels from blockers by it).
+CLEAR_DEPTH = 1.0
 #: One step of each depth format: what "the same surface" means when peeling the second layer.
 #: Fixed point: 1 / (2^bits − 1). Float: depths of perspective maps crowd into [0.5, 1), where a
 #: float32 ulp is 2^-24; the rasteriser's interpolated depth of the same surface varies by a few
@@ -100,12 +103,30 @@ def fit_light_views(frame, light_index: int, resolution: int, projection: str = 
     return light.shadow_views(receivers, casters, resolution, projection=projection, near=near_override)
 
 
+def depth_pass(frame, layer: gl.DepthTexture, prog, faces: list[LightView], rects: list[tuple[int, int, int, int]],
+               cull_front: bool = False, polygon_offset: tuple[float, float] | None = None) -> None:
+    """Clear ``layer`` and render the frame's casters into it through each face's view, in its
+    atlas rect (x0, y0, width, height; texels). ``prog`` is a ``shadow_depth.glsl`` program;
+    ``polygon_offset`` = (factor, units) for glPolygonOffset, or None."""
+    from OpenGL import GL
+
+    layer.use_as_target()
+    glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False,
+                            cull="front" if cull_front else None, polygon_offset=polygon_offset))
+    GL.glClearBufferfv(GL.GL_DEPTH, 0, (CLEAR_DEPTH,))
+    for face, rect in zip(faces, rects):
+        frame.ctx.viewport = rect
+        prog["u_light_view_proj"].write(gl.mat_bytes(face.view_proj))
+        frame.draw(prog, "casters")
+
+
 class ShadowMap(Technique):
     """Depth-buffer shadow maps: every light type, the bias family, two-layer variants, filters."""
 
     name = "shadow_map"
     summary = "depth-buffer shadow maps (Williams 1978): bias variants, second-depth, midpoint, dual, PCF"
     PASSES = ("depth", "peel", "resolve", "lookup")
+    LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.light_sampling)
     PARAMS = {
         "resolution": Param(2048, "shadow map width and height in texels (per cube face)", min=16, max=16384),
         "bias": Param(0.002, "constant depth bias in window-depth units [0, 1] (dual: the offset cap)",
@@ -186,21 +207,10 @@ class ShadowMap(Technique):
     # ------------------------------------------------------------------ passes
     def _depth_pass(self, layer: gl.DepthTexture, prog, name: str, cull_front: bool = False) -> None:
         """Render the casters into every face of ``layer`` (pass ``name``: depth or peel)."""
-        from OpenGL import GL
-
-        frame = self.frame
         with self.timed_pass(name):
-            layer.use_as_target()
             hardware = self.variant == "slope" and self.hardware_offset
-            glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False,
-                                    cull="front" if cull_front else None,
-                                    polygon_offset=(float(self.slope_scale), float(self.offset_units)) if hardware
-                                    else None))
-            GL.glClearBufferfv(GL.GL_DEPTH, 0, (1.0,))
-            for face, rect in zip(self.faces, self.rects):
-                frame.ctx.viewport = rect
-                prog["u_light_view_proj"].write(gl.mat_bytes(face.view_proj))
-                frame.draw(prog, "casters")
+            depth_pass(self.frame, layer, prog, self.faces, self.rects, cull_front,
+                       (float(self.slope_scale), float(self.offset_units)) if hardware else None)
 
     def render(self) -> None:
         """Depth pass(es) from the light, the resolve (two-layer variants), the lookup."""

@@ -69,6 +69,7 @@ class ShadowPolygons(Technique):
     name = "shadow_polygons"
     summary = "exact object-space shadow polygons (convex clipping), precomputed per static light"
     PASSES = ("draw",)
+    LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.light_sampling)
     PARAMS = {
         "epsilon": Param(1e-9, "geometric tolerance of every predicate, relative to the scene's size",
                          min=0.0, max=1e-1),

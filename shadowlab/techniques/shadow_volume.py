@@ -93,6 +93,7 @@ class ShadowVolume(Technique):
     #: Counts in the G-buffer's stencil, after its own depth pre-pass into the same attachment.
     MODIFIES_FRAME = frozenset({"depth_stencil"})
     PASSES = ("silhouette", "volume", "caps", "count")
+    LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.light_sampling)
 
     # ------------------------------------------------------------------ setup
     def setup(self, frame, light_index: int) -> None:

@@ -20,11 +20,14 @@ install: $(STAMP)
 run: $(STAMP)
 	$(BIN)/shadowlab study quick --out results/study-quick
 
-# The tests, then the quick study held against its committed baseline (what CI runs).
+# The tests, then the quick study and the soft-shadow study held against their committed
+# baselines (what CI runs).
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 	$(BIN)/shadowlab study quick --out results/study-quick
 	$(BIN)/shadowlab check results/study-quick tests/baselines/quick.csv
+	$(BIN)/shadowlab study soft_quick --out results/study-soft_quick
+	$(BIN)/shadowlab check results/study-soft_quick tests/baselines/soft_quick.csv
 
 # Every experiment at its small default size (a few minutes); each writes results/<name>.* and
 # a .json record of the code revision, renderer, package versions, CPU and command line.
@@ -34,4 +37,4 @@ experiments: $(STAMP)
 	@set -e; for e in $(EXPERIMENTS); do echo "== $$e"; $(BIN)/python $$e; done
 
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache results/quickstart results/study-quick
+	rm -rf $(VENV) build *.egg-info .pytest_cache results/quickstart results/study-quick results/study-soft_quick

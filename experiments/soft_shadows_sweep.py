@@ -12,7 +12,7 @@ points. Writes results/soft_shadows_sweep.csv (the rows plotted) and .png.
 The grid is the shipped suite ``shadowlab/suites/soft_shadows.toml`` (320x240, median of 3
 timed runs after 1 warm-up); this script runs it as a study into
 ``<folder of --out>/study-soft_shadows`` (the directory ``shadowlab study soft_shadows`` uses, so
-the two share one cache). About 10 minutes on a 2-core machine.
+the two share one cache). About 5 minutes on a 2-core machine.
 
     python experiments/soft_shadows_sweep.py [--out results/soft_shadows_sweep] [--workers N] [--force]
 """

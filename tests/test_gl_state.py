@@ -17,7 +17,8 @@ SPECS = ["raytrace:offset_scale=1e-05", "shadow_map", "shadow_map:variant=second
          "shadow_map:variant=midpoint", "shadow_map:variant=slope,hardware_offset=true",
          "shadow_map:filter=hw2x2,projection=cube,resolution=256", "shadow_volume",
          "shadow_volume:mode=zpass,silhouette=gpu", "shadow_volume:far=clamp", "planar",
-         "planar:stencil=false,clip=false,clip_light=false", "shadow_polygons"]
+         "planar:stencil=false,clip=false,clip_light=false", "shadow_polygons",
+         "filtered_map", "filtered_map:variant=esm,kernel=1", "filtered_map:projection=cube,resolution=256"]
 
 
 #: Capabilities off in a new context, which :func:`pollute` turns on.
@@ -169,6 +170,8 @@ def test_the_preprocessor_follows_ifdefs():
     ("shadow_volume:mode=zfail,silhouette=gpu", {"silhouette", "volume", "caps", "count"}),
     ("planar", {"stencil", "darken"}),
     ("shadow_polygons", {"draw"}),
+    ("filtered_map", {"moments", "blur", "lookup"}),
+    ("filtered_map:variant=esm,kernel=1", {"moments", "lookup"}),  # a 1-texel kernel skips the blur
 ])
 def test_pass_timings_name_the_techniques_passes(lab, spec, expected):
     """With pass timing asked for, a configuration reports a time for exactly the passes it runs

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 from .base import Param, Technique, TechniqueError, parse_spec
+from .filtered_map import FilteredShadowMap
+from .blob import BlobShadow
 from .pcss import PCSS
 from .planar import PlanarShadow
 from .raytrace import RayTraced
@@ -16,6 +18,8 @@ REGISTRY: dict[str, type[Technique]] = {
     PlanarShadow.name: PlanarShadow,
     ShadowPolygons.name: ShadowPolygons,
     PCSS.name: PCSS,
+    FilteredShadowMap.name: FilteredShadowMap,
+    BlobShadow.name: BlobShadow,
 }
 
 

@@ -48,14 +48,7 @@ uniform float u_min_variance;            // VSM: σ² never below this (linear d
 uniform float u_bleed_reduction;         // VSM: p_max mapped through linstep(this, 1, p_max)
 out float out_visibility;
 
-int face_of(vec3 p) {
-    if (u_faces == 1) return 0;
-    vec3 d = p - light_position;         // cube faces: +x, -x, +y, -y, +z, -z
-    vec3 a = abs(d);
-    if (a.x >= a.y && a.x >= a.z) return d.x > 0.0 ? 0 : 1;
-    if (a.y >= a.z) return d.y > 0.0 ? 2 : 3;
-    return d.z > 0.0 ? 4 : 5;
-}
+#include "cube_face.glsl"
 
 // Chebyshev's one-sided upper bound on P(z >= t) (Donnelly & Lauritzen 2006, §3.1), then the
 // light-bleeding reduction linstep(u_bleed_reduction, 1, p_max) (Lauritzen, GPU Gems 3 ch. 8).

@@ -34,14 +34,7 @@ uniform float u_texel_angle;             // perspective maps: world size of a te
 uniform int u_kernel_radius;
 out float out_visibility;
 
-int face_of(vec3 p) {
-    if (u_faces == 1) return 0;
-    vec3 d = p - light_position;         // cube faces: +x, -x, +y, -y, +z, -z
-    vec3 a = abs(d);
-    if (a.x >= a.y && a.x >= a.z) return d.x > 0.0 ? 0 : 1;
-    if (a.y >= a.z) return d.y > 0.0 ? 2 : 3;
-    return d.z > 0.0 ? 4 : 5;
-}
+#include "cube_face.glsl"
 
 vec3 to_map(int f, vec3 p) {             // (u, v, depth) in [0, 1] within face f
     vec4 s = u_light_matrix[f] * vec4(p, 1.0);

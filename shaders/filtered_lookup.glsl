@@ -1,4 +1,5 @@
-// Filtered shadow maps (VSM: Donnelly & Lauritzen 2006; ESM: Annen et al. 2008), two programs:
+// Filtered shadow maps (VSM: Donnelly & Lauritzen 2006; ESM: Annen et al. 2008; EVSM: Lauritzen
+// & McCool 2008; MSM: Peters & Klein 2015, Hamburger 4MSM), two programs:
 // with BLUR defined, one direction of the separable box filter over one face of the moments
 // atlas; otherwise the lookup over the G-buffer, one visibility value per screen pixel.
 // The atlas holds u_faces faces (1, or 6 for a point light's cube, chosen by the major axis of
@@ -13,25 +14,29 @@
 #ifdef BLUR
 // Box filter of 2 u_radius + 1 texels along u_direction, taps clamped to the face u_rect (x0,
 // y0, width, height) so that a cube face never reads its neighbour. Weights are 1 / taps and
-// accumulated one by one: an ESM average of values up to exp(88) never overflows.
+// accumulated one by one: an ESM average of values up to exp(88) never overflows. All four
+// channels are filtered (a map with fewer drops the rest); the sum is float32 and the target's
+// format stores it again (16-bit maps: half floats, or MSM's quantised 16-bit UNORM).
 uniform sampler2D u_moments;
 uniform ivec2 u_direction;
 uniform int u_radius;
 uniform ivec4 u_rect;
-out vec2 out_moments;
+out vec4 out_moments;
 void main() {
     ivec2 t = ivec2(gl_FragCoord.xy);
     ivec2 lo = u_rect.xy, hi = u_rect.xy + u_rect.zw - 1;
     float w = 1.0 / float(2 * u_radius + 1);
-    vec2 sum = vec2(0.0);
+    vec4 sum = vec4(0.0);
     for (int i = -u_radius; i <= u_radius; ++i)
-        sum += w * texelFetch(u_moments, clamp(t + i * u_direction, lo, hi), 0).rg;
+        sum += w * texelFetch(u_moments, clamp(t + i * u_direction, lo, hi), 0);
     out_moments = sum;
 }
 #else
 #include "lights.glsl"
 #define LIT 1.0
+#define TOTAL_MASS 1.0                   // MSM: the zeroth moment b0 = E[z⁰] of any depth distribution
 #define MAX_FACES 6
+#define BASE_LEVEL 0.0                   // the atlas has no mipmaps: sample its level 0 explicitly
 
 uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
 uniform sampler2D u_moments;             // filtered moments, bilinear sampling
@@ -42,22 +47,87 @@ uniform mat4 u_light_view[MAX_FACES];
 uniform vec4 u_face_rect[MAX_FACES];
 uniform float u_near;
 uniform float u_far;
-uniform int u_esm;
+uniform int u_variant;                   // VARIANT_* of the map
 uniform float u_exponent;                // ESM: c
-uniform float u_min_variance;            // VSM: σ² never below this (linear depth units²)
-uniform float u_bleed_reduction;         // VSM: p_max mapped through linstep(this, 1, p_max)
+uniform float u_min_variance;            // VSM, EVSM: σ² never below this (linear depth units²)
+uniform float u_bleed_reduction;         // VSM, EVSM: p_max mapped through linstep(this, 1, p_max)
+uniform vec2 u_warp;                     // EVSM: z' = u_warp.x z + u_warp.y (2, -1)
+uniform vec2 u_exponents;                // EVSM: (c+, c-)
+uniform mat4 u_dequantize;               // MSM: inverse of the storage transform ...
+uniform vec4 u_quantize_offset;          // ... b = u_dequantize · (stored - offset)
+uniform float u_moment_bias;             // MSM: α
+uniform vec4 u_moment_bias_target;       // MSM: b' = (1 - α) b + α · this
 out float out_visibility;
 
 #include "cube_face.glsl"
 
 // Chebyshev's one-sided upper bound on P(z >= t) (Donnelly & Lauritzen 2006, §3.1), then the
 // light-bleeding reduction linstep(u_bleed_reduction, 1, p_max) (Lauritzen, GPU Gems 3 ch. 8).
-float vsm(vec2 m, float t) {
+// min_variance: the floor of σ² in the units of m.
+float chebyshev(vec2 m, float t, float min_variance) {
     if (t <= m.x) return LIT;
-    float variance = max(m.y - m.x * m.x, u_min_variance);
+    float variance = max(m.y - m.x * m.x, min_variance);
     float d = t - m.x;
     float p_max = variance / (variance + d * d);
     return clamp((p_max - u_bleed_reduction) / (LIT - u_bleed_reduction), 0.0, LIT);
+}
+
+float vsm(vec2 m, float t) {
+    return chebyshev(m, t, u_min_variance);
+}
+
+// EVSM (Lauritzen & McCool 2008): Chebyshev on the warped moments with the receiver warped the
+// same way; the variance floor is u_min_variance (linear depth units²) times the squared
+// derivative of the warp at the receiver, dw/dz = u_warp.x · c · |w|. evsm4: the smaller bound.
+// The floor is squared as (√u_min_variance · dw/dz)²: dw/dz alone reaches 2 · 40 · e^40 = 1.9e19
+// at t = 1 with the default c+, and (dw/dz)² would overflow float32 if a compiler reassociated
+// u_min_variance · dp · dp (GLSL allows it without `precise`).
+float evsm(vec4 m, float t) {
+    float warped = u_warp.x * t + u_warp.y;
+    float deviation = sqrt(u_min_variance);
+    float p = exp(u_exponents.x * warped);
+    float dp = deviation * u_warp.x * u_exponents.x * p;
+    float visibility = chebyshev(m.xy, p, dp * dp);
+    if (u_variant == VARIANT_EVSM4) {
+        float n = -exp(-u_exponents.y * warped);
+        float dn = deviation * u_warp.x * u_exponents.y * n;
+        visibility = min(visibility, chebyshev(m.zw, n, dn * dn));
+    }
+    return visibility;
+}
+
+// MSM, Hamburger 4MSM (Peters & Klein 2015, Algorithm 2). The moments are biased towards
+// u_moment_bias_target; then the Hankel system B c = (1, t, t²), B = [[1, b1, b2], [b1, b2, b3],
+// [b2, b3, b4]], is solved through B = L D Lᵀ (L unit lower triangular: l21 = b1, l31 = b2,
+// l32; D = diag(1, d22, d33)); c gives the quadratic c3 z² + c2 z + c1 whose roots z2 <= z3
+// are, with t, the support of the three-point distribution matching the moments. Its weight in
+// front of t is the shadow intensity G (three cases of step 4).
+float msm(vec4 stored, float t) {
+    vec4 b = u_dequantize * (stored - u_quantize_offset);
+    b = mix(b, u_moment_bias_target, u_moment_bias);
+    // B = L D Lᵀ
+    float d22 = b.y - b.x * b.x;
+    float l32 = (b.z - b.x * b.y) / d22;
+    float d33 = b.w - b.y * b.y - l32 * l32 * d22;
+    // L y = (1, t, t²); D w = y; Lᵀ c = w
+    float y2 = t - b.x;
+    float y3 = t * t - b.y - l32 * y2;
+    float c3 = y3 / d33;
+    float c2 = y2 / d22 - l32 * c3;
+    float c1 = TOTAL_MASS - b.x * c2 - b.y * c3;
+    // roots of c3 z² + c2 z + c1: z = -p/2 ∓ sqrt(p²/4 - q), p = c2 / c3, q = c1 / c3
+    float half_p = c2 / (c3 + c3);
+    float r = sqrt(max(half_p * half_p - c1 / c3, 0.0));
+    float z2 = -half_p - r, z3 = -half_p + r;
+    float shadow;
+    if (t <= z2) {
+        shadow = 0.0;
+    } else if (t <= z3) {                // the weight at z2
+        shadow = (t * z3 - b.x * (t + z3) + b.y) / ((z3 - z2) * (t - z2));
+    } else {                             // the weights at z2 and z3: all but the one at t
+        shadow = TOTAL_MASS - (z2 * z3 - b.x * (z2 + z3) + b.y) / ((t - z2) * (t - z3));
+    }
+    return LIT - clamp(shadow, 0.0, TOTAL_MASS);
 }
 
 // exp(-c t) · E[exp(c z)] (Annen et al. 2008, eq. 5), in log space: exp(-c t) alone would be
@@ -82,8 +152,12 @@ void main() {
     vec2 inner = u_face_rect[f].xy + vec2(HALF_TEXEL);
     vec2 atlas = clamp(u_face_rect[f].xy + c.xy * u_face_rect[f].zw, inner,
                        inner + u_face_rect[f].zw - vec2(2.0 * HALF_TEXEL));
-    vec2 m = texture(u_moments, atlas / u_atlas_size).rg;
-    out_visibility = u_esm == 1 ? esm(m.x, t) : vsm(m, t);
+    // explicit level: implicit derivatives are undefined after the non-uniform returns above
+    vec4 m = textureLod(u_moments, atlas / u_atlas_size, BASE_LEVEL);
+    if (u_variant == VARIANT_ESM) out_visibility = esm(m.x, t);
+    else if (u_variant == VARIANT_VSM) out_visibility = vsm(m.xy, t);
+    else if (u_variant == VARIANT_MSM) out_visibility = msm(m, t);
+    else out_visibility = evsm(m, t);
 }
 #endif
 #endif

@@ -53,13 +53,16 @@ class Evaluation:
     counts every metric is computed from, each computed once.
 
     ``vis``, ``truth``: float (H, W) in [0, 1]; ``evaluated``: bool (H, W); ``contact``: bool
-    (H, W) contact-line pixels (see :func:`contact_pixels`), or None when not known.
+    (H, W) contact-line pixels (see :func:`contact_pixels`), or None when not known;
+    ``overlap``: bool (H, W) pixels whose segment to the light crosses two or more casters
+    (:func:`shadowlab.occluder_layers.occluder_layers` ≥ 2), or None when not known.
     """
 
-    def __init__(self, vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray | None = None):
+    def __init__(self, vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray | None = None,
+                 overlap: np.ndarray | None = None):
         if vis.shape != truth.shape or vis.shape != evaluated.shape:
             raise ValueError(f"shape mismatch: {vis.shape}, {truth.shape}, {evaluated.shape}")
-        self.vis, self.truth, self.contact = vis, truth, contact
+        self.vis, self.truth, self.contact, self.overlap = vis, truth, contact, overlap
         self.ev = ev = evaluated.astype(bool)
         self.v_sh = (vis < THRESHOLD) & ev
         self.g_sh = (truth < THRESHOLD) & ev
@@ -199,6 +202,37 @@ def contact_gap(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, conta
     return float(false_lit.sum()) / float(shadowed_contact.sum())
 
 
+def bleeding_region(truth: np.ndarray, evaluated: np.ndarray, overlap: np.ndarray) -> np.ndarray:
+    """Where light bleeding can be judged: evaluated pixels in the truth's umbra (G <=
+    PENUMBRA_LOW) whose segment to the light crosses two or more casters (``overlap``): casters
+    overlapping in depth, the configuration that makes filtered maps leak (Donnelly & Lauritzen
+    2006 §5). Bool (H, W)."""
+    return evaluated.astype(bool) & (truth <= PENUMBRA_LOW) & overlap.astype(bool)
+
+
+def light_bleeding(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, overlap: np.ndarray) -> float:
+    """Light bleeding (HARD_CASES; issue 13): the mean wrongly passed light max(0, V − G) over
+    :func:`bleeding_region` — the share of that region a technique lights, weighted by how much
+    (for a binary V exactly the false-lit share). 0 when the region is empty."""
+    region = bleeding_region(truth, evaluated, overlap)
+    return float(np.clip(vis[region] - truth[region], 0.0, None).mean()) if region.any() else 0.0
+
+
+def over_darkening(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray,
+                   band: int = 8) -> float:
+    """Over-darkening (issue 13; the mirror of :func:`contact_gap`): the missing light
+    max(0, G − V) summed over truly lit pixels (G >= 0.5) within ``band`` pixels of the lit part
+    of the contact lines, divided by that part's length in pixels — the mean width, in pixels,
+    of a false shadow along lit contacts (for a binary V: false-shadow pixels per contact
+    pixel). Filtered maps darken there when the filter mixes the caster's depth with its
+    receiver's. 0 when no contact line is lit."""
+    lit_contact = contact & (truth >= THRESHOLD) & evaluated
+    if not lit_contact.any():
+        return 0.0
+    near = ndimage.binary_dilation(lit_contact, iterations=band) & evaluated & (truth >= THRESHOLD)
+    return float(np.clip(truth[near] - vis[near], 0.0, None).sum()) / float(lit_contact.sum())
+
+
 # --------------------------------------------------------------------------- the column table
 
 @dataclass(frozen=True)
@@ -328,6 +362,16 @@ COLUMNS: tuple[Column, ...] = (
                                "a point-like light): soft-shadow errors mean something only well above it", "value"),
     _metric("contact_gap_px", "peter-panning: mean width of the false-lit band along shadowed contact lines, pixels",
             _contact_gap_px, "px", report=True, needs=("contact",), tolerance=(0.5, 0.1)),
+    _metric("over_darkening_px", "over-darkening: mean width of the false shadow (weighted by the missing light) "
+                                 "along lit contact lines, pixels", lambda e: over_darkening(e.vis, e.truth, e.ev, e.contact),
+            "px", report=True, needs=("contact",), tolerance=(0.5, 0.1)),
+    _metric("light_bleeding", "light bleeding: mean wrongly passed light max(0, V - G) in the truth's umbra where "
+                              "two or more casters overlap in depth; 0 when there is no such region",
+            lambda e: light_bleeding(e.vis, e.truth, e.ev, e.overlap), report=True, needs=("overlap",),
+            tolerance=(0.01, 0.1)),
+    _metric("bleeding_pixels", "evaluated pixels in the truth's umbra behind two or more casters (light_bleeding's "
+                               "region)", lambda e: int(bleeding_region(e.truth, e.ev, e.overlap).sum()), "count",
+            needs=("overlap",)),
     Column("time_repeats", "timed runs behind the median", "count"),
     Column("gpu_time_ms_median", "median GL_TIME_ELAPSED of the timed passes, ms (real GPUs only)", "ms"),
 )
@@ -339,11 +383,13 @@ METRIC_COLUMNS = [c for c in COLUMNS if c.compute is not None]
 HELD_COLUMNS = [c for c in COLUMNS if c.tolerance is not None]
 
 
-def compare(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray | None = None) -> dict:
+def compare(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray | None = None,
+            overlap: np.ndarray | None = None) -> dict:
     """Every metric column of ``vis`` against ``truth`` over ``evaluated`` pixels (those that
-    need contact lines only when ``contact`` is given), as {column: value}."""
-    e = Evaluation(vis, truth, evaluated, contact)
-    have = {"contact": contact is not None}
+    need contact lines only when ``contact`` is given, those that need the overlapping-casters
+    mask only when ``overlap`` is), as {column: value}."""
+    e = Evaluation(vis, truth, evaluated, contact, overlap)
+    have = {"contact": contact is not None, "overlap": overlap is not None}
     return {c.name: c.compute(e) for c in METRIC_COLUMNS if all(have[k] for k in c.needs)}
 
 

@@ -25,6 +25,7 @@ import pandas as pd
 
 from . import gl, light_sampling, memory, metrics, timing
 from .frame import Frame
+from .occluder_layers import occluder_layers
 from .scene import load_scene
 from .techniques import Technique, TechniqueError, from_spec
 from .techniques.raytrace import RayTraced
@@ -123,7 +124,8 @@ class Evaluator:
     """Judges visibility images of one frame against its ground truth.
 
     The truth of each light is measured once, on first use, with ``truth`` (default: the
-    default :class:`RayTraced`), as are each light's contact lines (for the contact-gap metric).
+    default :class:`RayTraced`), as are each light's contact lines (contact gap, over-darkening) and its
+    overlapping-casters mask (light bleeding).
     """
 
     def __init__(self, frame: Frame, truth: Technique | None = None, repeat: int = 1, warmup: int = 0,
@@ -133,6 +135,7 @@ class Evaluator:
         self.repeat, self.warmup, self.pass_timing = repeat, warmup, pass_timing
         self._truth: dict[int, Measurement] = {}
         self._contact: dict[int, np.ndarray] = {}
+        self._overlap: dict[int, np.ndarray] = {}
 
     def truth(self, light_index: int, on_step: Callable[[], None] | None = None) -> Measurement:
         """The ground truth's measurement of one light (measured on first use)."""
@@ -159,6 +162,13 @@ class Evaluator:
                                                                 f.evaluated(light_index))
         return self._contact[light_index]
 
+    def overlap(self, light_index: int) -> np.ndarray:
+        """Bool (height, width): evaluated pixels whose segment to the light crosses two or more
+        casters (:func:`shadowlab.occluder_layers.occluder_layers`), for the light-bleeding metric."""
+        if light_index not in self._overlap:
+            self._overlap[light_index] = occluder_layers(self.frame, light_index) >= 2
+        return self._overlap[light_index]
+
     def row(self, m: Measurement, reference: bool = False) -> dict:
         """The metrics.csv row of a measurement (columns: :data:`shadowlab.metrics.COLUMNS`, then
         ``param_<name>`` per parameter, then the technique's cost figures). Every row carries its
@@ -170,7 +180,8 @@ class Evaluator:
                "short_label": tech.short_label(), "reference": reference,
                "width": frame.width, "height": frame.height}
         truth_m = m if reference else self.truth(li)
-        row.update(metrics.compare(m.visibility, truth_m.visibility, frame.evaluated(li), self.contact_lines(li)))
+        row.update(metrics.compare(m.visibility, truth_m.visibility, frame.evaluated(li), self.contact_lines(li),
+                                   self.overlap(li)))
         # the sampled truth's standard error bound (DESIGN §9) beside every row of the light
         row["truth_stderr_max"] = float(truth_m.stats.get("truth_stderr_max", 0.0))
         row.update(m.timing.columns())

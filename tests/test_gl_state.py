@@ -18,7 +18,8 @@ SPECS = ["raytrace:offset_scale=1e-05", "shadow_map", "shadow_map:variant=second
          "shadow_map:filter=hw2x2,projection=cube,resolution=256", "shadow_volume",
          "shadow_volume:mode=zpass,silhouette=gpu", "shadow_volume:far=clamp", "planar",
          "planar:stencil=false,clip=false,clip_light=false", "shadow_polygons",
-         "filtered_map", "filtered_map:variant=esm,kernel=1", "filtered_map:projection=cube,resolution=256"]
+         "filtered_map", "filtered_map:variant=esm,kernel=1", "filtered_map:projection=cube,resolution=256",
+         "filtered_map:variant=evsm4", "filtered_map:variant=msm,precision=16", "projective", "blob"]
 
 
 #: Capabilities off in a new context, which :func:`pollute` turns on.
@@ -73,25 +74,32 @@ def reset_to_gl_defaults(sampler=None):
             setter(*initial)
 
 
+def clean_and_polluted(ctx, frame, spec: str, light: int) -> tuple[np.ndarray, np.ndarray]:
+    """The visibility of ``spec`` on one light of ``frame`` measured from GL defaults, and again
+    with the GL state polluted before its setup and before its render (float32 (H, W) each)."""
+    reset_to_gl_defaults()
+    clean = measure(from_spec(spec), frame, light, repeat=1, warmup=0).visibility
+    tech = from_spec(spec)
+    samplers = [pollute(ctx)]
+    try:
+        tech.setup(frame, light)
+        samplers.append(pollute(ctx))  # kept alive: deleting a sampler object unbinds it
+        tech.render()
+        polluted = tech.visibility()
+    finally:
+        tech.release()
+        for sampler in samplers:
+            reset_to_gl_defaults(sampler)
+    return clean, polluted
+
+
 @pytest.mark.parametrize("spec", SPECS)
 def test_output_does_not_depend_on_inherited_state(lab, ctx, spec):
     """Each configuration renders the same visibility, bit for bit, after the GL state was left
     polluted before its setup and before each render."""
     frame = lab.frame("multi_light", SIZE)
     for light in range(len(frame.scene.lights)):
-        reset_to_gl_defaults()
-        clean = measure(from_spec(spec), frame, light, repeat=1, warmup=0).visibility
-        tech = from_spec(spec)
-        samplers = [pollute(ctx)]
-        try:
-            tech.setup(frame, light)
-            samplers.append(pollute(ctx))  # kept alive: deleting a sampler object unbinds it
-            tech.render()
-            polluted = tech.visibility()
-        finally:
-            tech.release()
-            for sampler in samplers:
-                reset_to_gl_defaults(sampler)
+        clean, polluted = clean_and_polluted(ctx, frame, spec, light)
         assert np.array_equal(clean, polluted), (spec, light, int(np.sum(clean != polluted)))
 
 
@@ -172,6 +180,9 @@ def test_the_preprocessor_follows_ifdefs():
     ("shadow_polygons", {"draw"}),
     ("filtered_map", {"moments", "blur", "lookup"}),
     ("filtered_map:variant=esm,kernel=1", {"moments", "lookup"}),  # a 1-texel kernel skips the blur
+    ("filtered_map:variant=msm", {"moments", "blur", "lookup"}),
+    ("projective", {"mask", "lookup"}),
+    ("blob", {"blob"}),
 ])
 def test_pass_timings_name_the_techniques_passes(lab, spec, expected):
     """With pass timing asked for, a configuration reports a time for exactly the passes it runs

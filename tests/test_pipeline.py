@@ -50,7 +50,7 @@ def test_metric_table_holds_the_design_contract():
     assert len(names) == len(set(names))
     metric_names = {c.name for c in COLUMNS if c.compute is not None}
     ones = np.ones((4, 4), np.float32)
-    assert set(compare(ones, ones, ones > 0, contact=ones < 0)) == metric_names
+    assert set(compare(ones, ones, ones > 0, contact=ones < 0, overlap=ones < 0)) == metric_names
 
 
 def test_comparison_rows_follow_the_table_and_judge_against_the_truth(lab):

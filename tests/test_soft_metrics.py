@@ -127,6 +127,7 @@ def test_every_row_carries_the_truths_stderr():
                             width=w, height=h, evaluated=lambda li: EV)
     ev = Evaluator(frame)
     ev._contact = {0: np.zeros(G.shape, bool), 1: np.zeros(G.shape, bool)}
+    ev._overlap = {0: np.zeros(G.shape, bool), 1: np.zeros(G.shape, bool)}
     no_time = timing.Timing(float("nan"), float("nan"), [])
     ev._truth[0] = Measurement(ev.truth_technique, 0, G, no_time, {"truth_stderr_max": 0.015625})
     ev.use_truth(1, G.astype(np.float32))  # measured elsewhere: no stats

@@ -4,6 +4,7 @@ from __future__ import annotations
 from .base import Param, Technique, TechniqueError, parse_spec
 from .filtered_map import FilteredShadowMap
 from .blob import BlobShadow
+from .projective import ProjectiveShadow
 from .pcss import PCSS
 from .planar import PlanarShadow
 from .raytrace import RayTraced
@@ -20,6 +21,7 @@ REGISTRY: dict[str, type[Technique]] = {
     PCSS.name: PCSS,
     FilteredShadowMap.name: FilteredShadowMap,
     BlobShadow.name: BlobShadow,
+    ProjectiveShadow.name: ProjectiveShadow,
 }
 
 

@@ -1,0 +1,79 @@
+"""How many distinct casters lie between each evaluated point and a light: the region where
+casters overlap in depth, which the light-bleeding metric judges (HARD_CASES, issue 13).
+
+Filtered shadow maps summarise the depths under a filter by a few moments; where two casters at
+different depths from the light fall under one filter footprint, the moments describe a
+two-depth distribution and the Chebyshev (VSM) or moment (MSM) bound lets light through the
+shadow of the lower one (Donnelly & Lauritzen 2006 §5; Lauritzen, GPU Gems 3 ch. 8 "light
+bleeding"). The truth knows where that can happen: points whose segment to the light crosses
+two or more caster objects.
+
+Counting uses the truth's machinery (:mod:`shadowlab.techniques.raytrace`): the same Embree
+scene of the casters, the same offset ray origins and shadow rays. Each ray is intersected,
+then restarted just past its hit (a step of :data:`STEP_SCALE` × the scene's extent along the
+ray) until it has met two distinct objects or reaches the light; a closed caster is entered
+and left (two hits, one object). An area light counts as its centre, like every hard technique.
+"""
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+
+from .techniques.raytrace import RayTraced, embree_scene, offset_origins
+
+#: The restart step past a hit, × the scene's extent: far above float32 rounding of the hit
+#: point (2^-24 relative), far below any gap between two casters a scene means.
+STEP_SCALE = 2.0 ** -16
+#: At most this many intersections per ray (two per closed object crossed, and a few more
+#: for coplanar or touching faces); a ray still going after that counts what it has met.
+MAX_HITS = 32
+#: Per frame: {light index: the layers image} (a study judges many configurations on one frame).
+_CACHE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def occluder_layers(frame, light_index: int) -> np.ndarray:
+    """Per pixel, how many distinct caster objects lie on the segment from the evaluated point to
+    the light (its centre for an area light): 0, 1, or 2 for two or more. Int8 (height, width),
+    row 0 = top; 0 on pixels not evaluated. Casters are the scene's objects with ``casts``."""
+    per_frame = _CACHE.setdefault(frame, {})
+    if light_index not in per_frame:
+        per_frame[light_index] = _count_layers(frame, light_index)
+    return per_frame[light_index]
+
+
+def _count_layers(frame, light_index: int) -> np.ndarray:
+    """:func:`occluder_layers`, computed."""
+    cap = 2  # a ray stops at its second distinct object: all the bleeding region needs
+    light = frame.scene.lights[light_index]
+    evaluated = frame.compact_evaluated(light_index)
+    out = np.zeros(len(evaluated), np.int8)
+    casters = [i for i, o in enumerate(frame.scene.objects) if o.casts]
+    if not casters or not evaluated.any():
+        return frame.to_image(out, fill=0, dtype=np.int8)
+    scene = embree_scene(frame)
+    origins = offset_origins(frame, RayTraced.PARAMS["offset_scale"].default)[evaluated].astype(np.float64)
+    dirs, tfar = light.shadow_rays(origins.astype(np.float32), frame.compact_position[evaluated])
+    dirs = dirs.astype(np.float64)
+    step = STEP_SCALE * frame.scene.extent() / np.maximum(np.linalg.norm(dirs, axis=1), 1e-30)
+    t0 = np.zeros(len(origins))  # how far along its ray each restart begins
+    first = np.full(len(origins), -1, np.int64)  # the first object met, per ray
+    count = np.zeros(len(origins), np.int8)
+    live = np.arange(len(origins))
+    for _ in range(MAX_HITS):
+        if len(live) == 0:
+            break
+        o = (origins[live] + t0[live, None] * dirs[live]).astype(np.float32)
+        remaining = (tfar[live] - t0[live]).astype(np.float32)
+        hit = scene.run(o, dirs[live].astype(np.float32), dists=np.maximum(remaining, 0), query="INTERSECT",
+                        output=1)
+        geom = hit["geomID"].astype(np.int64)
+        met = geom >= 0
+        obj = np.where(met, np.asarray(casters)[np.maximum(geom, 0)], -1)
+        new = met & (obj != first[live])
+        count[live[new]] += 1
+        first[live[new & (first[live] < 0)]] = obj[new & (first[live] < 0)]
+        t0[live] += np.where(met, hit["tfar"].astype(np.float64) + step[live], 0.0)
+        live = live[met & (count[live] < cap)]
+    out[evaluated] = np.minimum(count, cap)
+    return frame.to_image(out, fill=0, dtype=np.int8)

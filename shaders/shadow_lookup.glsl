@@ -6,13 +6,20 @@
 // one texel on the receiver's plane), and normal offset (the lookup point moved along the normal
 // by u_normal_offset texels). Filtering: texel-exact PCF over (2r+1)² texels (r = 0: nearest),
 // or, with FILTER_HW, the hardware 2x2 bilinear comparison (sampler2DShadow).
+// With CASCADES defined (cascaded shadow maps, shadowlab/techniques/cascaded_map.py) the faces
+// are the cascades of a directional light: the face is chosen by the point's camera view depth
+// against u_cascade_far, and with u_blend_start[f] < u_cascade_far[f] the visibility blends
+// linearly into the next cascade over [u_blend_start[f], u_cascade_far[f]] (the view-depth
+// splits of Zhang et al. 2006; blending as in Engel 2006, "Cascaded shadow maps", ShaderX5).
 #include "fullscreen.glsl"
 
 #ifdef FRAGMENT_SHADER
 #include "lights.glsl"
 #define LIT 1.0
 #define SHADOWED 0.0
-#define MAX_FACES 6
+#ifndef MAX_FACES
+#define MAX_FACES 6                      // a cube's six faces (cascaded maps define their own)
+#endif
 #define HALF_TEXEL 0.5                   // texel centres are at integer + 0.5 (GL 4.5 core §8.14)
 
 uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
@@ -32,6 +39,12 @@ uniform float u_normal_offset;           // texels
 uniform float u_texel_world;             // orthographic maps: world size of a texel
 uniform float u_texel_angle;             // perspective maps: world size of a texel per unit distance
 uniform int u_kernel_radius;
+#ifdef CASCADES
+uniform vec4 u_view_depth;               // camera view depth of P = dot(u_view_depth, vec4(P, 1))
+uniform float u_cascade_far[MAX_FACES];  // far split of each cascade (view depth)
+uniform float u_blend_start[MAX_FACES];  // view depth where blending into the next cascade starts
+uniform float u_cascade_texel[MAX_FACES];  // world size of a texel of each cascade
+#endif
 out float out_visibility;
 
 #include "cube_face.glsl"
@@ -41,21 +54,13 @@ vec3 to_map(int f, vec3 p) {             // (u, v, depth) in [0, 1] within face 
     return s.xyz / s.w;
 }
 
-void main() {
-    vec4 p4 = texelFetch(u_position, ivec2(gl_FragCoord.xy), 0);
-    out_visibility = LIT;
-    if (p4.w == 0.0) return;
-    vec3 P = p4.xyz;
-    vec3 L = light_dir_to(P);
-    vec3 N = normalize(texelFetch(u_normal, ivec2(gl_FragCoord.xy), 0).xyz);
-    if (dot(N, L) < 0.0) N = -N;         // two-sided receivers: the side facing the light
-    float texel = u_texel_world > 0.0 ? u_texel_world : u_texel_angle * length(P - light_position);
-    vec3 Q = P + N * (u_normal_offset * texel);
-    int f = face_of(Q);
+// Visibility of the receiver point Q (normal N towards the light) in face f; texel: the world
+// size of a map texel at Q. Points outside the face's map are lit.
+float face_visibility(int f, vec3 Q, vec3 N, float texel) {
     vec4 s = u_light_matrix[f] * vec4(Q, 1.0);
-    if (s.w <= 0.0) return;              // behind the light's centre of projection
+    if (s.w <= 0.0) return LIT;          // behind the light's centre of projection
     vec3 c = s.xyz / s.w;
-    if (any(lessThan(c, vec3(0.0))) || any(greaterThan(c, vec3(1.0)))) return;  // outside the map
+    if (any(lessThan(c, vec3(0.0))) || any(greaterThan(c, vec3(1.0)))) return LIT;  // outside the map
     float bias = u_bias;
     if (u_slope_scale > 0.0) {
         // Depth change across one texel on the receiver's plane, from two tangent points.
@@ -79,8 +84,11 @@ void main() {
     // Keep the 2x2 bilinear footprint inside this face of the atlas: a texel centre sits half a
     // texel in from the face's edge, and taps beyond it would read the neighbouring cube face.
     vec2 inner = u_face_rect[f].xy + vec2(HALF_TEXEL);
-    out_visibility = texture(u_map, vec3(clamp(atlas, inner, inner + u_face_rect[f].zw - vec2(2.0 * HALF_TEXEL))
-                                         / u_atlas_size, ref));
+    // textureLod at level 0: this runs after non-uniform control flow (early returns, the cascade
+    // choice), where texture()'s implicit derivatives are undefined (GLSL 4.50 §8.9); the map has
+    // one level, so level 0 is what texture() means here on any driver.
+    return textureLod(u_map, vec3(clamp(atlas, inner, inner + u_face_rect[f].zw - vec2(2.0 * HALF_TEXEL))
+                                  / u_atlas_size, ref), 0.0);
 #else
     ivec2 lo = ivec2(u_face_rect[f].xy), hi = lo + ivec2(u_face_rect[f].zw) - 1;
     ivec2 t = clamp(ivec2(floor(atlas)), lo, hi);
@@ -91,7 +99,36 @@ void main() {
             lit += ref <= stored ? LIT : SHADOWED;
             n += 1.0;
         }
-    out_visibility = lit / n;
+    return lit / n;
+#endif
+}
+
+void main() {
+    vec4 p4 = texelFetch(u_position, ivec2(gl_FragCoord.xy), 0);
+    out_visibility = LIT;
+    if (p4.w == 0.0) return;
+    vec3 P = p4.xyz;
+    vec3 L = light_dir_to(P);
+    vec3 N = normalize(texelFetch(u_normal, ivec2(gl_FragCoord.xy), 0).xyz);
+    if (dot(N, L) < 0.0) N = -N;         // two-sided receivers: the side facing the light
+#ifdef CASCADES
+    // The first cascade whose far split lies beyond P's view depth (the last one past the far split).
+    float depth = dot(u_view_depth, vec4(P, 1.0));
+    int f = 0;
+    while (f < u_faces - 1 && depth > u_cascade_far[f]) ++f;
+    float texel = u_cascade_texel[f];
+    out_visibility = face_visibility(f, P + N * (u_normal_offset * texel), N, texel);
+    if (f < u_faces - 1 && depth > u_blend_start[f]) {
+        // Linear blend into the next cascade across the end of this one's depth range.
+        float w = (depth - u_blend_start[f]) / (u_cascade_far[f] - u_blend_start[f]);
+        float next_texel = u_cascade_texel[f + 1];
+        float next = face_visibility(f + 1, P + N * (u_normal_offset * next_texel), N, next_texel);
+        out_visibility = mix(out_visibility, next, w);
+    }
+#else
+    float texel = u_texel_world > 0.0 ? u_texel_world : u_texel_angle * length(P - light_position);
+    vec3 Q = P + N * (u_normal_offset * texel);
+    out_visibility = face_visibility(face_of(Q), Q, N, texel);
 #endif
 }
 #endif

@@ -115,6 +115,17 @@ def _parser() -> argparse.ArgumentParser:
                     help="run the tasks on the Dask scheduler at ADDRESS (e.g. tcp://host:8786) instead")
     st.add_argument("--force", action="store_true", help="ignore the cache: redo every run")
     sub.add_parser("suites", help="list the shipped suites")
+    an = sub.add_parser("animate", help="run the ground truth and techniques on every frame of an animated scene "
+                        "(per-frame and temporal metrics, flicker heat maps, error strips)")
+    an.add_argument("scene", help="a shipped scene's name or a path to a scene file (with an [animation] table, "
+                    "or give --frames for still frames)")
+    an.add_argument("--technique", "-t", action="append", default=None, metavar="SPEC",
+                    help="name or name:key=value,... (repeatable; default: shadow_map)")
+    an.add_argument("--frames", type=int, default=None, help="frame count (default: the scene's animation.frames)")
+    an.add_argument("--size", default="320x240", help="image size WIDTHxHEIGHT (default 320x240)")
+    an.add_argument("--out", default=None, help="run directory (default results/<scene>_animate_<date-time>)")
+    an.add_argument("--repeat", type=int, default=1, help="timed runs per configuration and frame (default 1)")
+    an.add_argument("--warmup", type=int, default=0, help="untimed warm-up runs per frame (default 0)")
     ch = sub.add_parser("check", help="compare a study's artefact metrics with a baseline; exit 1 on regressions")
     ch.add_argument("study_dir", help="a study directory (holds results.csv)")
     ch.add_argument("baseline", help="baseline CSV (scene, light, config, label, held metrics)")
@@ -251,6 +262,32 @@ def _cmd_compare(args) -> int:
     return 0
 
 
+def _cmd_animate(args) -> int:
+    import pandas as pd
+
+    from .animate import animate
+    from .gl import GLContextError
+
+    size = parse_size(args.size)
+    bar = Progress(unit="render")
+    try:
+        out = animate(args.scene, args.technique or ["shadow_map"], frames=args.frames, size=size, out=args.out,
+                      repeat=args.repeat, warmup=args.warmup, on_step=bar.step)
+    except GLContextError as exc:
+        print(f"shadowlab: {exc}", file=sys.stderr)
+        return EXIT_NO_GL
+    finally:
+        bar.close()
+    summary = pd.read_csv(out / "summary.csv")
+    cols = ["short_label", "light", "frames", "error_rate_mean", "flip_rate_mean", "flip_rate_p95", "flip_rate_max",
+            "temporal_error_mean", "temporal_error_max"]
+    with pd.option_context("display.width", 200, "display.max_colwidth", 60, "display.float_format", "{:.5f}".format):
+        print(summary[cols].to_string(index=False))
+    print(f"run directory: {out.resolve()}")
+    print(f"report: {(out / 'report.html').resolve()}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the process exit status."""
     from .run import RunError
@@ -270,6 +307,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_study(args)
         if args.command == "check":
             return _cmd_check(args)
+        if args.command == "animate":
+            return _cmd_animate(args)
         return _cmd_compare(args)
     except (SceneError, TechniqueError, RunError, SuiteError) as exc:
         print(f"shadowlab: error: {exc}", file=sys.stderr)

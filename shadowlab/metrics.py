@@ -372,6 +372,12 @@ COLUMNS: tuple[Column, ...] = (
     _metric("bleeding_pixels", "evaluated pixels in the truth's umbra behind two or more casters (light_bleeding's "
                                "region)", lambda e: int(bleeding_region(e.truth, e.ev, e.overlap).sum()), "count",
             needs=("overlap",)),
+    Column("texel_footprint_p50", "median texel footprint m (Lloyd et al. 2008): the longest axis of the shadow-map "
+                                  "texel covering a pixel, in pixels (<= 1 alias-free, > 10 severe); maps only", "px",
+           report=True),
+    Column("texel_footprint_p95", "95th percentile of the texel footprint m over evaluated pixels, pixels", "px",
+           report=True),
+    Column("texel_footprint_max", "largest texel footprint m over evaluated pixels, pixels", "px", report=True),
     Column("time_repeats", "timed runs behind the median", "count"),
     Column("gpu_time_ms_median", "median GL_TIME_ELAPSED of the timed passes, ms (real GPUs only)", "ms"),
 )

@@ -23,7 +23,7 @@ from typing import Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from . import gl, light_sampling, memory, metrics, timing
+from . import gl, light_sampling, memory, metrics, texel_footprint, timing
 from .frame import Frame
 from .occluder_layers import occluder_layers
 from .scene import load_scene
@@ -52,6 +52,9 @@ class Measurement:
     setup_ms: float = float("nan")
     #: Peak resident memory of the process during the measurement, bytes (:mod:`shadowlab.memory`).
     peak_rss_bytes: int = 0
+    #: Texel footprint m per pixel, float32 (height, width), row 0 = top, NaN where not evaluated
+    #: (:func:`shadowlab.texel_footprint.footprint_image`); None for techniques without a map.
+    footprint: np.ndarray | None = None
 
 
 def measure(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, warmup: int = 1,
@@ -68,10 +71,20 @@ def measure(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, wa
     ``light_samples`` hard measurements, one per point of the light
     (:func:`shadowlab.light_sampling.measure_sampled`: time, setup and stats are the frame's N
     renders'); on any other light it is measured once, its stats get ``light_samples`` = 1 and
-    a ``light_samples`` > 1 gets a note saying it was ignored."""
+    a ``light_samples`` > 1 gets a note saying it was ignored. Techniques with
+    ``texel_coordinates`` get ``footprint`` and the ``texel_footprint_*`` columns (light-sampled:
+    the first sample's)."""
     light = frame.scene.lights[light_index]
     if light_sampling.is_sampled(tech, light):
-        return light_sampling.measure_sampled(tech, frame, light_index, _measure_hard, repeat, warmup, on_step,
+        samples = [0]
+
+        def measure_one(*args, **kwargs) -> Measurement:
+            # the texel footprint (image and columns) of the first light sample only: one image,
+            # not N, and combined_stats then passes that sample's columns through unchanged
+            samples[0] += 1
+            return _measure_hard(*args, footprint=samples[0] == 1, **kwargs)
+
+        return light_sampling.measure_sampled(tech, frame, light_index, measure_one, repeat, warmup, on_step,
                                               release=release, pass_timing=pass_timing)
     note = light_sampling.ignored_note(tech, light_index, light)
     if note is not None:
@@ -86,8 +99,10 @@ def measure(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, wa
 
 def _measure_hard(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, warmup: int = 1,
                   on_step: Callable[[], None] | None = None, release: bool = True,
-                  pass_timing: bool = False) -> Measurement:
-    """:func:`measure` for the light that is in the scene now, rendered once per run."""
+                  pass_timing: bool = False, footprint: bool = True) -> Measurement:
+    """:func:`measure` for the light that is in the scene now, rendered once per run; with
+    ``footprint``, a technique with ``texel_coordinates`` also gets its texel-footprint image and
+    columns (:mod:`shadowlab.texel_footprint`), taken before it is released."""
     before = len(tech.notes)
     memory.reset_peak()
     t0 = time.perf_counter()
@@ -109,6 +124,10 @@ def _measure_hard(tech: Technique, frame: Frame, light_index: int, repeat: int =
             pass_times = timer.columns()
         vis = tech.visibility()
         stats = tech.stats()
+        m_image = None
+        if footprint and getattr(tech, "texel_coordinates", None) is not None:
+            m_image = texel_footprint.footprint_image(frame, light_index, tech)
+            stats.update(texel_footprint.footprint_columns(m_image))
         gl.check_errors(f"{tech.name} on light {light_index}")
         peak = memory.peak_bytes()
     except BaseException:
@@ -117,7 +136,7 @@ def _measure_hard(tech: Technique, frame: Frame, light_index: int, repeat: int =
     if release:
         tech.release()
     return Measurement(tech, light_index, vis, t, stats, list(dict.fromkeys(tech.notes[before:])), pass_times,
-                       setup_ms, peak)
+                       setup_ms, peak, m_image)
 
 
 class Evaluator:

@@ -5,7 +5,8 @@ correct lit and correct shadow in greys, false shadow in orange, false lit in bl
 that are not evaluated dimmed from the shaded image. Soft configurations (an area light, or
 fractional visibility) also get a signed difference map V − G on a diverging colour map
 centred at 0, blue where the technique is too bright and red where it is too dark — the same
-sides as the error map's blue false lit and orange false shadow.
+sides as the error map's blue false lit and orange false shadow. Shadow-map configurations also
+get their texel-footprint map (Lloyd et al.'s m, log colour scale, :func:`footprint_picture`).
 """
 from __future__ import annotations
 
@@ -134,6 +135,50 @@ def signed_legend(path: Path, limit: float) -> None:
     plt.close(fig)
 
 
+#: The texel-footprint image (Lloyd et al.'s m, :mod:`shadowlab.texel_footprint`): colour map and
+#: the ends of its logarithmic scale, in pixels per texel — a tenth of a pixel (a map ten times
+#: finer than the screen) to a hundred pixels (severe aliasing); values beyond are clipped.
+FOOTPRINT_COLORMAP = "magma"
+FOOTPRINT_RANGE = (0.1, 100.0)
+FOOTPRINT_CAPTION = ("texel footprint m: the longest axis, in pixels, of the shadow-map texel covering each pixel "
+                     "(Lloyd et al. 2008), log scale; m <= 1 alias-free, m > 10 severe; slate = not evaluated")
+
+
+def footprint_picture(m: np.ndarray, evaluated: np.ndarray, covered: np.ndarray) -> np.ndarray:
+    """The texel-footprint map: m float (H, W), row 0 = top, through :data:`FOOTPRINT_COLORMAP`
+    on a log scale over :data:`FOOTPRINT_RANGE` (clipped beyond; inf = the top colour); pixels
+    not evaluated or without an m slate, uncovered ones the background. RGB float (H, W, 3)."""
+    import matplotlib
+
+    lo, hi = np.log10(FOOTPRINT_RANGE)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.clip((np.log10(np.nan_to_num(m, nan=FOOTPRINT_RANGE[0], posinf=FOOTPRINT_RANGE[1])) - lo) / (hi - lo),
+                    0.0, 1.0)
+    rgb = matplotlib.colormaps[FOOTPRINT_COLORMAP](t)[..., :3].astype(np.float64)
+    rgb[~(evaluated.astype(bool) & ~np.isnan(m))] = NOT_EVALUATED
+    rgb[~covered.astype(bool)] = BACKGROUND
+    return rgb
+
+
+def footprint_legend(path: Path) -> None:
+    """A horizontal colour bar of the texel-footprint map (PNG): :data:`FOOTPRINT_RANGE` on a
+    log scale, in pixels per texel."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+
+    fig, ax = plt.subplots(figsize=(5.0, 0.95), dpi=110)
+    cb = fig.colorbar(matplotlib.cm.ScalarMappable(LogNorm(*FOOTPRINT_RANGE), FOOTPRINT_COLORMAP), cax=ax,
+                      orientation="horizontal")
+    cb.set_label("texel footprint m, pixels   (<= 1 alias-free | > 10 severe)", fontsize=8)
+    cb.ax.tick_params(labelsize=8)
+    fig.subplots_adjust(left=0.05, right=0.95, top=0.92, bottom=0.55)
+    fig.savefig(path)
+    plt.close(fig)
+
+
 def save_png(path: Path, rgb: np.ndarray) -> None:
     """Write an RGB float image in [0, 1] (H, W, 3), row 0 = top."""
     Path(path).write_bytes(encode_png(rgb))
@@ -231,27 +276,32 @@ def write_html(path: Path, run: dict, df: pd.DataFrame, images: list[dict]) -> N
     """Write ``report.html``: run facts, the metrics table, the speed/error plot and an image grid
     (shaded | visibility | error map | signed map per configuration). ``images`` holds dicts with
     ``label`` (the full spec), ``title`` (a short heading), ``shaded``, ``visibility`` and
-    optionally ``error`` and ``signed`` (file names relative to the report); ``run['signed_map']``
-    (``limit``, ``colormap``, ``legend``: the colour bar's file), when present, adds the signed
-    map's colour bar and caption."""
+    optionally ``error``, ``signed`` and ``footprint`` (file names relative to the report);
+    ``run['signed_map']`` (``limit``, ``colormap``, ``legend``: the colour bar's file), when
+    present, adds the signed map's colour bar and caption; ``run['footprint_legend']`` the
+    texel-footprint map's."""
     table = format_table(df, "report")
     legend = "".join(f'<span class="sw" style="background:rgb({",".join(str(int(255 * v)) for v in col)})"></span>'
                      f"{html.escape(name)} &nbsp; " for name, col in ERROR_COLORS.values())
     rows = []
     for im in images:
         cells = [f'<figure><img src="{im[k]}" alt="{k}"><figcaption>{k}</figcaption></figure>'
-                 for k in ("shaded", "visibility", "error", "signed") if im.get(k)]
+                 for k in ("shaded", "visibility", "error", "signed", "footprint") if im.get(k)]
         title = im.get("title", im["label"])
         rows.append(f'<h3>{html.escape(title)}</h3><p class="spec">{html.escape(im["label"])}</p>'
                     f'<div class="row">{"".join(cells)}</div>')
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in run.get("notes", []))
-    columns = 4 if any(im.get("signed") for im in images) else 3
+    columns = 3 + sum(any(im.get(k) for im in images) for k in ("signed", "footprint"))
     signed = run.get("signed_map")
     signed_html = ""
     if signed:
         signed_html = (f'<p class="signed"><img src="{html.escape(signed["legend"])}" alt="signed map colour bar"><br>'
                        f'Signed map: {html.escape(SIGNED_CAPTION)}; colour map {html.escape(signed["colormap"])}, '
                        f'limits ±{signed["limit"]:.2f}.</p>')
+    if run.get("footprint_legend"):
+        signed_html += (f'<p class="signed"><img src="{html.escape(run["footprint_legend"])}" '
+                        f'alt="texel footprint colour bar"><br>Footprint map: {html.escape(FOOTPRINT_CAPTION)}; '
+                        f'colour map {FOOTPRINT_COLORMAP}.</p>')
     doc = f"""<!doctype html>
 <html><head><meta charset="utf-8"><title>shadowlab — {html.escape(run['scene']['name'])}</title>
 <style>

@@ -60,13 +60,8 @@ def compare(scene_ref, specs: list[str], size: tuple[int, int] = (800, 600), out
     scene = load_scene(scene_ref)
     techniques = build_techniques(specs)
     out = Path(out) if out is not None else default_out_dir(scene)
-    if out.exists() and not out.is_dir():
-        raise RunError(f"--out {out} exists and is not a directory")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.parent / f".{out.name}.tmp-{os.getpid()}"
-    if tmp.exists():
-        shutil.rmtree(tmp)
-    (tmp / "images").mkdir(parents=True)
+    tmp = staging_dir(out)
+    (tmp / "images").mkdir()
     try:
         frame = Frame(scene, *size)
         try:
@@ -79,6 +74,20 @@ def compare(scene_ref, specs: list[str], size: tuple[int, int] = (800, 600), out
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     return out
+
+
+def staging_dir(out: Path) -> Path:
+    """A fresh, empty folder beside ``out`` to write a run into before :func:`move_into_place`
+    puts it there — so a failed run leaves earlier results intact (RunError when ``out`` exists
+    and is not a folder)."""
+    if out.exists() and not out.is_dir():
+        raise RunError(f"--out {out} exists and is not a directory")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.parent / f".{out.name}.tmp-{os.getpid()}"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    tmp.mkdir(parents=True)
+    return tmp
 
 
 def move_into_place(tmp: Path, out: Path) -> None:
@@ -118,6 +127,10 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
         signed_map = {"limit": limit, "colormap": report.SIGNED_COLORMAP, "legend": "images/signed_legend.png",
                       "caption": report.SIGNED_CAPTION}
         report.signed_legend(folder / signed_map["legend"], limit)
+    footprint_legend = None
+    if any(ms[0].footprint is not None for ms in result.results):
+        footprint_legend = "images/footprint_legend.png"
+        report.footprint_legend(folder / footprint_legend)
     shader = Shader(frame)
     try:
         truth = result.truth[0].technique
@@ -126,7 +139,7 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
             tech = ms[0].technique
             signed = (diffs[tech.spec()], signed_map["limit"]) if tech.spec() in diffs else None
             images.append(_write_images(folder, safe_name(tech.short_label()), tech.spec(), tech.short_label(), shader,
-                                        frame, [m.visibility for m in ms], gt_vis[0], signed))
+                                        frame, [m.visibility for m in ms], gt_vis[0], signed, ms[0].footprint))
     finally:
         shader.release()
     report.speed_error_plot(df, folder / "speed_vs_error.png")
@@ -151,6 +164,7 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
         # per light: the sampled truth's per-pixel standard error bound (DESIGN §9; 0 for a point-like light)
         "truth_stderr_max": [float(m.stats.get("truth_stderr_max", 0.0)) for m in result.truth],
         "signed_map": signed_map,
+        "footprint_legend": footprint_legend,
         # peak resident memory of the run's measurements (each config's is in metrics.csv)
         "peak_rss_mib": peak_mib(df),
         "notes": result.notes,
@@ -163,9 +177,10 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
 
 
 def _write_images(folder: Path, stem: str, label: str, title: str, shader: Shader, frame: Frame, vis_all,
-                  truth0, signed: tuple[np.ndarray, float] | None = None) -> dict:
+                  truth0, signed: tuple[np.ndarray, float] | None = None, footprint: np.ndarray | None = None) -> dict:
     """Write one configuration's images (shaded, visibility; against ``truth0``: the error map;
-    with ``signed`` = (V − G float (H, W), limit): the signed difference map) and return their
+    with ``signed`` = (V − G float (H, W), limit): the signed difference map; with ``footprint``
+    (texel footprint m, float (H, W), first light): ``<stem>_footprint.png``) and return their
     file names for the report."""
     covered = frame.covered
     ev0 = frame.evaluated(0)
@@ -181,6 +196,9 @@ def _write_images(folder: Path, stem: str, label: str, title: str, shader: Shade
     if signed is not None:
         files["signed"] = f"images/{stem}_signed.png"
         report.save_png(folder / files["signed"], report.signed_picture(signed[0], signed[1], ev0, covered))
+    if footprint is not None:
+        files["footprint"] = f"images/{stem}_footprint.png"
+        report.save_png(folder / files["footprint"], report.footprint_picture(footprint, ev0, covered))
     return files
 
 

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from .animation import parse_animation
 from .geometry import transforms as tf
 from .lights import Light, parse_light
 from .validation import SceneError, TableReader
@@ -119,6 +120,8 @@ class Scene:
     objects: list[SceneObject]
     shading: Shading = field(default_factory=Shading)
     path: Path | None = None
+    #: The ``[animation]`` table (:class:`shadowlab.animation.Animation`); None for a still scene.
+    animation: object | None = None
 
     def bounds(self) -> np.ndarray:
         """Axis-aligned bounds of every object, (2, 3)."""
@@ -317,8 +320,10 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
     shading = Shading(density=shading_rd.number("density", 1.0, min=0.0, max=1.0),
                       shadow_color=shading_rd.vector("shadow_color", 3, default=[0.0, 0.0, 0.0]))
     shading_rd.finish()
+    anim_table = rd.raw("animation", None)
+    animation = None if anim_table is None else parse_animation(anim_table, file, lights)
     rd.finish()
-    return Scene(name, camera, lights, objects, shading, Path(file) if file != "<scene>" else None)
+    return Scene(name, camera, lights, objects, shading, Path(file) if file != "<scene>" else None, animation)
 
 
 def builtin_scene_dir() -> Path:

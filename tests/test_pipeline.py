@@ -21,8 +21,11 @@ def gbuffer_bytes(frame):
 def test_techniques_leave_the_gbuffer_untouched(lab, name):
     """Every registered technique, run on a frame, leaves its G-buffer textures, exact points
     and evaluated masks bit for bit as they were (the next technique reads them); techniques
-    that need an area light run on an area-light scene."""
-    frame = lab.frame("soft_overlap" if REGISTRY[name].NEEDS_AREA_LIGHT else "multi_light", SIZE)
+    that need an area light run on an area-light scene, those that need a directional light on
+    a sun scene."""
+    cls = REGISTRY[name]
+    scene = "soft_overlap" if cls.NEEDS_AREA_LIGHT else "sun_scene" if cls.NEEDS_DIRECTIONAL_LIGHT else "multi_light"
+    frame = lab.frame(scene, SIZE)
     last = len(frame.scene.lights) - 1
     before = gbuffer_bytes(frame), frame.compact_position.copy(), frame.evaluated(last).copy()
     for light in range(len(frame.scene.lights)):

@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 from .base import Param, Technique, TechniqueError, parse_spec
+from .cascaded_map import CascadedShadowMap
 from .filtered_map import FilteredShadowMap
+from .lispsm import LiSPSM
 from .blob import BlobShadow
 from .projective import ProjectiveShadow
 from .pcss import PCSS
@@ -22,6 +24,8 @@ REGISTRY: dict[str, type[Technique]] = {
     FilteredShadowMap.name: FilteredShadowMap,
     BlobShadow.name: BlobShadow,
     ProjectiveShadow.name: ProjectiveShadow,
+    CascadedShadowMap.name: CascadedShadowMap,
+    LiSPSM.name: LiSPSM,
 }
 
 

@@ -120,6 +120,9 @@ class Technique:
     #: True for a technique that only makes sense on an area light (it raises TechniqueError on
     #: another light): suites and tests give it soft-shadow scenes.
     NEEDS_AREA_LIGHT = False
+    #: True for a technique that only handles directional lights (cascades, LiSPSM: they fit
+    #: the map to the camera's view along a light at infinity; TechniqueError on another light).
+    NEEDS_DIRECTIONAL_LIGHT = False
     #: Set by the pipeline while it times passes (a :class:`shadowlab.timing.PassTimer`).
     pass_timer = None
 

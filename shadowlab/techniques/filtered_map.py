@@ -67,7 +67,7 @@ from .. import gl, glstate
 from ..geometry.transforms import BIAS
 from ..glstate import PassState
 from .base import Param, Technique, TechniqueError
-from .shadow_map import fit_light_views
+from .shadow_map import TexelMapping, fit_light_views
 
 VARIANTS = ("vsm", "esm", "evsm2", "evsm4", "msm")
 #: The variant's number in the shaders (u_variant; the shaders get these as #defines).
@@ -169,7 +169,7 @@ def linear_range(view) -> tuple[float, float]:
     return float(p[2, 3] / (p[2, 2] - 1.0)), float(p[2, 3] / (p[2, 2] + 1.0))
 
 
-class FilteredShadowMap(Technique):
+class FilteredShadowMap(TexelMapping, Technique):
     """Filtered shadow maps: linear-depth moments (VSM, ESM, EVSM 2/4, MSM), a box blur, and
     the variant's visibility estimate (Chebyshev, exponential, Chebyshev on warped depths,
     Hamburger 4-moment bound)."""

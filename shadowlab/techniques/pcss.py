@@ -53,11 +53,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import gl, glstate
+from .. import gl
 from ..area_lights import AreaLight, DiscLight, RectLight, SphereLight, basis, concentric_disc, strata
 from ..geometry.transforms import BIAS
 from .base import Param, Technique, TechniqueError
-from .shadow_map import CLEAR_DEPTH, depth_pass, fit_light_views
+from .shadow_map import CLEAR_DEPTH, TexelMapping, depth_pass, fit_light_views, lookup_pass
 
 #: Depth format of the map (24-bit fixed point, as the shadow map's default).
 DEPTH_BITS = 24
@@ -146,7 +146,7 @@ def light_size(light: AreaLight) -> float:
     return float(2.0 * light.radius)
 
 
-class PCSS(Technique):
+class PCSS(TexelMapping, Technique):
     """Percentage-closer soft shadows: blocker search, penumbra estimate, variable-size PCF."""
 
     name = "pcss"
@@ -180,6 +180,7 @@ class PCSS(Technique):
         self.faces, notes = fit_light_views(frame, light_index, self.resolution, "frustum", 0.0, "receivers")
         self.notes.extend(notes)
         face = self.faces[0]
+        self.rects = [(0, 0, self.resolution, self.resolution)]  # the one face fills the map
         size = (self.resolution, self.resolution)
         max_size = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
         if self.resolution > max_size:
@@ -227,15 +228,9 @@ class PCSS(Technique):
     def render(self) -> None:
         """The depth pass from the light's centre, then the PCSS lookup over the G-buffer."""
         with self.timed_pass("depth"):
-            depth_pass(self.frame, self.map, self.depth_prog, self.faces,
-                       [(0, 0, self.resolution, self.resolution)])
+            depth_pass(self.frame, self.map, self.depth_prog, self.faces, self.rects)
         with self.timed_pass("lookup"):
-            self.vis_fbo.use()
-            glstate.apply(glstate.PassState())
-            self.frame.tex_position.use(0)
-            self.frame.tex_normal.use(1)
-            self.map.texture.use(2)
-            self.quad.render()
+            lookup_pass(self.frame, self.vis_fbo, self.quad, self.map.texture)
 
     def visibility(self) -> np.ndarray:
         """Visibility float32 (height, width) in [0, 1], row 0 = top, from the lookup pass."""

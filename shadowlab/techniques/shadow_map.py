@@ -120,7 +120,80 @@ def depth_pass(frame, layer: gl.DepthTexture, prog, faces: list[LightView], rect
         frame.draw(prog, "casters")
 
 
-class ShadowMap(Technique):
+def cube_face_index(points: np.ndarray, light_position, faces: int) -> np.ndarray:
+    """Int (M,): the face of a map's atlas a lookup of each world point (M, 3) uses — for a cube
+    (``faces`` = 6) the face of the major axis of the light-to-point vector, in
+    :data:`shadowlab.geometry.frusta.CUBE_FACES` order (+x, −x, +y, −y, +z, −z), with the ties
+    broken as ``face_of`` in shaders/cube_face.glsl breaks them; else 0 (a single face; maps
+    with several faces of another kind, cascades, choose their own)."""
+    points = np.asarray(points, np.float64)
+    if faces != 6:
+        return np.zeros(len(points), int)
+    d = points - np.asarray(light_position, np.float64)
+    a = np.abs(d)
+    x = (a[:, 0] >= a[:, 1]) & (a[:, 0] >= a[:, 2])
+    y = ~x & (a[:, 1] >= a[:, 2])
+    axis = np.where(x, 0, np.where(y, 1, 2))
+    positive = np.take_along_axis(d, axis[:, None], axis=1)[:, 0] > 0
+    return 2 * axis + np.where(positive, 0, 1)
+
+
+def map_texel_coordinates(faces: list[LightView], rects, face_of_point, points: np.ndarray,
+                          reference: np.ndarray) -> np.ndarray:
+    """Float64 (M, 2): texel coordinates of world ``points`` (M, 3) in the map face each matching
+    ``reference`` point (M, 3) looks up (``face_of_point(reference)`` → int (M,) indices into
+    ``faces`` / ``rects``). Texels of that face, from its lower-left corner, x right and y up as
+    in the map: (u, v) = (BIAS · proj · view · p).xy / w × the face's (width, height) — the
+    coordinates the lookup passes floor to a texel. NaN behind the face's centre of projection
+    (w <= 0). Shared by every technique that renders a depth or moment map per face
+    (:class:`TexelMapping`)."""
+    points = np.asarray(points, np.float64)
+    face = np.asarray(face_of_point(np.asarray(reference, np.float64)), int)
+    out = np.full((len(points), 2), np.nan)
+    homogeneous = np.concatenate([points, np.ones((len(points), 1))], axis=1)
+    for i, (view, rect) in enumerate(zip(faces, rects)):
+        sel = face == i
+        if not sel.any():
+            continue
+        s = homogeneous[sel] @ (BIAS @ view.view_proj).T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = s[:, :2] / s[:, 3:4] * np.asarray(rect[2:4], np.float64)
+        uv[s[:, 3] <= 0] = np.nan
+        out[sel] = uv
+    return out
+
+
+class TexelMapping:
+    """Mixin of the techniques that render a map per face (``self.faces``: LightViews,
+    ``self.rects``: their atlas rects, ``self.light``): which face a world point looks up and
+    where its texels lie — what the texel-footprint metric (:mod:`shadowlab.texel_footprint`)
+    measures. Valid between ``setup`` and ``release``. Subclasses with another choice of face
+    (cascades) override :meth:`face_index` only."""
+
+    def face_index(self, points: np.ndarray) -> np.ndarray:
+        """Int (M,): the face of ``self.faces`` the lookup of each world point (M, 3) uses."""
+        return cube_face_index(points, getattr(self.light, "position", None), len(self.faces))
+
+    def texel_coordinates(self, points: np.ndarray, reference: np.ndarray) -> np.ndarray:
+        """Float64 (M, 2): texel coordinates (x right, y up, in texels of the face) of world
+        ``points`` (M, 3), each projected through the face the matching ``reference`` point
+        (M, 3) looks up (:func:`map_texel_coordinates`)."""
+        return map_texel_coordinates(self.faces, self.rects, self.face_index, points, reference)
+
+
+def lookup_pass(frame, target, quad, map_texture) -> None:
+    """One full-screen lookup over ``frame``'s G-buffer into ``target`` (a framebuffer): world
+    position on texture unit 0, normal on 1, ``map_texture`` (the depth atlas) on 2 — the layout
+    of ``shadow_lookup.glsl`` and ``pcss.glsl``."""
+    target.use()
+    glstate.apply(PassState())
+    frame.tex_position.use(0)
+    frame.tex_normal.use(1)
+    map_texture.use(2)
+    quad.render()
+
+
+class ShadowMap(TexelMapping, Technique):
     """Depth-buffer shadow maps: every light type, the bias family, two-layer variants, filters."""
 
     name = "shadow_map"
@@ -149,12 +222,16 @@ class ShadowMap(Technique):
     }
 
     # ------------------------------------------------------------------ setup
+    def fit_views(self, frame, light_index: int) -> tuple[list[LightView], list[str]]:
+        """The map's faces and notes for the run (:func:`fit_light_views`); subclasses that warp
+        or split the map (LiSPSM, cascades) override this one step and keep the rest of setup."""
+        return fit_light_views(frame, light_index, self.resolution, self.projection, self.near, self.fit)
+
     def setup(self, frame, light_index: int) -> None:
         """Fit the faces, allocate the atlas layers and programs."""
         ctx = frame.ctx
         self.frame, self.light = frame, frame.scene.lights[light_index]
-        self.faces, notes = fit_light_views(frame, light_index, self.resolution, self.projection, self.near,
-                                            self.fit)
+        self.faces, notes = self.fit_views(frame, light_index)
         self.notes.extend(notes)
         n = len(self.faces)
         cols, rows = (3, 2) if n == 6 else (1, 1)

@@ -1,0 +1,308 @@
+"""Cascaded shadow maps (CSM) and sample distribution shadow maps (SDSM) for directional lights.
+
+Perspective aliasing: one orthographic map fitted to a long view spends as many texels on the
+far end as near the camera, where a texel covers many pixels. Cascades split the camera's view
+depth into ``cascades`` slices, each with its own orthographic map of ``resolution``², so the
+texels near the camera are small (Engel 2006, "Cascaded shadow maps", ShaderX5; Dimitrov 2007,
+"Cascaded shadow maps", NVIDIA).
+
+- Splits (``split_lambda`` = λ): the practical split scheme of Zhang et al. 2006, "Parallel-split
+  shadow maps for large-scale virtual environments" (§3.2),
+  z_i = λ·n·(f/n)^(i/N) + (1 − λ)·(n + (f − n)·i/N), a mix of the logarithmic (λ = 1) and uniform
+  (λ = 0) schemes (:func:`practical_splits`).
+- ``fit=frustum`` (the classic CSM): n, f = the camera's near and far planes; each cascade
+  covers its slice of the view frustum. With ``stabilize`` (Valient 2008, "Stable rendering of
+  cascaded shadow maps", ShaderX6) the cascade's square box is the bounding sphere of its slice
+  (a size that does not change with the camera's or the light's orientation) and its origin is
+  snapped to whole texels in light space, so a moving camera does not make its shadow edges
+  shimmer; the box is widened by one texel so the snapped square still holds the sphere.
+  Stabilisation holds while the splits do: fix the camera's ``near``/``far`` in the scene (the
+  fitted ones follow the scene's bounds and move with the camera).
+- ``fit=sdsm`` (Lauritzen, Salvi & Lefohn 2011, "Sample distribution shadow maps", I3D; Lauritzen
+  2010, SIGGRAPH course): n, f = the smallest and largest view depth of the evaluated G-buffer
+  points, and each cascade's light-space x/y box fitted tightly to the evaluated points in its
+  depth slice. ``stabilize`` does not apply (the boxes follow the samples): it is ignored with a
+  note.
+
+Every cascade's light-space depth range runs from the nearest caster to the farthest point it
+covers, clamped to the scene's bounds (as in shadow_map's fitting). The atlas holds the cascades
+side by side (tile i at x = i·resolution); the depth pass is shadow_map's :func:`depth_pass`; the
+lookup is ``shadow_lookup.glsl`` with ``CASCADES`` defined (the cascade chosen by the point's
+camera view depth against the splits) and shadow_map's constant and shader-side slope bias. With
+``blend`` the visibility blends linearly into the next cascade over the last ``blend_width`` of a
+cascade's depth range (the nearer cascade is the one :meth:`face_index` reports there).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import gl
+from ..geometry import transforms as tf
+from ..geometry.bounds import box_corners
+from ..geometry.frusta import MIN_EXTENT, PAD, LightView
+from ..geometry.transforms import BIAS
+from ..lights import DirectionalLight
+from .base import Param, TechniqueError
+from .shadow_map import FILTERS, ShadowMap, depth_pass, lookup_pass
+
+#: Most cascades (the lookup shader's array sizes, passed to it as MAX_FACES).
+MAX_CASCADES = 8
+#: Each cascade also covers this fraction of its depth range beyond its splits, so a point whose
+#: float32 view depth in the shader falls on the other side of a split than its float64 depth
+#: here still lies inside the cascade the shader picks.
+SPLIT_OVERLAP = 1e-3
+
+
+def practical_splits(near: float, far: float, cascades: int, lam: float) -> np.ndarray:
+    """The N + 1 split depths z_0 = near … z_N = far of Zhang et al. 2006's practical scheme:
+    z_i = λ·n·(f/n)^(i/N) + (1 − λ)·(n + (f − n)·i/N) (float64 (N + 1,), increasing)."""
+    if not 0 < near < far:
+        raise TechniqueError(f"cascaded_map: split range needs 0 < near < far, got {near}, {far}")
+    i = np.arange(cascades + 1) / cascades
+    z = lam * near * (far / near) ** i + (1.0 - lam) * (near + (far - near) * i)
+    z[0], z[-1] = near, far  # exact ends whatever the rounding
+    return z
+
+
+def slice_corners(view: np.ndarray, tan_x: float, tan_y: float, z0: float, z1: float) -> np.ndarray:
+    """World corners (8, 3) of the slice of a camera's view frustum between view depths z0 and
+    z1; ``view`` is the camera's world → view matrix, ``tan_x``/``tan_y`` its half-angle tangents."""
+    sx, sy = np.meshgrid([-1.0, 1.0], [-1.0, 1.0])
+    local = np.concatenate([np.stack([sx.ravel() * tan_x * z, sy.ravel() * tan_y * z, np.full(4, -z)], axis=1)
+                            for z in (z0, z1)])
+    inv = np.linalg.inv(view)
+    return local @ inv[:3, :3].T + inv[:3, 3]
+
+
+def slice_sphere(tan_x: float, tan_y: float, z0: float, z1: float) -> tuple[float, float]:
+    """The smallest sphere around a frustum slice between view depths z0 < z1: (view depth of its
+    centre on the axis, radius). Equidistant from the near and far corners,
+    c = (z0 + z1)(1 + a²)/2 with a² = tan_x² + tan_y², unless that lies beyond z1, where the far
+    rectangle's circumcircle holds the slice. Depends only on the slice's shape, not on where
+    the camera is or looks (Valient 2008)."""
+    a2 = tan_x ** 2 + tan_y ** 2
+    c = min(0.5 * (z0 + z1) * (1.0 + a2), z1)
+    radius = max(np.sqrt((c - z0) ** 2 + a2 * z0 ** 2), np.sqrt((z1 - c) ** 2 + a2 * z1 ** 2))
+    return float(c), float(radius)
+
+
+def light_rotation(direction: np.ndarray) -> np.ndarray:
+    """World → light-space rotation (4x4) looking along ``direction``, about the world origin:
+    fixed while the light is, so texel snapping in light space means a fixed world grid."""
+    return tf.look_along(np.zeros(3), direction)
+
+
+def cascade_view(rotation: np.ndarray, lo: np.ndarray, hi: np.ndarray, points: np.ndarray,
+                 caster_bounds: np.ndarray, scene_bounds: np.ndarray, resolution: int) -> LightView:
+    """The orthographic view of one cascade: light-space x/y box [lo, hi] (2,) each; depth from
+    the nearest caster (or covered point) to the farthest covered point ``points`` (N, 3), both
+    clamped to the scene's bounds (2, 3), padded by :data:`PAD`."""
+    def depth(p):
+        return -tf.transform_points(rotation, p)[:, 2]
+    scene = depth(box_corners(scene_bounds[None]))
+    pts = np.clip(depth(points), scene.min(), scene.max())
+    near = float(pts.min())
+    if len(caster_bounds):
+        near = min(near, float(depth(box_corners(caster_bounds)).min()))
+    far = float(pts.max())
+    span = max(far - near, MIN_EXTENT)
+    near, far = near - PAD * span, far + PAD * span
+    proj = tf.orthographic(lo[0], hi[0], lo[1], hi[1], near, far)
+    return LightView(rotation, proj, texel_world=float(np.max(hi - lo)) / resolution)
+
+
+def fit_frustum_cascades(view: np.ndarray, tan_x: float, tan_y: float, intervals: np.ndarray,
+                         direction: np.ndarray, caster_bounds: np.ndarray, scene_bounds: np.ndarray,
+                         resolution: int, stabilize: bool) -> list[LightView]:
+    """Classic CSM: one view per cascade covering the camera frustum's slice between the view
+    depths ``intervals[i]`` = (z0, z1) ((N, 2)). ``stabilize``: a square box the size of the
+    slice's bounding sphere (plus one texel), its corner snapped to whole texels in light space
+    (Valient 2008); else the slice corners' light-space bounding rectangle."""
+    rot = light_rotation(direction)
+    inv = np.linalg.inv(view)
+    views = []
+    for z0, z1 in intervals:
+        corners = slice_corners(view, tan_x, tan_y, z0, z1)
+        if stabilize:
+            c, radius = slice_sphere(tan_x, tan_y, z0, z1)
+            centre = tf.transform_points(rot, (inv @ np.array([0.0, 0.0, -c, 1.0]))[None, :3])[0, :2]
+            width = 2.0 * radius * resolution / (resolution - 1)  # one texel spare for the snap
+            texel = width / resolution
+            lo = np.floor((centre - radius) / texel) * texel
+            hi = lo + width
+        else:
+            xy = tf.transform_points(rot, corners)[:, :2]
+            lo, hi = xy.min(0), xy.max(0)
+            pad = PAD * max(float(np.max(hi - lo)), MIN_EXTENT)
+            lo, hi = lo - pad, hi + pad
+        views.append(cascade_view(rot, lo, hi, corners, caster_bounds, scene_bounds, resolution))
+    return views
+
+
+def fit_sdsm_cascades(view: np.ndarray, tan_x: float, tan_y: float, points: np.ndarray, intervals: np.ndarray,
+                      direction: np.ndarray, caster_bounds: np.ndarray, scene_bounds: np.ndarray,
+                      resolution: int) -> tuple[list[LightView], list[str]]:
+    """SDSM (Lauritzen et al. 2011): each cascade's light-space x/y box fitted tightly to the
+    ``points`` (M, 3) whose view depth lies in its interval ((N, 2)); a cascade without points
+    covers its frustum slice instead (with a note)."""
+    rot = light_rotation(direction)
+    depth = -tf.transform_points(view, points)[:, 2]
+    xy = tf.transform_points(rot, points)[:, :2]
+    views, notes = [], []
+    for i, (z0, z1) in enumerate(intervals):
+        inside = (depth >= z0) & (depth <= z1)
+        if not inside.any():
+            notes.append(f"cascaded_map: sdsm cascade {i} holds no evaluated point; it covers its frustum slice")
+            cover = slice_corners(view, tan_x, tan_y, z0, z1)
+            cxy = tf.transform_points(rot, cover)[:, :2]
+        else:
+            cover, cxy = points[inside], xy[inside]
+        lo, hi = cxy.min(0), cxy.max(0)
+        pad = PAD * max(float(np.max(hi - lo)), MIN_EXTENT)
+        views.append(cascade_view(rot, lo - pad, hi + pad, cover, caster_bounds, scene_bounds, resolution))
+    return views, notes
+
+
+def cover_intervals(splits: np.ndarray, blend_start: np.ndarray) -> np.ndarray:
+    """(N, 2) view-depth intervals each cascade's map must cover: its own slice, from where the
+    previous cascade starts blending into it, widened by :data:`SPLIT_OVERLAP` of its range."""
+    z0 = np.concatenate([[splits[0]], blend_start[:-1]])
+    z1 = splits[1:].copy()
+    margin = SPLIT_OVERLAP * (z1 - z0)
+    return np.stack([np.maximum(z0 - margin, 0.0), z1 + margin], axis=1)
+
+
+class CascadedShadowMap(ShadowMap):
+    """Cascaded shadow maps (Engel 2006) with Zhang et al.'s split scheme, optional blending,
+    Valient's stabilisation, and SDSM fitting (Lauritzen et al. 2011); directional lights only."""
+
+    name = "cascaded_map"
+    summary = "cascaded shadow maps (PSSM splits, blending, stabilisation) and SDSM, directional lights"
+    PASSES = ("depth", "lookup")
+    LIGHT_SAMPLED = False
+    #: The technique raises TechniqueError on every light but a directional one (suites and
+    #: tests give it scenes with a directional light; the same flag as lispsm's).
+    NEEDS_DIRECTIONAL_LIGHT = True
+    PARAMS = {
+        "cascades": Param(4, "number of cascades (view-depth slices, one map each)", min=1, max=MAX_CASCADES),
+        "resolution": Param(1024, "width and height of each cascade's map in texels", min=16, max=16384),
+        "split_lambda": Param(0.5, "split scheme: 0 uniform, 1 logarithmic, between a mix (Zhang et al. 2006)",
+                              min=0.0, max=1.0),
+        "fit": Param("frustum", "frustum: splits over the camera's near..far, boxes around the frustum slices; "
+                                "sdsm: splits and boxes fitted to the evaluated G-buffer points",
+                     choices=("frustum", "sdsm")),
+        "blend": Param(False, "blend linearly into the next cascade at the end of each cascade"),
+        "blend_width": Param(0.1, "blend: fraction of a cascade's depth range over which it blends", min=0.0,
+                             max=1.0, min_open=True),
+        "stabilize": Param(True, "fit=frustum: bounding-sphere boxes snapped to whole texels (Valient 2008); "
+                                 "ignored with a note under sdsm"),
+        "bias": Param(0.0005, "constant depth bias in window-depth units [0, 1] of each cascade", min=0.0, max=1.0),
+        "slope_scale": Param(2.0, "multiple of the receiver's depth change over one texel added to the bias "
+                                  "(shader-side slope-scaled bias; 0: constant only)", min=0.0, max=1e4),
+        "depth_bits": Param(24, "depth format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
+        "filter": Param("nearest", "nearest, pcf3, pcf5 (texel-exact percentage-closer filtering)",
+                        choices=("nearest", "pcf3", "pcf5")),
+    }
+
+    # ------------------------------------------------------------------ fitting
+    def _fit(self, frame, light_index: int) -> None:
+        """Splits, blend starts and one LightView per cascade (``self.splits``, ``self.blend_start``,
+        ``self.faces``)."""
+        light = frame.scene.lights[light_index]
+        if not isinstance(light, DirectionalLight):
+            raise TechniqueError(f"cascaded_map: directional lights only (light {light_index} is "
+                                 f"{light.type_name}; use shadow_map for it)")
+        cam = frame.camera
+        tan_y = float(np.tan(np.radians(cam.fov_y) / 2.0))
+        tan_x = tan_y * frame.width / frame.height
+        n = self.cascades
+        evaluated = frame.compact_evaluated(light_index)
+        points = frame.compact_position[evaluated]
+        casters, scene_bounds = frame.caster_bounds(), frame.scene.bounds()
+        sdsm = self._params["fit"] == "sdsm"
+        if sdsm and len(points):
+            depth = -tf.transform_points(frame.view, points)[:, 2]
+            near, far = float(depth.min()), float(depth.max())
+            far = max(far, near * (1.0 + PAD), near + MIN_EXTENT)
+            if self.stabilize:
+                self.notes.append("cascaded_map: stabilize is ignored with fit=sdsm (the boxes follow the samples)")
+        else:
+            if sdsm:
+                self.notes.append("cascaded_map: sdsm found no evaluated point; splits over the camera's range")
+            near, far = float(cam.near), float(cam.far)
+        self.splits = practical_splits(near, far, n, self.split_lambda)
+        ranges = np.diff(self.splits)
+        self.blend_start = self.splits[1:] - (self.blend_width * ranges if self.blend else 0.0)
+        intervals = cover_intervals(self.splits, self.blend_start)
+        if sdsm and len(points):
+            self.faces, notes = fit_sdsm_cascades(frame.view, tan_x, tan_y, points, intervals, light.direction,
+                                                  casters, scene_bounds, self.resolution)
+            self.notes.extend(notes)
+        else:
+            self.faces = fit_frustum_cascades(frame.view, tan_x, tan_y, intervals, light.direction, casters,
+                                              scene_bounds, self.resolution, self.stabilize and not sdsm)
+
+    # ------------------------------------------------------------------ setup
+    def setup(self, frame, light_index: int) -> None:
+        """Fit the cascades, allocate the atlas (cascades side by side) and the programs."""
+        ctx = frame.ctx
+        self.frame, self.light = frame, frame.scene.lights[light_index]
+        self._fit(frame, light_index)
+        n, res = len(self.faces), self.resolution
+        self.atlas = (n * res, res)
+        max_size = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
+        if max(self.atlas) > max_size:
+            raise TechniqueError(f"{self.name}: a {self.atlas[0]}x{self.atlas[1]} atlas exceeds GL_MAX_TEXTURE_SIZE "
+                                 f"{max_size}; lower the resolution or the cascades")
+        self.rects = [(i * res, 0, res, res) for i in range(n)]
+        self.layers = [gl.DepthTexture.create(self.atlas, self.depth_bits)]
+        self.map = self.layers[0]
+        self.sampler = None
+        self.depth_prog = gl.program("shadow_depth.glsl")
+        self.lookup_prog = gl.program("shadow_lookup.glsl", defines={"CASCADES": 1, "MAX_FACES": MAX_CASCADES})
+        pad = MAX_CASCADES - n
+        mats = [BIAS @ f.view_proj for f in self.faces] + [np.eye(4)] * pad
+        self.lookup_prog["u_light_matrix"].write(
+            np.ascontiguousarray(np.stack([m.T for m in mats]), dtype="f4").tobytes())
+        rects = np.zeros((MAX_CASCADES, 4), np.float32)
+        rects[:n] = self.rects
+        gl.set_uniforms(self.lookup_prog, self.light.uniforms())
+        gl.set_uniforms(self.lookup_prog, {
+            "u_position": 0, "u_normal": 1, "u_map": 2, "u_faces": n, "u_face_rect": rects,
+            "u_atlas_size": tuple(map(float, self.atlas)),
+            "u_bias": float(self.bias), "u_slope_scale": float(self.slope_scale), "u_normal_offset": 0.0,
+            "u_texel_world": float(self.faces[0].texel_world), "u_texel_angle": 0.0,
+            "u_kernel_radius": FILTERS[self.filter],
+            "u_view_depth": tuple(float(v) for v in -frame.view[2]),
+            "u_cascade_far": np.concatenate([self.splits[1:], np.zeros(pad)]),
+            "u_blend_start": np.concatenate([self.blend_start, np.zeros(pad)]),
+            "u_cascade_texel": np.array([f.texel_world for f in self.faces] + [0.0] * pad),
+        })
+        self.quad = gl.fullscreen_quad(self.lookup_prog)
+        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
+        self.vis_fbo = gl.framebuffer([self.vis_tex])
+
+    # ------------------------------------------------------------------ passes
+    def render(self) -> None:
+        """One depth pass into every cascade's tile, then the lookup over the G-buffer."""
+        with self.timed_pass("depth"):
+            depth_pass(self.frame, self.map, self.depth_prog, self.faces, self.rects)
+        with self.timed_pass("lookup"):
+            lookup_pass(self.frame, self.vis_fbo, self.quad, self.map.texture)
+
+    # ------------------------------------------------------------------ texel mapping
+    def face_index(self, points: np.ndarray) -> np.ndarray:
+        """The cascade (int (M,)) the lookup uses for each world point (M, 3): the first whose far
+        split lies at or beyond the point's camera view depth (the last past the far split);
+        in a blend region that is the nearer cascade."""
+        depth = -tf.transform_points(self.frame.view, np.asarray(points, np.float64))[:, 2]
+        return np.searchsorted(self.splits[1:-1], depth, side="left").astype(int)
+
+    def stats(self) -> dict:
+        """Atlas memory, cascades, passes (one depth pass per cascade + the lookup), the split
+        depths and each cascade's world texel size (strings), and cascade 0's texel size."""
+        return {"memory_bytes": self.map.nbytes, "cascades": len(self.faces), "faces": len(self.faces),
+                "passes": len(self.faces) + 1, "depth_range": self.faces[0].depth_range,
+                "splits": " ".join(f"{z:.6g}" for z in self.splits),
+                "cascade_texel_world": " ".join(f"{f.texel_world:.6g}" for f in self.faces),
+                "texel_world": float(self.faces[0].texel_world)}

@@ -1,0 +1,135 @@
+"""Light space perspective shadow maps (LiSPSM; Wimmer, Scherzer & Purgathofer 2004, "Light
+Space Perspective Shadow Maps", EGSR) for directional lights.
+
+A uniform shadow map spends as many texels on a far receiver as on a near one, while the camera
+magnifies the near ones: perspective aliasing. LiSPSM renders the map through a perspective
+warp P whose axis lies in the map's plane (light-space y: the view direction projected
+perpendicular to the light), so texels shrink towards the viewer; the light stays directional
+after the warp. Only the fitting differs from :class:`ShadowMap`: ``self.faces`` is one
+LightView whose ``view`` is the light-space rotation and whose ``proj`` is the whole warp (P,
+then the orthographic fit into the unit cube); depth pass, lookup, bias variants, filters and
+the texel mapping are ShadowMap's. The maths is in :mod:`shadowlab.geometry.lispsm_frustum`.
+
+The body B (the paper's "focused" body; our choice of focus box, ``fit=``): the camera's view
+frustum (the frame's fitted camera: near/far fitted to the scene's bounds, so its far plane
+already lies just past the scene) intersected with an axis-aligned box — the bounds of the
+shadowable receivers (``shadowable``, default, like shadow_map's fit), of every evaluated
+receiver (``receivers``), or of the scene (``scene``, the paper's) — which clips the far end
+to what is there. Casters: B's vertices are copied towards the light up to the light-facing
+side of the scene's bounds (same light-space x, y, so P treats them like B); the map covers
+the hull of B and the copies, which holds every caster point between a receiver of B and the
+light. z_n, z_f of n_opt are the camera's nearest and farthest view depths of B.
+
+``n`` (world units): 0 uses n_opt = (z_n + √(z_n z_f)) / sin γ; > 0 forces it (large n →
+the uniform map, small n → strong warp). When sin γ < :data:`MIN_SIN_GAMMA` (light almost along
+the view) n_opt → ∞ and light space has no y axis: the map falls back to the uniform fit of the
+same body, with a note (``n_used`` empty: unbounded, no warp).
+
+Bias under the warp: window depth after P is z / y (light-space depth over the distance from the
+centre of projection along the warp axis), so a constant bias in window depth (``constant``) is
+a world offset that grows with the distance from the viewer's end of B — too small near, too
+large far. ``slope`` (the default here) derives the offset from the map's own depth slope over
+one texel at the receiver (the lookup's plane-based form), which follows the warp; its constant
+part ``bias`` still applies. ``normal_offset`` uses one world texel size for the whole map
+(ShadowMap's uniform ``u_texel_world``), here the median texel size over the covered receivers:
+too large near the viewer and too small far away.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry import lispsm_frustum as lf
+from ..geometry import transforms as tf
+from ..geometry.bounds import box_corners
+from ..geometry.frusta import LightView
+from ..lights import DirectionalLight
+from .base import Param, TechniqueError
+from .shadow_map import SHADOWABLE_OFFSET, ShadowMap, shadowable
+
+#: Central-difference step for the texel-size estimate, × the body's extent.
+TEXEL_STEP = 1e-4
+
+
+class LiSPSM(ShadowMap):
+    """Light space perspective shadow map of a directional light (one warped face)."""
+
+    name = "lispsm"
+    summary = "light space perspective shadow maps (Wimmer et al. 2004): n_opt warp, directional lights"
+    LIGHT_SAMPLED = False  # directional lights only: there is no area light to sample
+    #: The technique raises TechniqueError on every light but a directional one (suites and
+    #: tests give it scenes with a directional light).
+    NEEDS_DIRECTIONAL_LIGHT = True
+    PARAMS = {
+        **{k: p for k, p in ShadowMap.PARAMS.items() if k not in ("projection", "near", "fit", "variant")},
+        "variant": Param("slope", "depth comparison (slope: offset from the warped map's own depth slope)",
+                         choices=ShadowMap.PARAMS["variant"].choices),
+        "fit": Param("shadowable", "the box the view frustum is clipped to: bounds of the shadowable receivers, "
+                                   "of every visible receiver, or of the scene (the paper's)",
+                     choices=("shadowable", "receivers", "scene")),
+        "n": Param(0.0, "distance of the warp's centre of projection from the body's near face, world units "
+                        "(0 = n_opt)", min=0.0),
+    }
+
+    def fit_views(self, frame, light_index: int) -> tuple[list[LightView], list[str]]:
+        """One LightView: light-space rotation and the LiSPSM warp fitted to the body B."""
+        light = frame.scene.lights[light_index]
+        if not isinstance(light, DirectionalLight):
+            raise TechniqueError(f"{self.name}: light {light_index} is {light.type_name}; LiSPSM warps the map "
+                                 f"of a directional light only (use shadow_map for this light)")
+        notes: list[str] = []
+        receivers = self._receivers(frame, light_index)
+        focus = frame.scene.bounds() if self.fit == "scene" or len(receivers) == 0 else \
+            np.stack([receivers.min(axis=0), receivers.max(axis=0)])
+        cam = frame.camera
+        frustum = lf.frustum_corners(frame.view, cam.fov_y, frame.width / frame.height, cam.near, cam.far)
+        body = lf.hexahedra_intersection(frustum, box_corners(focus[None]))
+        if len(body) == 0:  # the focus box lies outside the view: cover the box itself
+            body = box_corners(focus[None])
+            notes.append(f"{self.name}: the view frustum misses the focus box; the map covers the box")
+        view_depth = -tf.transform_points(frame.view, body)[:, 2]
+        z_near, z_far = max(float(view_depth.min()), float(cam.near)), float(view_depth.max())
+        rotation, sin_gamma = lf.light_space(light.direction, cam.target - cam.eye)
+        body_ls = tf.transform_points(rotation, body)
+        top = float(tf.transform_points(rotation, box_corners(frame.scene.bounds()[None]))[:, 2].max())
+        lifted = body_ls.copy()
+        lifted[:, 2] = np.maximum(lifted[:, 2], top)  # B's points moved towards the light, onto the scene's top
+        hull = np.concatenate([body_ls, lifted])
+        self.gamma_deg = float(np.degrees(np.arcsin(min(sin_gamma, 1.0))))
+        if sin_gamma < lf.MIN_SIN_GAMMA:
+            self.n_used = None  # unbounded: no warp (written as an empty cell, never as inf in JSON)
+            proj = lf.uniform_projection(hull)
+            notes.append(f"{self.name}: the light is within {self.gamma_deg:.2f} degrees of the view direction "
+                         f"(sin gamma < {lf.MIN_SIN_GAMMA}): n_opt is unbounded, the map is the uniform "
+                         f"(orthographic) fit of the same body")
+        else:
+            self.n_used = float(self.n) if self.n > 0 else float(lf.n_optimal(z_near, z_far, sin_gamma))
+            eye_ls = tf.transform_points(rotation, np.asarray(cam.eye, np.float64)[None])[0]
+            proj = lf.warp_projection(hull, eye_ls, self.n_used)
+        # B's vertices and B ∪ its copies lifted towards the light, world (rotation⁻¹ = rotationᵀ)
+        self.body, self.hull = body, tf.transform_points(rotation.T, hull)
+        extent = max(float(np.ptp(hull, axis=0).max()), lf.MIN_EXTENT)
+        self._depth_range = float(np.ptp(hull[:, 2]))
+        samples = receivers if len(receivers) else body
+        sizes = lf.texel_world_sizes(proj @ rotation, rotation, samples, self.resolution, TEXEL_STEP * extent)
+        return [LightView(rotation, proj, texel_world=float(np.median(sizes)))], notes
+
+    def _receivers(self, frame, light_index: int) -> np.ndarray:
+        """The evaluated receiver points (M, 3) the focus box bounds (``fit``; empty for ``scene``)."""
+        if self.fit == "scene":
+            return np.zeros((0, 3))
+        light = frame.scene.lights[light_index]
+        evaluated = frame.compact_evaluated(light_index)
+        points = frame.compact_position[evaluated]
+        if self.fit == "shadowable":
+            keep = shadowable(points, frame.compact_normal[evaluated], light, frame.caster_bounds(),
+                              eps=SHADOWABLE_OFFSET * frame.scene.extent())
+            points = points[keep]
+        return points
+
+    def stats(self) -> dict:
+        """ShadowMap's figures, the warp's ``n_used`` (None: uniform fallback) and ``gamma_deg``;
+        ``depth_range`` is the map's extent along the light (world units) and ``texel_world``
+        the median world texel size over the covered receivers."""
+        out = super().stats()
+        out.update(depth_range=self._depth_range, n_used=self.n_used, gamma_deg=self.gamma_deg)
+        return out

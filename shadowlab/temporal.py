@@ -1,0 +1,172 @@
+"""Temporal metrics between consecutive frames of an animation: flicker and temporal error.
+
+Players notice shadows that shimmer more than any still-frame error, so the lab measures how a
+technique's visibility *changes* from frame to frame against how the truth's changes. Pixels
+of frame k are matched to frame k−1 by exact reprojection (the reverse reprojection of Nehab
+et al. 2007, "Accelerating real-time shading with reverse reprojection caching", §3, here
+with the frames' exact float64 surface points, DESIGN §9):
+
+- each evaluated pixel p of frame k has its exact point P_k; P_k is projected through frame
+  k−1's camera to the *nearest* pixel q (the pixel whose area holds the projection);
+- the match is **valid** when q lies inside the image, is evaluated in frame k−1, and frame
+  k−1's exact point at q lies within :data:`SAME_SURFACE_FOOTPRINTS` (a quarter) pixel footprints
+  of P_k (nearly the same world point: same surface, not something that hid or uncovered it);
+- with a still camera (same view-projection and size) q = p.
+
+Over the valid pixels, with V thresholded at 0.5 (:data:`shadowlab.metrics.THRESHOLD`):
+
+- ``flip_rate`` = #(V's class changes while G's does not) / #valid — flicker the truth does
+  not have (a pixel that flips with the truth does not count);
+- ``temporal_error`` = mean |ΔV − ΔG|, ΔV = V_k(p) − V_{k−1}(q) — change that is not the
+  truth's, without thresholding;
+- ``valid_pixels`` = #valid.
+
+Images are (height, width) with row 0 = top (DESIGN §5); all of this is numpy, no GL.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .metrics import THRESHOLD
+
+#: A reprojected match is judged only when the two exact points are at most this many pixel
+#: footprints (frame k's, at p) apart: the two frames' visibilities are then compared at nearly
+#: the same world point. A looser match (up to the one-pixel rounding to the nearest pixel)
+#: compares V at points up to a pixel apart, and a shadow map's staircase — fixed in the world
+#: under a stabilised map — then reads as flicker merely because a different point of it was
+#: sampled: measured on tm_camera_dolly (320x240), with 2 footprints stabilised cascades
+#: "flipped" more than unstabilised ones (0.00026 vs 0.00021) although their texel grids do not
+#: move. A point on another surface is rejected all the more. Pixels that find no match this
+#: close are not judged (``valid_pixels`` says how many were).
+SAME_SURFACE_FOOTPRINTS = 0.25
+#: The temporal columns each frame row gets from frame 1 on (NaN on frame 0).
+TEMPORAL_COLUMNS = ("flip_rate", "temporal_error", "valid_pixels")
+
+
+@dataclass
+class FrameGeometry:
+    """What reprojection needs of one frame: exact points float64 (H, W, 3) (NaN where nothing
+    is visible), the pixel footprint float64 (H, W) (world size of a pixel there), the camera's
+    view-projection matrix float64 (4, 4) (OpenGL clip space)."""
+
+    position: np.ndarray
+    footprint: np.ndarray
+    view_projection: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(height, width)."""
+        return self.position.shape[:2]
+
+    @classmethod
+    def of(cls, frame) -> "FrameGeometry":
+        """The geometry of a :class:`shadowlab.frame.Frame` (copies: the frame may be released)."""
+        return cls(frame.position, frame.pixel_footprint(), np.array(frame.view_projection, np.float64))
+
+
+@dataclass
+class Reprojection:
+    """Frame k's pixels matched to frame k−1's: ``source`` int64 (H, W), the flat index
+    (row·W + col) of q in frame k−1 (−1 where there is none) and ``valid`` bool (H, W)."""
+
+    source: np.ndarray
+    valid: np.ndarray
+
+    @property
+    def valid_pixels(self) -> int:
+        """Number of valid matches."""
+        return int(self.valid.sum())
+
+
+def project_to_pixels(points: np.ndarray, view_projection: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """Continuous image coordinates of world ``points`` (M, 3) float64 through a camera:
+    (M, 2) float64 (x = column, y = row, both in pixels, pixel (i, j)'s centre at (i + 0.5,
+    j + 0.5), row 0 = top) and a bool (M,) that is True where the point is in front of the
+    camera (clip w > 0)."""
+    hom = np.concatenate([points, np.ones((len(points), 1))], axis=1) @ view_projection.T
+    w = hom[:, 3]
+    front = w > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_ndc, y_ndc = hom[:, 0] / w, hom[:, 1] / w
+    xy = np.stack([(x_ndc + 1.0) * 0.5 * width, (1.0 - y_ndc) * 0.5 * height], axis=1)
+    return xy, front
+
+
+def reproject(curr: FrameGeometry, prev: FrameGeometry, curr_evaluated: np.ndarray,
+              prev_evaluated: np.ndarray) -> Reprojection:
+    """Match the evaluated pixels of frame k (``curr``, bool mask (H, W)) to frame k−1
+    (``prev``) by exact reprojection (module docstring); same image size required."""
+    if curr.shape != prev.shape:
+        raise ValueError(f"frames of different sizes: {curr.shape} and {prev.shape}")
+    h, w = curr.shape
+    ev = curr_evaluated.astype(bool) & np.isfinite(curr.position).all(axis=2)
+    idx = np.flatnonzero(ev)
+    pts = curr.position.reshape(-1, 3)[idx]
+    if np.array_equal(curr.view_projection, prev.view_projection):
+        q = idx.copy()  # a still camera: every point projects to its own pixel
+        ok = np.ones(len(idx), bool)
+    else:
+        xy, ok = project_to_pixels(pts, prev.view_projection, w, h)
+        with np.errstate(invalid="ignore"):
+            col, row = np.floor(xy[:, 0]), np.floor(xy[:, 1])
+            ok &= (col >= 0) & (col < w) & (row >= 0) & (row < h)
+        q = np.where(ok, np.nan_to_num(row) * w + np.nan_to_num(col), -1).astype(np.int64)
+    ok &= np.take(prev_evaluated.reshape(-1), np.where(ok, q, 0))
+    prev_pts = prev.position.reshape(-1, 3)[np.where(ok, q, 0)]
+    dist = np.linalg.norm(prev_pts - pts, axis=1)
+    with np.errstate(invalid="ignore"):
+        ok &= dist <= SAME_SURFACE_FOOTPRINTS * curr.footprint.reshape(-1)[idx]
+    source = np.full(h * w, -1, np.int64)
+    source[idx[ok]] = q[ok]
+    valid = np.zeros(h * w, bool)
+    valid[idx[ok]] = True
+    return Reprojection(source.reshape(h, w), valid.reshape(h, w))
+
+
+@dataclass
+class PairMetrics:
+    """Temporal metrics of one configuration between frames k−1 and k: the columns and the
+    per-pixel flips ``flips`` bool (H, W) in frame k's pixels (flips the truth does not make)."""
+
+    flip_rate: float
+    temporal_error: float
+    valid_pixels: int
+    flips: np.ndarray
+
+    def columns(self) -> dict:
+        """The frame row's temporal columns (:data:`TEMPORAL_COLUMNS`)."""
+        return {"flip_rate": self.flip_rate, "temporal_error": self.temporal_error, "valid_pixels": self.valid_pixels}
+
+
+def pair_metrics(vis_prev: np.ndarray, vis_curr: np.ndarray, truth_prev: np.ndarray, truth_curr: np.ndarray,
+                 reproj: Reprojection) -> PairMetrics:
+    """``flip_rate``, ``temporal_error`` and ``valid_pixels`` (module docstring) of visibility
+    images float (H, W) in [0, 1] of frames k−1 and k, against the truth's, over the valid
+    matches of ``reproj``. With no valid pixel both rates are 0 (the count says so)."""
+    valid = reproj.valid
+    q = reproj.source[valid]
+    v1, g1 = vis_curr[valid].astype(np.float64), truth_curr[valid].astype(np.float64)
+    v0, g0 = vis_prev.reshape(-1)[q].astype(np.float64), truth_prev.reshape(-1)[q].astype(np.float64)
+    flip = ((v1 < THRESHOLD) != (v0 < THRESHOLD)) & ((g1 < THRESHOLD) == (g0 < THRESHOLD))
+    n = int(valid.sum())
+    flips = np.zeros(valid.shape, bool)
+    flips[valid] = flip
+    if n == 0:
+        return PairMetrics(0.0, 0.0, 0, flips)
+    return PairMetrics(float(flip.sum()) / n, float(np.mean(np.abs((v1 - v0) - (g1 - g0)))), n, flips)
+
+
+#: The percentile of the ``p95`` summaries.
+SUMMARY_PERCENTILE = 95.0
+
+
+def summarise(values) -> dict:
+    """``mean``, ``p95`` and ``max`` of per-frame-pair values (NaN, e.g. frame 0's, ignored);
+    NaN each when there is none."""
+    v = np.asarray(values, np.float64)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return {"mean": float("nan"), "p95": float("nan"), "max": float("nan")}
+    return {"mean": float(v.mean()), "p95": float(np.percentile(v, SUMMARY_PERCENTILE)), "max": float(v.max())}

@@ -116,10 +116,8 @@ def plot(df, path, size, renderer):
 def main():
     run = run_experiment_suite(SUITE, __doc__.splitlines()[0], "results/filtered_maps_sweep")
     df = sweep_rows(run.outcome.results)
-    size = (int(df["width"].iloc[0]), int(df["height"].iloc[0]))
+    size = run.save_table(df, COLUMNS)
     out = run.out
-    run.write_record(size=list(size))
-    df[[c for c in COLUMNS if c in df.columns]].to_csv(out.with_suffix(".csv"), index=False)
     plot(df, out.with_suffix(".png"), size, run.renderer)
     show = [c for c in ["scene", "short_label", "error_rate", "visibility_mae", "light_bleeding",
                         "over_darkening_px", "contact_gap_px", "time_ms_median", "bits_per_texel"] if c in df.columns]

@@ -42,11 +42,9 @@ def table_rows(results: pd.DataFrame) -> pd.DataFrame:
 def main():
     run = run_experiment_suite(SUITE, __doc__.splitlines()[0], "results/sm_depth_precision")
     df = table_rows(run.outcome.results)
-    size = (int(df["width"].iloc[0]), int(df["height"].iloc[0]))
+    size = run.save_table(df)
     resolutions = sorted(df["param_resolution"].astype(int).unique())
     renderer, out = run.renderer, run.out
-    run.write_record(size=list(size))
-    df.to_csv(out.with_suffix(".csv"), index=False)
     nears = list(dict.fromkeys(df["param_near"]))
     bits = sorted(df["param_depth_bits"].unique())
     res = "/".join(f"{r}²" for r in resolutions)

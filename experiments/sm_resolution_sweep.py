@@ -44,10 +44,8 @@ def sweep_rows(results: pd.DataFrame) -> pd.DataFrame:
 def main():
     run = run_experiment_suite(SUITE, __doc__.splitlines()[0], "results/sm_resolution_sweep")
     df = sweep_rows(run.outcome.results)
-    size = (int(df["width"].iloc[0]), int(df["height"].iloc[0]))
+    size = run.save_table(df)
     out = run.out
-    run.write_record(size=list(size))
-    df.to_csv(out.with_suffix(".csv"), index=False)
     plot(df, out.with_suffix(".png"), size, run.renderer)
     cols = ["scene", "param_variant", "param_resolution", "boundary_error_px", "error_rate", "time_ms_median"]
     with pd.option_context("display.width", 200, "display.max_rows", 200):

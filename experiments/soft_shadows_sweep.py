@@ -85,10 +85,8 @@ def _panel(ax, d, scene, metric):
 def main():
     run = run_experiment_suite(SUITE, __doc__.splitlines()[0], "results/soft_shadows_sweep")
     df = sweep_rows(run.outcome.results)
-    size = (int(df["width"].iloc[0]), int(df["height"].iloc[0]))
+    size = run.save_table(df, COLUMNS)
     out = run.out
-    run.write_record(size=list(size))
-    df[[c for c in COLUMNS if c in df.columns]].to_csv(out.with_suffix(".csv"), index=False)
     plot(df, out.with_suffix(".png"), size, run.renderer)
     with pd.option_context("display.width", 220, "display.max_rows", 200):
         print(df[["scene", "short_label", "visibility_mae", "penumbra_mae", "time_ms_median"]].to_string(

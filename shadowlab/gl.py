@@ -416,6 +416,13 @@ def framebuffer(color_attachments: list, depth_attachment=None):
     return fbo
 
 
+def visibility_target(size: tuple[int, int]):
+    """A technique's visibility image: an R32F texture of ``size`` (width, height) and a checked
+    framebuffer drawing into it, as (texture, framebuffer)."""
+    tex = context().texture(tuple(size), 1, dtype="f4")
+    return tex, framebuffer([tex])
+
+
 def read_texture(tex, components: int, dtype: str = "f4") -> np.ndarray:
     """A moderngl texture as an array (height, width, components), row 0 = top."""
     w, h = tex.size

@@ -41,6 +41,16 @@ class ExperimentRun:
                                                   "timing": self.record.get("timing_method"), **extra},
                                        gl_info=False)
 
+    def save_table(self, df, columns=None) -> tuple[int, int]:
+        """Write the experiment's rows ``df`` to ``stem.csv`` (only ``columns`` that it has, in
+        that order; all when None) and the provenance record (:meth:`write_record`) with the
+        image size, read from the rows' ``width`` / ``height``; return that size."""
+        size = (int(df["width"].iloc[0]), int(df["height"].iloc[0]))
+        self.write_record(size=list(size))
+        table = df if columns is None else df[[c for c in columns if c in df.columns]]
+        table.to_csv(self.out.with_suffix(".csv"), index=False)
+        return size
+
     def summary_line(self, *written: Path) -> str:
         """One closing line: renderer, the study directory, tasks run and cached, files written."""
         return (f"renderer: {self.renderer}; study {self.outcome.out} ({self.outcome.ran} tasks run, "

@@ -279,8 +279,7 @@ class CascadedShadowMap(ShadowMap):
             "u_cascade_texel": np.array([f.texel_world for f in self.faces] + [0.0] * pad),
         })
         self.quad = gl.fullscreen_quad(self.lookup_prog)
-        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
-        self.vis_fbo = gl.framebuffer([self.vis_tex])
+        self.vis_tex, self.vis_fbo = gl.visibility_target((frame.width, frame.height))
 
     # ------------------------------------------------------------------ passes
     def render(self) -> None:

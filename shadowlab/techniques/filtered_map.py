@@ -295,8 +295,7 @@ class FilteredShadowMap(TexelMapping, Technique):
         })
         self._set_variant_uniforms(self.lookup_prog)
         self.quad = gl.fullscreen_quad(self.lookup_prog)
-        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
-        self.vis_fbo = gl.framebuffer([self.vis_tex])
+        self.vis_tex, self.vis_fbo = gl.visibility_target((frame.width, frame.height))
 
     def _quantized(self) -> bool:
         """True for the 16-bit MSM map, stored through the quantisation transform."""

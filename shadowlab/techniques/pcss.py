@@ -222,8 +222,7 @@ class PCSS(TexelMapping, Technique):
         })
         self.near, self.far = near, far
         self.quad = gl.fullscreen_quad(self.lookup_prog)
-        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
-        self.vis_fbo = gl.framebuffer([self.vis_tex])
+        self.vis_tex, self.vis_fbo = gl.visibility_target((frame.width, frame.height))
 
     def render(self) -> None:
         """The depth pass from the light's centre, then the PCSS lookup over the G-buffer."""

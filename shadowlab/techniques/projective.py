@@ -188,8 +188,7 @@ class ProjectiveShadow(Technique):
             "u_parallel": PARALLEL_EPS, "u_lit": LIT,
         })
         self.quad = gl.fullscreen_quad(self.lookup_prog)
-        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
-        self.vis_fbo = gl.framebuffer([self.vis_tex])
+        self.vis_tex, self.vis_fbo = gl.visibility_target((frame.width, frame.height))
 
     # ------------------------------------------------------------------ passes
     def render(self) -> None:

@@ -278,8 +278,7 @@ class ShadowMap(TexelMapping, Technique):
             "u_kernel_radius": FILTERS[self.filter] or 0,
         })
         self.quad = gl.fullscreen_quad(self.lookup_prog)
-        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
-        self.vis_fbo = gl.framebuffer([self.vis_tex])
+        self.vis_tex, self.vis_fbo = gl.visibility_target((frame.width, frame.height))
 
     # ------------------------------------------------------------------ passes
     def _depth_pass(self, layer: gl.DepthTexture, prog, name: str, cull_front: bool = False) -> None:

@@ -31,10 +31,10 @@ import pandas as pd
 from shadowlab import gl, provenance
 from shadowlab.cli import parse_size
 from shadowlab.frame import Frame
-from shadowlab.lights import T_LIGHT
+from shadowlab.scene.lights import T_LIGHT
 from shadowlab.scene import load_scene, parse_scene, resolve_scene_path
-from shadowlab.techniques.raytrace import (RayTraced, area_chunk_rays, area_chunks, area_workers, occluded,
-                                           offset_origins)
+from shadowlab.tracing import occluded, offset_origins
+from shadowlab.techniques.raytrace import RayTraced, area_chunk_rays, area_chunks, area_workers
 from shadowlab.timing import time_passes
 
 

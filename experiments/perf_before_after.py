@@ -38,11 +38,12 @@ from shadowlab import gl, memory, provenance
 from shadowlab.frame import Frame
 from shadowlab.geometry import compiled_clipping
 from shadowlab.geometry.rays import ray_plane_hits
-from shadowlab.lights import PointLight
+from shadowlab.scene.lights import PointLight
 from shadowlab.pipeline import measure
 from shadowlab.scene import load_scene
 from shadowlab.techniques import from_spec
-from shadowlab.techniques.raytrace import RayTraced, occluded, offset_origins
+from shadowlab.techniques.raytrace import RayTraced
+from shadowlab.tracing import occluded, offset_origins
 from shadowlab.techniques.shadow_polygons import fragment_triangles
 from shadowlab.timing import time_passes
 

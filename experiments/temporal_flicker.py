@@ -1,6 +1,6 @@
 """Temporal stability: flicker of shadow-map configurations on the animated hard cases.
 
-Runs ``shadowlab animate`` (:func:`shadowlab.animate.animate`) on
+Runs ``shadowlab animate`` (:func:`shadowlab.commands.animate.animate`) on
 
 - ``tm_rotating_sun`` (the sun turns 4.1° over 24 frames, still camera): one 2048² map, cascades
   with and without stabilisation (bounding-sphere fit + texel snapping), SDSM, LiSPSM and shadow
@@ -24,7 +24,7 @@ from pathlib import Path
 import pandas as pd
 
 from shadowlab import gl, provenance
-from shadowlab.animate import animate
+from shadowlab.commands.animate import animate
 
 CASES = {
     "tm_rotating_sun": ["shadow_map", "cascaded_map", "cascaded_map:stabilize=false", "cascaded_map:fit=sdsm",

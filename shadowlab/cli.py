@@ -18,7 +18,7 @@ EXIT_NO_GL = 3
 
 def parse_size(text: str) -> tuple[int, int]:
     """``'800x600'`` → (800, 600); RunError on anything else or on absurd sizes."""
-    from .run import RunError, check_size
+    from .commands.compare import RunError, check_size
 
     m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text or "")
     if not m:
@@ -237,7 +237,7 @@ def _cmd_scenes() -> int:
 
 
 def _cmd_compare(args) -> int:
-    from . import run as runmod
+    from .commands import compare as runmod
     from .gl import GLContextError
     from .metrics import format_table
 
@@ -265,7 +265,7 @@ def _cmd_compare(args) -> int:
 def _cmd_animate(args) -> int:
     import pandas as pd
 
-    from .animate import animate
+    from .commands.animate import animate
     from .gl import GLContextError
 
     size = parse_size(args.size)
@@ -290,7 +290,7 @@ def _cmd_animate(args) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the process exit status."""
-    from .run import RunError
+    from .commands.compare import RunError
     from .study.suite import SuiteError
     from .techniques import TechniqueError
 

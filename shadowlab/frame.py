@@ -24,7 +24,7 @@ import numpy as np
 from . import gl, glstate
 from .glstate import PassState
 from .geometry.triangles import triangle_normals
-from .lights import Light
+from .scene.lights import Light
 from .scene import Scene
 
 

@@ -7,7 +7,7 @@ technique: a technique class opts in with ``LIGHT_SAMPLED = True`` (which gives 
 parameter ``light_samples``, :mod:`shadowlab.techniques.base`), and :func:`shadowlab.pipeline.measure`
 hands an opted-in technique on an area light to :func:`measure_sampled`, which
 
-1. takes the light's fixed pattern of N points (:meth:`shadowlab.area_lights.AreaLight.pattern`:
+1. takes the light's fixed pattern of N points (:meth:`shadowlab.scene.area_lights.AreaLight.pattern`:
    centres of N equal-area strata, N = 1 the centre; a sphere's spread by area over its cap
    seen from the mean of the evaluated points, N = 1 the cap's apex), the same points for every pixel — so a small N shows N overlapping hard
    shadows (banding), not noise;
@@ -34,8 +34,8 @@ from typing import Callable
 import numpy as np
 
 from . import timing
-from .area_lights import AreaLight, above_horizon
-from .lights import Light, PointLight
+from .scene.area_lights import AreaLight, above_horizon
+from .scene.lights import Light, PointLight
 
 #: Stats that are a peak or a size held while one sample is set up: combined by maximum.
 _MAX_STATS = frozenset({"stencil_peak_count"})

@@ -8,8 +8,8 @@ shadow of the lower one (Donnelly & Lauritzen 2006 §5; Lauritzen, GPU Gems 3 ch
 bleeding"). The truth knows where that can happen: points whose segment to the light crosses
 two or more caster objects.
 
-Counting uses the truth's machinery (:mod:`shadowlab.techniques.raytrace`): the same Embree
-scene of the casters, the same offset ray origins and shadow rays. Each ray is intersected,
+Counting uses the truth's machinery (:mod:`shadowlab.tracing`): the same Embree scene of the
+casters, the same offset ray origins and shadow rays. Each ray is intersected,
 then restarted just past its hit (a step of :data:`STEP_SCALE` × the scene's extent along the
 ray) until it has met two distinct objects or reaches the light; a closed caster is entered
 and left (two hits, one object). An area light counts as its centre, like every hard technique.
@@ -20,7 +20,7 @@ import weakref
 
 import numpy as np
 
-from .techniques.raytrace import RayTraced, embree_scene, offset_origins
+from .tracing import caster_scene, nearest_hits, offset_origins
 
 #: The restart step past a hit, × the scene's extent: far above float32 rounding of the hit
 #: point (2^-24 relative), far below any gap between two casters a scene means.
@@ -51,8 +51,8 @@ def _count_layers(frame, light_index: int) -> np.ndarray:
     casters = [i for i, o in enumerate(frame.scene.objects) if o.casts]
     if not casters or not evaluated.any():
         return frame.to_image(out, fill=0, dtype=np.int8)
-    scene = embree_scene(frame)
-    origins = offset_origins(frame, RayTraced.PARAMS["offset_scale"].default)[evaluated].astype(np.float64)
+    scene = caster_scene(frame)
+    origins = offset_origins(frame)[evaluated].astype(np.float64)
     dirs, tfar = light.shadow_rays(origins.astype(np.float32), frame.compact_position[evaluated])
     dirs = dirs.astype(np.float64)
     step = STEP_SCALE * frame.scene.extent() / np.maximum(np.linalg.norm(dirs, axis=1), 1e-30)
@@ -65,8 +65,7 @@ def _count_layers(frame, light_index: int) -> np.ndarray:
             break
         o = (origins[live] + t0[live, None] * dirs[live]).astype(np.float32)
         remaining = (tfar[live] - t0[live]).astype(np.float32)
-        hit = scene.run(o, dirs[live].astype(np.float32), dists=np.maximum(remaining, 0), query="INTERSECT",
-                        output=1)
+        hit = nearest_hits(scene, o, dirs[live], np.maximum(remaining, 0))
         geom = hit["geomID"].astype(np.int64)
         met = geom >= 0
         obj = np.where(met, np.asarray(casters)[np.maximum(geom, 0)], -1)

@@ -12,7 +12,7 @@ experiments and the tests — so a figure means the same wherever it was taken:
 
 Progress is reported through ``on_step(what, total)``, called after every warm-up and timed
 render with a description and the total number of such steps; writing results (masks, images,
-run.json, the report) is :mod:`shadowlab.run`'s job, not this loop's.
+run.json, the report) is :mod:`shadowlab.commands.compare`'s job, not this loop's.
 """
 from __future__ import annotations
 

@@ -74,7 +74,7 @@ def is_soft(light, vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) ->
     """Whether a configuration is judged as a soft shadow (and gets a signed difference map):
     the light is an area light, or the technique's or the truth's visibility (float (H, W),
     row 0 = top) is fractional (strictly between 0 and 1) on some evaluated pixel."""
-    from .area_lights import AreaLight
+    from .scene.area_lights import AreaLight
 
     if isinstance(light, AreaLight):
         return True

@@ -11,7 +11,7 @@ from . import gl, glstate
 from .glstate import PassState
 
 
-class Shader:
+class ShadingPass:
     """Shades a frame given one visibility image per light (built once per frame)."""
 
     def __init__(self, frame):

@@ -131,7 +131,7 @@ def occluded_region(light, triangles: np.ndarray, p: np.ndarray, normal: np.ndar
 
 
 def exact_visibility(light, triangles: np.ndarray, p: np.ndarray, normal: np.ndarray) -> float:
-    """V(P) in [0, 1] (module docstring) for a rect or disc ``light`` (shadowlab.area_lights),
+    """V(P) in [0, 1] (module docstring) for a rect or disc ``light`` (shadowlab.scene.area_lights),
     occluders ``triangles`` (T, 3, 3) float64 world coordinates, the point ``p`` (3,) and its
     unit camera-facing ``normal`` (3,)."""
     c, n, _, _ = _frame(light)

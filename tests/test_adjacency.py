@@ -5,7 +5,7 @@ import numpy as np
 import trimesh
 
 from shadowlab.geometry import adjacency as adj
-from shadowlab.lights import DirectionalLight, PointLight
+from shadowlab.scene.lights import DirectionalLight, PointLight
 
 
 def cube_table():

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from shadowlab.animation import frame_times, parse_animation, scene_at, slerp
+from shadowlab.scene.animation import frame_times, parse_animation, scene_at, slerp
 from shadowlab.cli import main
 from shadowlab.scene import load_scene
 from shadowlab.validation import SceneError
@@ -297,7 +297,7 @@ def test_animate_bad_input(tmp_path, capsys):
 def test_animate_rejects_a_technique_the_lights_cannot_take(tmp_path, capsys, monkeypatch, scene, spec, need):
     """A technique that cannot run on one of the scene's lights is a clear error (exit 2) before
     any GL work: no frame is built."""
-    import shadowlab.animate as anim
+    import shadowlab.commands.animate as anim
 
     def no_frame(*a, **k):
         raise AssertionError("a frame was built")
@@ -313,7 +313,7 @@ def test_failed_animate_leaves_earlier_results(tmp_path, monkeypatch):
     out = tmp_path / "keep"
     out.mkdir()
     (out / "frames.csv").write_text("old")
-    import shadowlab.animate as anim
+    import shadowlab.commands.animate as anim
 
     def boom(*a, **k):
         raise RuntimeError("disk full")

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from shadowlab.cli import main
-from shadowlab.run import CONTRACT_COLUMNS
+from shadowlab.commands.compare import CONTRACT_COLUMNS
 
 
 def test_compare_writes_every_contract_file(tmp_path, capsys):
@@ -120,7 +120,7 @@ def test_bad_scene_file_exit_2(tmp_path, capsys, change, culprit):
 
 def test_failed_run_leaves_earlier_results(tmp_path, monkeypatch):
     """A failure in the middle of a run (after GL work began) keeps the old run directory."""
-    from shadowlab import run as runmod
+    from shadowlab.commands import compare as runmod
 
     out = tmp_path / "run"
     assert main(["compare", "box_on_plane", "--size", "64x48", "--repeat", "1", "--out", str(out)]) == 0

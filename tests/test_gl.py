@@ -81,12 +81,12 @@ def test_releasing_the_current_framebuffer_leaves_moderngl_usable(ctx):
     current framebuffer, which must never be a deleted name)."""
     from shadowlab.frame import Frame
     from shadowlab.scene import load_scene
-    from shadowlab.shading import Shader
+    from shadowlab.shading import ShadingPass
 
     frame = Frame(load_scene("box_on_plane"), 32, 24)
-    shader = Shader(frame)
-    shader.shade([np.ones((24, 32), np.float32)])  # leaves its own framebuffer current
-    shader.release()
+    shading = ShadingPass(frame)
+    shading.shade([np.ones((24, 32), np.float32)])  # leaves its own framebuffer current
+    shading.release()
     frame.release()
     fbo = ctx.framebuffer(color_attachments=[ctx.texture((4, 4), 4)])
     gl.check_errors("new framebuffer after releases")

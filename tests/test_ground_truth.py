@@ -23,9 +23,10 @@ import pytest
 from scipy.spatial import ConvexHull
 
 from shadowlab.frame import Frame
-from shadowlab.run import compare
+from shadowlab.commands.compare import compare
 from shadowlab.scene import load_scene
-from shadowlab.techniques.raytrace import RayTraced, occluded, offset_origins
+from shadowlab.techniques.raytrace import RayTraced
+from shadowlab.tracing import occluded, offset_origins
 
 from conftest import floor_points, make_scene
 

@@ -5,7 +5,7 @@ pipeline.measure).
 The expected images are built here from the definition (DESIGN §7): over the area light's
 evaluated pixels V(P) = [P on the emitting side] · mean_i vis_i(P) · [point i above P's tangent
 plane], the indicator terms computed in this file from the rectangle's own numbers, not with
-shadowlab.area_lights' helpers."""
+shadowlab.scene.area_lights' helpers."""
 from __future__ import annotations
 
 import numpy as np
@@ -13,7 +13,7 @@ import pytest
 
 from shadowlab.frame import Frame
 from shadowlab.light_sampling import combined_stats, combined_timing
-from shadowlab.lights import PointLight
+from shadowlab.scene.lights import PointLight
 from shadowlab.pipeline import measure
 from shadowlab.scene import parse_scene
 from shadowlab.techniques import REGISTRY, Param, Technique, TechniqueError, from_spec

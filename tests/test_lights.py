@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from shadowlab import gl
-from shadowlab.area_lights import AREA_SHAPES, DiscLight, RectLight, SphereLight
-from shadowlab.lights import (LIGHT_TYPE_IDS, DirectionalLight, PointLight, SpotLight, TargetDirectLight,
-                              parse_light)
+from shadowlab.scene.area_lights import AREA_SHAPES, DiscLight, RectLight, SphereLight
+from shadowlab.scene import parse_light
+from shadowlab.scene.lights import LIGHT_TYPE_IDS, DirectionalLight, PointLight, SpotLight, TargetDirectLight
 from shadowlab.validation import SceneError
 
 LIGHTS = [

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from shadowlab.frame import Frame
-from shadowlab.shading import Shader
+from shadowlab.shading import ShadingPass
 
 from conftest import floor_points, make_scene
 
@@ -48,10 +48,10 @@ def test_shaded_pixels_follow_the_extended_blinn_model():
     scene.shading.density, scene.shading.shadow_color = DENSITY, SHADOW_COLOR
     size = (96, 72)
     frame = Frame(scene, *size)
-    shader = Shader(frame)
+    shading = ShadingPass(frame)
     vis = [np.full((size[1], size[0]), 0.25, np.float32), np.full((size[1], size[0]), 0.8, np.float32)]
-    image = shader.shade(vis)
-    shader.release()
+    image = shading.shade(vis)
+    shading.release()
     frame.release()
     pts = floor_points(scene.camera, *size)
     on_floor = np.argwhere(np.all(np.abs(pts[..., [0, 2]]) < 5.9, axis=-1))    # inside the 12 x 12 floor

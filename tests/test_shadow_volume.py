@@ -9,7 +9,7 @@ from shadowlab.frame import Frame
 from shadowlab.metrics import compare
 from shadowlab.pipeline import measure
 from shadowlab.scene import builtin_scenes, load_scene
-from shadowlab.lights import DirectionalLight, PointLight
+from shadowlab.scene.lights import DirectionalLight, PointLight
 from shadowlab.techniques import from_spec
 from shadowlab.techniques.shadow_volume import volumes_may_reach_near_plane
 

@@ -10,8 +10,8 @@ import pandas as pd
 import pytest
 
 from shadowlab import report, timing
-from shadowlab.area_lights import RectLight
-from shadowlab.lights import PointLight
+from shadowlab.scene.area_lights import RectLight
+from shadowlab.scene.lights import PointLight
 from shadowlab.metrics import PENUMBRA_HIGH, PENUMBRA_LOW, compare, format_table, soft_regions
 from shadowlab.pipeline import Evaluator, Measurement
 from shadowlab.techniques import from_spec

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import shadowlab.area_lights as area_lights
+import shadowlab.scene.area_lights as area_lights
 import shadowlab.techniques.raytrace as raytrace
 from shadowlab.frame import Frame
 from shadowlab.techniques.base import TechniqueError

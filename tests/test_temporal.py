@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from shadowlab.animate import animate
+from shadowlab.commands.animate import animate
 from shadowlab.frame import Frame
 from shadowlab.scene import parse_scene
 from shadowlab.temporal import (SAME_SURFACE_FOOTPRINTS, FrameGeometry, Reprojection, pair_metrics, project_to_pixels,

@@ -1,6 +1,6 @@
 """Light-space frusta: the side planes of a polygon's shadow frustum, and the views a shadow
 map is rendered through, fitted to the points it must cover (DESIGN §11: model only what the
-scene needs). The light classes (:mod:`shadowlab.lights`) choose which fit applies to them.
+scene needs). The light classes (:mod:`shadowlab.scene.lights`) choose which fit applies to them.
 
 Every fit keeps the points it covers strictly inside the clip volume (relative padding
 :data:`PAD`) and puts near planes in front of every caster point a view can see, measured along

@@ -17,7 +17,7 @@ import pandas as pd
 
 from .. import metrics, provenance, report
 from ..pipeline import pass_order
-from ..run import GROUND_TRUTH_KEY, peak_mib, move_into_place, safe_name
+from ..commands.compare import GROUND_TRUTH_KEY, peak_mib, move_into_place, safe_name
 
 MANIFEST = ".study-inputs.json"
 

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from .. import provenance, timing
-from ..run import RunError, safe_name
+from ..commands.compare import RunError, safe_name
 from ..techniques import from_spec
 from . import rundir
 from .cache import Cache, run_key, scene_content_hash

@@ -199,7 +199,7 @@ def _sweep_specs(table, where: str, file: str, scene_names: set[str],
 
 def parse_suite(data: dict, file: str = "<suite>", base: Path | None = None) -> Suite:
     """Build a :class:`Suite` from a parsed TOML dict (``base``: folder scene paths are relative to)."""
-    from ..run import RunError, check_size
+    from ..commands.compare import RunError, check_size
 
     base = base or Path.cwd()
     rd = TableReader(data, "", file)

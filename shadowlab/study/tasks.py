@@ -125,13 +125,13 @@ def _images(frame, visibilities, truth0):
     """PNG bytes of the shaded image, the first light's visibility and (given the truth)
     the error map and the magnified crop of its worst region, with that region's box and count."""
     from .. import metrics, report
-    from ..shading import Shader
+    from ..shading import ShadingPass
 
-    shader = Shader(frame)
+    shading = ShadingPass(frame)
     try:
-        shaded = report.to_display(shader.shade(list(visibilities)), frame.covered)
+        shaded = report.to_display(shading.shade(list(visibilities)), frame.covered)
     finally:
-        shader.release()
+        shading.release()
     ev0 = frame.evaluated(0)
     files = {"shaded.png": report.encode_png(shaded),
              "visibility.png": report.encode_png(report.visibility_picture(visibilities[0], ev0, frame.covered))}

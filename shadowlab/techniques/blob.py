@@ -58,6 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..tracing import mesh_scene, nearest_hits
 from .base import Param, Technique
 
 @dataclass
@@ -139,9 +140,6 @@ def receiver_hits(objects, origins: np.ndarray, dirs: np.ndarray,
     it may take (module docstring, step 2): the build is at most O(triangles), where a scene per
     caster of every other receiver was O(casters × triangles). The excluded object is left out,
     not stepped over: a caster resting on its receiver is coplanar with it there."""
-    from embreex import rtcore_scene as rtcs
-    from embreex.mesh_construction import TriangleMesh
-
     k = len(origins)
     best_t = np.full(k, np.inf)
     best_object = np.full(k, -1)
@@ -152,11 +150,9 @@ def receiver_hits(objects, origins: np.ndarray, dirs: np.ndarray,
         rays = np.flatnonzero((exclude != j) & rays_reach_box(origins, dirs, obj.bounds().astype(np.float64)))
         if len(rays) == 0:
             continue
-        scene = rtcs.EmbreeScene(robust=True)
-        mesh = TriangleMesh(scene, obj.vertices.astype(np.float32), obj.faces.astype(np.int32))
-        hit = scene.run(origins[rays].astype(np.float32), dirs[rays].astype(np.float32),
-                        dists=np.full(len(rays), np.inf, np.float32), query="INTERSECT", output=1)
-        del mesh, scene
+        scene, meshes = mesh_scene([(obj.vertices, obj.faces)])
+        hit = nearest_hits(scene, origins[rays], dirs[rays], np.full(len(rays), np.inf))
+        del meshes, scene
         tfar = hit["tfar"].astype(np.float64)
         closer = (hit["geomID"] >= 0) & (tfar < best_t[rays])  # ties: the lower object index
         best_t[rays[closer]] = tfar[closer]

@@ -41,7 +41,7 @@ from ..geometry import transforms as tf
 from ..geometry.bounds import box_corners
 from ..geometry.frusta import MIN_EXTENT, PAD, LightView
 from ..geometry.transforms import BIAS
-from ..lights import DirectionalLight
+from ..scene.lights import DirectionalLight
 from .base import Param, TechniqueError
 from .shadow_map import FILTERS, ShadowMap, depth_pass, lookup_pass
 

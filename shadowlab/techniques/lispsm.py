@@ -42,7 +42,7 @@ from ..geometry import lispsm_frustum as lf
 from ..geometry import transforms as tf
 from ..geometry.bounds import box_corners
 from ..geometry.frusta import LightView
-from ..lights import DirectionalLight
+from ..scene.lights import DirectionalLight
 from .base import Param, TechniqueError
 from .shadow_map import SHADOWABLE_OFFSET, ShadowMap, shadowable
 

@@ -27,7 +27,7 @@ near 0.37): depth along it is no height above the light, the light's own corners
 The light's shape: rect — its two full edges u, v; disc — two orthogonal diameters of the disc;
 sphere — its diameter along the map's x and y (the silhouette disc seen from the centre's axis)
 (``shaders/pcss.glsl``: ``u_light_extents``, world columns). The sample offsets are the centres
-of N equal-area strata (:func:`shadowlab.area_lights.strata`) of the unit square (rect), mapped
+of N equal-area strata (:func:`shadowlab.scene.area_lights.strata`) of the unit square (rect), mapped
 to the disc by the concentric map for disc and sphere — one fixed pattern for every pixel, so
 visibility comes in steps of 1 / ``filter_samples``. ``stats()['light_size']`` reports the scalar
 light size of the paper's formula: a rect's longer edge, a disc's or sphere's diameter.
@@ -54,7 +54,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import gl
-from ..area_lights import AreaLight, DiscLight, RectLight, SphereLight, basis, concentric_disc, strata
+from ..scene.area_lights import AreaLight, DiscLight, RectLight, SphereLight, basis, concentric_disc, strata
 from ..geometry.transforms import BIAS
 from .base import Param, Technique, TechniqueError
 from .shadow_map import CLEAR_DEPTH, TexelMapping, depth_pass, fit_light_views, lookup_pass
@@ -62,7 +62,7 @@ from .shadow_map import CLEAR_DEPTH, TexelMapping, depth_pass, fit_light_views, 
 #: Depth format of the map (24-bit fixed point, as the shadow map's default).
 DEPTH_BITS = 24
 #: The receiver's tangent basis for its plane's depth slope (``u_basis_*`` in the shader), the
-#: choice of :func:`shadowlab.area_lights.basis`: t1 = N × helper a while |N.x| < the switch
+#: choice of :func:`shadowlab.scene.area_lights.basis`: t1 = N × helper a while |N.x| < the switch
 #: (a is then far from parallel to N), else N × helper b.
 BASIS_SWITCH = 0.9
 BASIS_HELPERS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))

@@ -62,7 +62,7 @@ from ..geometry.bounds import box_corners, box_distance
 from ..geometry.frusta import LightView
 from ..geometry.transforms import BIAS
 from ..glstate import PassState
-from ..lights import T_INFINITE
+from ..scene.lights import T_INFINITE
 from .base import Param, Technique, TechniqueError
 
 RECEIVERS = ("others", "non_casters")
@@ -85,7 +85,7 @@ def fit_caster_view(light, bounds: np.ndarray, resolution: int) -> tuple[LightVi
     ``bounds`` (2, 3) float64 (the 8 corners are the points to cover), and a note or None.
 
     Lights at infinity (directional, target-direct): the light's own orthographic fit
-    (:meth:`shadowlab.lights.Light.shadow_views` with the corners as the points: sideways around
+    (:meth:`shadowlab.scene.lights.Light.shadow_views` with the corners as the points: sideways around
     them, depth from the box). Lights at a position (point, spot): a perspective frustum from
     the light's position along the mean direction to the corners, full angle twice the largest
     corner angle (padded by :data:`frusta.PAD`), near and far planes from

@@ -16,12 +16,13 @@ offset exceeds the float32 rounding of P (½ ulp) and Embree's own error, which 
 the scene's extent, by an order of magnitude, yet stays below 1e-5 of the scene's size.
 Embree runs in robust (watertight) mode, so shadow rays through shared edges and vertices do
 not leak (Woop, Benthin & Wald 2013; hard case RT2). Each light type says which rays reach it
-(:meth:`shadowlab.lights.Light.shadow_rays`).
+(:meth:`shadowlab.scene.lights.Light.shadow_rays`).
 
 The Embree scene and the offset origins depend only on the frame (and the offset scale): they
-are built once per frame and kept here, keyed weakly by the frame, so they go with it.
+are built once per frame by :mod:`shadowlab.tracing`, which blob shadows and the occluder-layer
+metric share.
 
-Area lights (:class:`shadowlab.area_lights.AreaLight`; DESIGN §7, §9). The visibility of the
+Area lights (:class:`shadowlab.scene.area_lights.AreaLight`; DESIGN §7, §9). The visibility of the
 light from P is the fraction, by area, of the emitting surface facing P that P sees
 unoccluded; samples below P's tangent plane (camera-facing geometric normal) count as occluded
 (P's own surface hides them), and a point behind a one-sided light (rect, disc) sees none of
@@ -34,7 +35,7 @@ equal-area strata, one uniformly jittered point per stratum, mapped onto the sur
 area-preserving map (rect: affine; disc: Shirley & Chiu's concentric map; sphere: the cap P
 sees, uniform in cos θ and φ) — so each y_k is uniform over an equal-area piece of the surface
 and V̂ is unbiased. Each shadow ray is the float32 segment origin → y_k (unnormalised
-direction y_k − origin, stopped at :data:`shadowlab.lights.T_LIGHT` of the way, as for a point
+direction y_k − origin, stopped at :data:`shadowlab.scene.lights.T_LIGHT` of the way, as for a point
 light), from the same offset origin as the hard truth.
 
 Error bound (``truth_stderr_max`` = 0.5/√N): the variance of a stratified estimator never
@@ -58,70 +59,19 @@ the GIL); only samples that face P and lie above its horizon are traced.
 from __future__ import annotations
 
 import os
-import weakref
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from ..area_lights import AreaLight, above_horizon
-from ..lights import T_LIGHT
+from ..scene.area_lights import AreaLight, above_horizon
+from ..scene.lights import T_LIGHT
+from ..tracing import DEFAULT_OFFSET_SCALE, caster_scene, occluded, offset_origins
 from .base import Param, Technique
 
 #: Samples (shadow rays) per chunk of pixels of an area light.
 CHUNK_RAYS = 2 ** 20
 #: At most this many samples held at once (all worker threads together).
 MAX_RAYS_HELD = 2 ** 21
-
-#: Per frame: the Embree scene of its casters (and the meshes that must outlive it).
-_EMBREE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
-#: Per frame: {offset_scale: float32 origins (M, 3)}.
-_ORIGINS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
-
-
-def embree_scene(frame):
-    """The frame's casters as one robust Embree scene (built once per frame)."""
-    if frame not in _EMBREE:
-        from embreex import rtcore_scene as rtcs
-        from embreex.mesh_construction import TriangleMesh
-
-        scene = rtcs.EmbreeScene(robust=True)
-        meshes = [TriangleMesh(scene, o.vertices.astype(np.float32), o.faces.astype(np.int32))
-                  for o in frame.scene.objects if o.casts]
-        _EMBREE[frame] = (scene, meshes)
-    return _EMBREE[frame][0]
-
-
-def offset_origins(frame, offset_scale: float, cached: bool = True) -> np.ndarray:
-    """Shadow-ray origins of every covered pixel, float32 (M, 3) in compact order: the exact
-    point moved ``offset_scale · max(‖P‖∞, scene extent)`` along the camera-facing normal.
-    ``cached=False`` recomputes (for timing) without touching the cache."""
-    per_frame = _ORIGINS.setdefault(frame, {})
-    if cached and offset_scale in per_frame:
-        return per_frame[offset_scale]
-    p, n = frame.compact_position, frame.compact_normal
-    # float32(p + (offset_scale · max(|p|∞, extent)) · n), bit for bit, with fewer temporaries:
-    # the row maximum over the three columns (max is exact, in any order), the product and sum
-    # in float64, rounded once to float32 on the way into ``origins``.
-    scale = np.abs(p[:, 0])
-    np.maximum(scale, np.abs(p[:, 1]), out=scale)
-    np.maximum(scale, np.abs(p[:, 2]), out=scale)
-    np.maximum(scale, frame.scene.extent(), out=scale)
-    scale *= offset_scale
-    moved = np.multiply(n, scale[:, None])
-    moved += p
-    origins = moved.astype(np.float32)
-    if cached:
-        per_frame[offset_scale] = origins
-    return origins
-
-
-def occluded(scene, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray) -> np.ndarray:
-    """Embree occlusion of float32 rays (N, 3) up to ``tfar`` (N,): bool (N,), True = blocked."""
-    if len(origins) == 0:
-        return np.zeros(0, bool)
-    hit = scene.run(origins, directions, dists=tfar, query="OCCLUDED")
-    return hit != -1  # embreex returns -1 for unoccluded rays
-
 
 class SharedJitter:
     """Stands in for a :class:`numpy.random.Generator` in :meth:`AreaLight.sample_for`:
@@ -168,7 +118,7 @@ def area_chunk_counts(scene, light: AreaLight, points: np.ndarray, normals: np.n
     """Unoccluded sample counts of an area light for M points: int64 (M,) out of ``n``, and the
     number of shadow rays traced. A sample counts if it faces the point, lies above the point's
     tangent plane and the float32 segment from the origin to it is unoccluded up to
-    :data:`shadowlab.lights.T_LIGHT` (:func:`area_chunk_rays` for the arguments); ``scene`` is
+    :data:`shadowlab.scene.lights.T_LIGHT` (:func:`area_chunk_rays` for the arguments); ``scene`` is
     the Embree scene of the casters (None: nothing casts)."""
     counts, rows, org, dirs = area_chunk_rays(light, points, normals, origins, n, rng)
     if scene is None:
@@ -231,7 +181,7 @@ class RayTraced(Technique):
     cpu = True
     PASSES = ("trace",)
     PARAMS = {
-        "offset_scale": Param(2.0 ** -18, "shadow-ray origin offset along the normal, relative to "
+        "offset_scale": Param(DEFAULT_OFFSET_SCALE, "shadow-ray origin offset along the normal, relative to "
                                           "max(|P|inf, scene extent)", min=0.0, max=1e-2),
         "samples": Param(1024, "area lights: stratified light samples (shadow rays) per pixel; "
                                "standard error <= 0.5/sqrt(samples)", min=1, max=65536),
@@ -244,7 +194,7 @@ class RayTraced(Technique):
         """Offset origins (per frame) and the evaluated pixels of this light."""
         self.frame, self.light = frame, frame.scene.lights[light_index]
         self.is_area = isinstance(self.light, AreaLight)
-        self.scene = embree_scene(frame) if frame.has_casters else None
+        self.scene = caster_scene(frame) if frame.has_casters else None
         self.origins = offset_origins(frame, self.offset_scale)
         self.evaluated = frame.compact_evaluated(light_index)
         self.eval_origins = np.ascontiguousarray(self.origins[self.evaluated])

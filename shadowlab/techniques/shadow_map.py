@@ -26,7 +26,7 @@ bilinear PCF); ``pcf3`` / ``pcf5`` (texel-exact percentage-closer filtering, Ree
 Filtered visibility is fractional; the metrics report ``visibility_mae`` beside thresholded rates.
 
 Light frusta are fitted to what the scene and camera involve (DESIGN §11), never constants;
-each light type fits its own (:meth:`shadowlab.lights.Light.shadow_views`,
+each light type fits its own (:meth:`shadowlab.scene.lights.Light.shadow_views`,
 :mod:`shadowlab.geometry.frusta`). The points to cover are (``fit=shadowable``, the default) the evaluated receiver points that can
 be in shadow at all — those whose segment to the light crosses a caster's bounding box
 (:func:`shadowable`) — or (``fit=receivers``, the classic fit) every evaluated receiver point;
@@ -89,7 +89,7 @@ def fit_light_views(frame, light_index: int, resolution: int, projection: str = 
     ``fit='shadowable'`` covers the evaluated receiver points that can be in shadow at all;
     ``fit='receivers'`` covers every evaluated receiver point (the classic fit to what the
     camera sees: coarser texels, and acne wherever the receivers are). The light decides the
-    projection (:meth:`shadowlab.lights.Light.shadow_views`)."""
+    projection (:meth:`shadowlab.scene.lights.Light.shadow_views`)."""
     light = frame.scene.lights[light_index]
     evaluated = frame.compact_evaluated(light_index)
     casters = frame.caster_bounds()

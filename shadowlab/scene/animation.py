@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .validation import SceneError, TableReader
+from ..validation import SceneError, TableReader
 
 #: Two consecutive direction keyframes whose unit vectors' dot product is below this are
 #: (nearly) opposite: the great circle between them is undefined, so slerp is refused.

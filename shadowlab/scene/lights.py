@@ -1,5 +1,6 @@
 """Light sources: point, directional, spot and target-direct (DESIGN §4, §8); the area lights
-(rect, disc, sphere) are in :mod:`shadowlab.area_lights`.
+(rect, disc, sphere) are in :mod:`shadowlab.scene.area_lights`; reading them from a scene file
+is :func:`shadowlab.scene.reading.parse_light`.
 
 Each light owns its geometry, so techniques never ask which type a light is:
 
@@ -25,9 +26,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geometry import frusta
-from .geometry import transforms as tf
-from .validation import SceneError, TableReader
+from ..geometry import frusta
+from ..geometry import transforms as tf
+from ..validation import SceneError, TableReader
 
 #: Where a shadow ray towards a light at a finite position stops, as a fraction of the way: the
 #: rays are unnormalised (light − origin), so no normalisation is spent per ray, and they stop
@@ -308,28 +309,10 @@ LIGHT_TYPES: dict[str, type[Light]] = {cls.type_name: cls for cls in
 LIGHT_TYPE_IDS = {**{name: cls.type_id for name, cls in LIGHT_TYPES.items()}, "area": 4}
 
 
-def parse_light(table, where: str, file: str) -> Light:
-    """Build a Light from one ``[[lights]]`` table, rejecting impossible values."""
-    rd = TableReader(table, where, file)
-    kind = rd.string("type", choices=list(LIGHT_TYPES) + ["area"])
-    color = rd.vector("color", 3, default=[1.0, 1.0, 1.0])
-    if np.any(color < 0):
-        raise rd.error("color", "entries must be >= 0")
-    common = dict(color=color, ambient=rd.number("ambient", 0.15, min=0.0))
-    if kind == "area":
-        from .area_lights import AREA_SHAPES
-
-        light = AREA_SHAPES[rd.string("shape", choices=list(AREA_SHAPES))].parse(rd, common)
-    else:
-        light = LIGHT_TYPES[kind].parse(rd, common)
-    rd.finish()
-    return light
-
-
 def _unit(rd: TableReader, name: str) -> np.ndarray:
     vec = rd.vector(name, 3, nonzero=True)
     return vec / np.linalg.norm(vec)
 
 
 __all__ = ["Light", "PointLight", "DirectionalLight", "SpotLight", "TargetDirectLight", "LIGHT_TYPES",
-           "parse_light", "LIGHT_TYPE_IDS", "SceneError", "T_LIGHT", "T_INFINITE"]
+           "LIGHT_TYPE_IDS", "SceneError", "T_LIGHT", "T_INFINITE"]

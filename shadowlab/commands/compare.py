@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import gl, metrics, provenance, report, timing
-from .frame import Frame
-from .pipeline import Comparison, StepCallback, build_techniques, compare_frame
-from .scene import Scene, load_scene
-from .shading import Shader
+from .. import gl, metrics, provenance, report, timing
+from ..frame import Frame
+from ..pipeline import Comparison, StepCallback, build_techniques, compare_frame
+from ..scene import Scene, load_scene
+from ..shading import ShadingPass
 
 GROUND_TRUTH_KEY = "ground_truth"
 #: The largest image a run accepts, in pixels (GL's usual maximum framebuffer side, squared).
@@ -131,17 +131,17 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
     if any(ms[0].footprint is not None for ms in result.results):
         footprint_legend = "images/footprint_legend.png"
         report.footprint_legend(folder / footprint_legend)
-    shader = Shader(frame)
+    shading = ShadingPass(frame)
     try:
         truth = result.truth[0].technique
-        images = [_write_images(folder, "ground_truth", truth.spec(), "ground truth", shader, frame, gt_vis, None)]
+        images = [_write_images(folder, "ground_truth", truth.spec(), "ground truth", shading, frame, gt_vis, None)]
         for ms in result.results:
             tech = ms[0].technique
             signed = (diffs[tech.spec()], signed_map["limit"]) if tech.spec() in diffs else None
-            images.append(_write_images(folder, safe_name(tech.short_label()), tech.spec(), tech.short_label(), shader,
+            images.append(_write_images(folder, safe_name(tech.short_label()), tech.spec(), tech.short_label(), shading,
                                         frame, [m.visibility for m in ms], gt_vis[0], signed, ms[0].footprint))
     finally:
-        shader.release()
+        shading.release()
     report.speed_error_plot(df, folder / "speed_vs_error.png")
     passes_png = report.pass_time_plot(df, folder / "pass_times.png") if pass_timing else None
     cam = frame.camera
@@ -176,7 +176,7 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
 
 
 
-def _write_images(folder: Path, stem: str, label: str, title: str, shader: Shader, frame: Frame, vis_all,
+def _write_images(folder: Path, stem: str, label: str, title: str, shading: ShadingPass, frame: Frame, vis_all,
                   truth0, signed: tuple[np.ndarray, float] | None = None, footprint: np.ndarray | None = None) -> dict:
     """Write one configuration's images (shaded, visibility; against ``truth0``: the error map;
     with ``signed`` = (V − G float (H, W), limit): the signed difference map; with ``footprint``
@@ -184,7 +184,7 @@ def _write_images(folder: Path, stem: str, label: str, title: str, shader: Shade
     file names for the report."""
     covered = frame.covered
     ev0 = frame.evaluated(0)
-    shaded = report.to_display(shader.shade(vis_all), covered)
+    shaded = report.to_display(shading.shade(vis_all), covered)
     files = {"label": label, "title": title, "shaded": f"images/{stem}_shaded.png",
              "visibility": f"images/{stem}_visibility.png"}
     report.save_png(folder / files["shaded"], shaded)

@@ -1,14 +1,14 @@
 """``shadowlab animate``: the ground truth and N configurations on every frame of an animated
 scene, with per-frame metrics, temporal metrics and the flicker pictures.
 
-Per frame k (time t_k = k / (n − 1), :func:`shadowlab.animation.frame_times`): the scene at t_k
-(:func:`shadowlab.animation.scene_at`) → a :class:`~shadowlab.frame.Frame` → the truth and each
+Per frame k (time t_k = k / (n − 1), :func:`shadowlab.scene.animation.frame_times`): the scene at t_k
+(:func:`shadowlab.scene.animation.scene_at`) → a :class:`~shadowlab.frame.Frame` → the truth and each
 technique on every light through :mod:`shadowlab.pipeline` (``measure``; one untimed-in-effect
 render unless ``repeat`` says otherwise) → the usual metrics row plus ``frame``, ``t`` and, from
 frame 1 on, the temporal columns of :mod:`shadowlab.temporal` against frame k−1.
 
 Outputs (in the run directory, written into a temporary sibling and moved into place at the
-end, so a failed run leaves earlier results untouched — as :mod:`shadowlab.run` does):
+end, so a failed run leaves earlier results untouched — as :mod:`shadowlab.commands.compare` does):
 ``frames.csv`` (one row per frame × light × configuration, the truth included), ``summary.csv``
 (per configuration and light: mean error rate, flip rate mean/p95/max, temporal error
 mean/max), ``flicker_<name>.png`` (per technique, first light: per pixel, how many frame pairs
@@ -32,12 +32,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import gl, metrics, provenance, report, temporal, timing
-from .animation import frame_times, scene_at
-from .frame import Frame
-from .pipeline import Evaluator, StepCallback, build_techniques, measure, pass_order
-from .run import RunError, check_size, move_into_place, safe_name, staging_dir
-from .scene import Scene, load_scene
+from .. import gl, metrics, provenance, report, temporal, timing
+from ..scene.animation import frame_times, scene_at
+from ..frame import Frame
+from ..pipeline import Evaluator, StepCallback, build_techniques, measure, pass_order
+from .compare import RunError, check_size, move_into_place, safe_name, staging_dir
+from ..scene import Scene, load_scene
 
 #: Display time of one GIF frame, milliseconds.
 GIF_FRAME_MS = 150
@@ -145,9 +145,9 @@ def check_lights(scene: Scene, techniques) -> None:
     lights (``animate`` measures every technique on every light; keyframes never change a
     light's type): ``NEEDS_DIRECTIONAL_LIGHT`` techniques (cascaded_map, lispsm) on a
     non-directional light, ``NEEDS_AREA_LIGHT`` ones (pcss) on a light that is not an area light."""
-    from .area_lights import AreaLight
-    from .lights import DirectionalLight
-    from .techniques import TechniqueError
+    from ..scene.area_lights import AreaLight
+    from ..scene.lights import DirectionalLight
+    from ..techniques import TechniqueError
 
     for tech in techniques:
         for i, light in enumerate(scene.lights):

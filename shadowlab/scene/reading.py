@@ -1,164 +1,29 @@
-"""Scenes: camera, lights and objects, loaded from TOML files (the contract of DESIGN §4).
+"""Reading scene files (TOML, the contract of DESIGN §4) into the scene model.
 
-A loaded :class:`Scene` is plain data: every object's triangles are already in world space
-(float64), welded (vertices merged, so seams do not break edge adjacency) and validated. A
-shipped scene is named by its file stem (``box_on_plane``); any other argument is a path.
+A loaded :class:`~shadowlab.scene.model.Scene` is plain data: every object's triangles are
+already in world space (float64), welded (vertices merged, so seams do not break edge
+adjacency) and validated. A shipped scene is named by its file stem (``box_on_plane``); any
+other argument is a path. Bad input raises :class:`shadowlab.validation.SceneError` naming the
+file and the key. Defaults come from the model's dataclasses (:func:`default_of`), so a key
+left out of a file and a field left out in Python get the same value.
 """
 from __future__ import annotations
 
 import gzip
 import io
-from dataclasses import dataclass, field
-from functools import cached_property
+import tomllib
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
+from ..geometry import transforms as tf
+from ..validation import SceneError, TableReader
 from .animation import parse_animation
-from .geometry import transforms as tf
-from .lights import Light, parse_light
-from .validation import SceneError, TableReader
-
-import tomllib
-
-
-@dataclass
-class Camera:
-    """A perspective camera (OpenGL conventions; vertical ``fov_y`` in degrees).
-
-    ``near`` / ``far`` are None until :meth:`Scene.fitted_camera` fits them to the scene.
-    """
-
-    eye: np.ndarray
-    target: np.ndarray
-    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 1.0, 0.0]))
-    fov_y: float = 45.0
-    near: float | None = None
-    far: float | None = None
-
-    def view(self) -> np.ndarray:
-        """World → view matrix (float64, 4x4)."""
-        return tf.look_at(self.eye, self.target, self.up)
-
-    def projection(self, aspect: float) -> np.ndarray:
-        """View → clip matrix for ``aspect`` = width / height (needs near and far)."""
-        return tf.perspective(self.fov_y, aspect, self.near, self.far)
-
-    def pixel_rays(self, width: int, height: int) -> np.ndarray:
-        """Unnormalised world-space directions through every pixel centre, float64
-        (height, width, 3), row 0 = top of the image."""
-        view = self.view()
-        right, up, back = view[0, :3], view[1, :3], view[2, :3]
-        t = np.tan(np.radians(self.fov_y) / 2.0)
-        x = (2.0 * (np.arange(width) + 0.5) / width - 1.0) * t * width / height
-        y = (1.0 - 2.0 * (np.arange(height) + 0.5) / height) * t
-        return (-back[None, None, :] + x[None, :, None] * right[None, None, :]
-                + y[:, None, None] * up[None, None, :])
-
-
-@dataclass
-class Material:
-    """Extended Blinn material (DESIGN §8): diffuse, specular and ambient reflectance, shininess."""
-
-    diffuse: np.ndarray = field(default_factory=lambda: np.array([0.8, 0.8, 0.8]))
-    specular: np.ndarray = field(default_factory=lambda: np.array([0.3, 0.3, 0.3]))
-    shininess: float = 32.0
-    ambient: np.ndarray | None = None  # defaults to the diffuse colour
-
-    def ambient_color(self) -> np.ndarray:
-        """k_A: the ambient reflectance (the diffuse colour unless set)."""
-        return self.diffuse if self.ambient is None else self.ambient
-
-
-@dataclass
-class SceneObject:
-    """One mesh in world space: ``vertices`` float64 (V, 3), ``faces`` int64 (F, 3), CCW outward."""
-
-    name: str
-    vertices: np.ndarray
-    faces: np.ndarray
-    material: Material = field(default_factory=Material)
-    casts: bool = True
-    receives: bool = True
-    source: str = ""
-
-    @property
-    def triangles(self) -> np.ndarray:
-        """Triangle corners, float64 (F, 3, 3)."""
-        return self.vertices[self.faces]
-
-    def bounds(self) -> np.ndarray:
-        """Axis-aligned bounds [[min xyz], [max xyz]] (2, 3)."""
-        return np.stack([self.vertices.min(0), self.vertices.max(0)])
-
-    @cached_property
-    def edges(self):
-        """The mesh's edge table (:class:`shadowlab.geometry.adjacency.EdgeTable`): built on first
-        use and kept with the object whose geometry it describes."""
-        from .geometry.adjacency import edge_table
-
-        return edge_table(self.vertices, self.faces)
-
-
-@dataclass
-class Shading:
-    """Scene-wide shadow appearance for the extended Blinn model: density and colour of shadow."""
-
-    density: float = 1.0
-    shadow_color: np.ndarray = field(default_factory=lambda: np.zeros(3))
-
-
-@dataclass
-class Scene:
-    """A validated scene: camera, lights (at least one), objects (at least one)."""
-
-    name: str
-    camera: Camera
-    lights: list[Light]
-    objects: list[SceneObject]
-    shading: Shading = field(default_factory=Shading)
-    path: Path | None = None
-    #: The ``[animation]`` table (:class:`shadowlab.animation.Animation`); None for a still scene.
-    animation: object | None = None
-
-    def bounds(self) -> np.ndarray:
-        """Axis-aligned bounds of every object, (2, 3)."""
-        b = np.stack([o.bounds() for o in self.objects])
-        return np.stack([b[:, 0].min(0), b[:, 1].max(0)])
-
-    def extent(self) -> float:
-        """The diagonal of the scene's bounds (a length scale for tolerances)."""
-        b = self.bounds()
-        return float(np.linalg.norm(b[1] - b[0]))
-
-    def fitted_camera(self) -> Camera:
-        """The camera with near/far fitted to the scene's bounds where the file left them out:
-        far just beyond the farthest corner, near at the nearest corner in front of the eye but
-        no closer than far / 1000 (keeps a 24-bit depth buffer well conditioned)."""
-        cam = self.camera
-        if cam.near is not None and cam.far is not None:
-            return cam
-        b = self.bounds()
-        corners = np.array([[x, y, z] for x in b[:, 0] for y in b[:, 1] for z in b[:, 2]])
-        depth = -(tf.transform_points(cam.view(), corners)[:, 2])
-        far = cam.far if cam.far is not None else max(float(depth.max()) * 1.01, 1e-3)
-        near = cam.near
-        if near is None:
-            nearest = float(depth.min()) * 0.99
-            near = min(max(nearest, far / 1000.0), far * 0.5)
-        return Camera(cam.eye, cam.target, cam.up, cam.fov_y, near, far)
-
-    def describe(self) -> dict:
-        """Scene summary for run.json."""
-        return {
-            "name": self.name,
-            "path": str(self.path) if self.path else None,
-            "lights": [l.describe() for l in self.lights],
-            "objects": [{"name": o.name, "source": o.source, "triangles": int(len(o.faces)),
-                         "casts": o.casts, "receives": o.receives} for o in self.objects],
-        }
+from .area_lights import AREA_SHAPES
+from .lights import LIGHT_TYPES, Light
+from .model import Camera, Material, Scene, SceneObject, Shading, default_of
 
 
 # --------------------------------------------------------------------------- primitives
@@ -256,7 +121,8 @@ def _parse_object(table, i: int, file: str, base: Path) -> SceneObject:
     trans = rd.vector("translate", 3, default=[0.0, 0.0, 0.0])
     mat = _parse_material(rd.raw("material", {}), f"objects[{i}].material", file)
     name = rd.string("name", default=f"{ref if ref in PRIMITIVES else Path(ref).stem}_{i}")
-    casts, receives = rd.boolean("casts", True), rd.boolean("receives", True)
+    casts = rd.boolean("casts", default_of(SceneObject, "casts"))
+    receives = rd.boolean("receives", default_of(SceneObject, "receives"))
     rd.finish()
     # Scale, then rotate, then translate (DESIGN §4).
     verts = (np.asarray(mesh.vertices, np.float64) * scale) @ rot.T + trans
@@ -272,10 +138,10 @@ def _parse_object(table, i: int, file: str, base: Path) -> SceneObject:
 def _parse_material(table, where: str, file: str) -> Material:
     rd = TableReader(table, where, file)
     mat = Material(
-        diffuse=rd.vector("diffuse", 3, default=[0.8, 0.8, 0.8]),
-        specular=rd.vector("specular", 3, default=[0.3, 0.3, 0.3]),
-        shininess=rd.number("shininess", 32.0, min=0.0),
-        ambient=rd.vector("ambient", 3, default=None),
+        diffuse=rd.vector("diffuse", 3, default=default_of(Material, "diffuse")),
+        specular=rd.vector("specular", 3, default=default_of(Material, "specular")),
+        shininess=rd.number("shininess", default_of(Material, "shininess"), min=0.0),
+        ambient=rd.vector("ambient", 3, default=default_of(Material, "ambient")),
     )
     rd.finish()
     for key in ("diffuse", "specular", "ambient"):
@@ -288,10 +154,10 @@ def _parse_material(table, where: str, file: str) -> Material:
 def _parse_camera(table, file: str) -> Camera:
     rd = TableReader(table, "camera", file)
     cam = Camera(eye=rd.vector("eye", 3), target=rd.vector("target", 3),
-                 up=rd.vector("up", 3, default=[0.0, 1.0, 0.0], nonzero=True),
-                 fov_y=rd.number("fov_y", 45.0, min=0.0, min_open=True, max=179.0),
-                 near=rd.number("near", None, min=0.0, min_open=True),
-                 far=rd.number("far", None, min=0.0, min_open=True))
+                 up=rd.vector("up", 3, default=default_of(Camera, "up"), nonzero=True),
+                 fov_y=rd.number("fov_y", default_of(Camera, "fov_y"), min=0.0, min_open=True, max=179.0),
+                 near=rd.number("near", default_of(Camera, "near"), min=0.0, min_open=True),
+                 far=rd.number("far", default_of(Camera, "far"), min=0.0, min_open=True))
     rd.finish()
     forward = cam.target - cam.eye
     if not np.linalg.norm(forward) > 0:
@@ -301,6 +167,23 @@ def _parse_camera(table, file: str) -> Camera:
     if cam.near is not None and cam.far is not None and cam.near >= cam.far:
         raise rd.error("near", f"must be < far ({cam.far}), got {cam.near}")
     return cam
+
+
+def parse_light(table, where: str, file: str) -> Light:
+    """Build a Light from one ``[[lights]]`` table (any type, area lights included), rejecting
+    impossible values; colour and ambient default to :class:`~shadowlab.scene.lights.Light`'s."""
+    rd = TableReader(table, where, file)
+    kind = rd.string("type", choices=list(LIGHT_TYPES) + ["area"])
+    color = rd.vector("color", 3, default=default_of(Light, "color"))
+    if np.any(color < 0):
+        raise rd.error("color", "entries must be >= 0")
+    common = dict(color=color, ambient=rd.number("ambient", default_of(Light, "ambient"), min=0.0))
+    if kind == "area":
+        light = AREA_SHAPES[rd.string("shape", choices=list(AREA_SHAPES))].parse(rd, common)
+    else:
+        light = LIGHT_TYPES[kind].parse(rd, common)
+    rd.finish()
+    return light
 
 
 def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> Scene:
@@ -317,8 +200,8 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
         raise rd.error("objects", "at least one [[objects]] table is required")
     objects = [_parse_object(t, i, file, base or Path.cwd()) for i, t in enumerate(obj_tables)]
     shading_rd = TableReader(rd.raw("shading", {}), "shading", file)
-    shading = Shading(density=shading_rd.number("density", 1.0, min=0.0, max=1.0),
-                      shadow_color=shading_rd.vector("shadow_color", 3, default=[0.0, 0.0, 0.0]))
+    shading = Shading(density=shading_rd.number("density", default_of(Shading, "density"), min=0.0, max=1.0),
+                      shadow_color=shading_rd.vector("shadow_color", 3, default=default_of(Shading, "shadow_color")))
     shading_rd.finish()
     anim_table = rd.raw("animation", None)
     animation = None if anim_table is None else parse_animation(anim_table, file, lights)

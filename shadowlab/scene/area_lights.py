@@ -2,7 +2,7 @@
 
 An area light is, for everything that needs one position (the Blinn terms of the shading, the
 evaluated-pixel mask, a hard technique run on it without light sampling), a point light at its
-centre: the classes derive from :class:`shadowlab.lights.PointLight`. What makes it an area
+centre: the classes derive from :class:`shadowlab.scene.lights.PointLight`. What makes it an area
 light is its surface, sampled two ways:
 
 - :meth:`AreaLight.pattern`: N fixed points (and their emitting normals) shared by every pixel —
@@ -27,9 +27,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geometry import transforms as tf
+from ..geometry import transforms as tf
 from .lights import PointLight
-from .validation import TableReader
+from ..validation import TableReader
 
 
 def strata(n: int) -> tuple[np.ndarray, np.ndarray]:

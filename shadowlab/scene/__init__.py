@@ -1,0 +1,14 @@
+"""The scene model and its reading (DESIGN §4), no GL: :mod:`.model` (camera, materials,
+objects, the scene), :mod:`.lights` (point, directional, spot, target-direct),
+:mod:`.area_lights` (rect, disc, sphere), :mod:`.animation` (keyframes, ``scene_at``) and
+:mod:`.reading` (TOML scene files → :class:`Scene`; shipped scenes live in
+``shadowlab/scenes/``, package data).
+
+Import order is one-way: lights ← area_lights ← model ← animation ← reading.
+"""
+from .model import Camera, Material, Scene, SceneObject, Shading, default_of
+from .reading import (PRIMITIVES, builtin_scene_dir, builtin_scenes, load_scene, parse_light, parse_scene,
+                      resolve_scene_path, scene_summary)
+
+__all__ = ["Camera", "Material", "Scene", "SceneObject", "Shading", "default_of", "PRIMITIVES", "builtin_scene_dir",
+           "builtin_scenes", "load_scene", "parse_light", "parse_scene", "resolve_scene_path", "scene_summary"]

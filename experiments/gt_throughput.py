@@ -48,7 +48,7 @@ def measure(scene_name, size, repeat):
     frame = Frame(scene, *size)
     t_exact = median_s(frame.compute_exact_points, repeat)
     gt = RayTraced()
-    gt.setup(frame, 0)
+    gt.prepare(frame, 0)
     t_origins = median_s(lambda: offset_origins(frame, gt.offset_scale, cached=False), repeat)
     t_gt = median_s(gt.render, repeat)
     # The identical rays, prepared outside the timed region, through embreex alone.
@@ -103,7 +103,7 @@ def measure_area(scene_name, size, repeat, samples, edge):
     frame = Frame(scene, *size)
     t_exact = median_s(frame.compute_exact_points, repeat)
     gt = RayTraced(samples=samples)
-    gt.setup(frame, 0)
+    gt.prepare(frame, 0)
     t_origins = median_s(lambda: offset_origins(frame, gt.offset_scale, cached=False), repeat)
     t_gt = median_s(gt.render, repeat)
     n = gt.stats()["rays"]

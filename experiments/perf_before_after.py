@@ -119,7 +119,7 @@ def eight_point_lights(scene):
 def trace_times(frame, light_index, repeat):
     """(rays, truth's per-light ms, raw Embree ms over the same rays) for one light."""
     gt = RayTraced()
-    gt.setup(frame, light_index)
+    gt.prepare(frame, light_index)
     t_gt = median_ms(gt.render, repeat)
     light = frame.scene.lights[light_index]
     dirs, tfar = light.shadow_rays(gt.eval_origins, gt.eval_points)

@@ -35,7 +35,9 @@ void main() {
 #include "lights.glsl"
 #define LIT 1.0
 #define TOTAL_MASS 1.0                   // MSM: the zeroth moment b0 = E[z⁰] of any depth distribution
-#define MAX_FACES 6
+#ifndef MAX_FACES
+#error "MAX_FACES: the map toolkit's atlas size (shadowlab.techniques.maps.ATLAS_DEFINES)"
+#endif
 #define BASE_LEVEL 0.0                   // the atlas has no mipmaps: sample its level 0 explicitly
 
 uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered

@@ -18,7 +18,7 @@
 #define LIT 1.0
 #define SHADOWED 0.0
 #ifndef MAX_FACES
-#define MAX_FACES 6                      // a cube's six faces (cascaded maps define their own)
+#error "MAX_FACES: the map toolkit's atlas size (shadowlab.techniques.maps.ATLAS_DEFINES)"
 #endif
 #define HALF_TEXEL 0.5                   // texel centres are at integer + 0.5 (GL 4.5 core §8.14)
 

@@ -9,15 +9,16 @@ with row 0 at the top of the image; "compact" arrays hold only covered pixels, i
 
 What techniques may do with a frame (the stage contract, DESIGN §2): read everything — the
 G-buffer textures, the vertex buffers (through :meth:`Frame.draw`), the exact points and the
-evaluated masks — and modify nothing, with one declared exception: the G-buffer's depth-stencil
+:class:`LightSlot` they render for (the light, its index, its evaluated mask) — and modify
+nothing, with one declared exception: the G-buffer's depth-stencil
 attachment, whose contents nobody reads after the G-buffer pass, is lent to the techniques that
 list ``"depth_stencil"`` in their ``MODIFIES_FRAME`` (:meth:`Frame.depth_stencil_for`); they
-clear it before use. The frame's own caches (evaluated masks) live on the frame.
+clear it before use. The frame's own caches (evaluated masks, keyed by the light object, and
+the scene lights' slots) live on the frame.
 """
 from __future__ import annotations
 
-import contextlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -38,6 +39,25 @@ def _pixel_ray_terms(camera, width: int, height: int) -> tuple[np.ndarray, np.nd
     x = (2.0 * (np.arange(width) + 0.5) / width - 1.0) * t * width / height
     y = (1.0 - 2.0 * (np.arange(height) + 0.5) / height) * t
     return -back[None, :] + x[:, None] * right[None, :], y[:, None] * up[None, :]
+
+
+@dataclass(frozen=True, eq=False)
+class LightSlot:
+    """What a technique renders for: one light of a frame.
+
+    ``index`` is the light's place in the scene (metrics rows, notes); ``light`` the light to
+    render for — the scene's own, or a point light standing in for it while the pipeline
+    averages a hard technique over points of an area light (``stands_in_for`` is then that
+    area light); ``evaluated`` the compact bool (M,) mask of the pixels evaluated for ``light``
+    (DESIGN §7; :meth:`Frame.evaluated_mask`); ``scene_lights`` every light of the scene as this
+    render sees them (``light`` at ``index``), for the techniques that rank lights against each
+    other. Techniques get a slot and never read ``frame.scene.lights``."""
+
+    index: int
+    light: Light
+    evaluated: np.ndarray = field(repr=False)
+    scene_lights: tuple = field(repr=False, default=())
+    stands_in_for: Light | None = None
 
 
 @dataclass
@@ -62,7 +82,10 @@ class Frame:
         self._upload()
         self._render_gbuffer()
         self.compute_exact_points()
-        self._evaluated: dict[int, np.ndarray] = {}
+        #: id(light) → (light, compact mask): keyed by the light object (kept alive here, so the
+        #: id is not reused), never by its position in a list.
+        self._evaluated: dict[int, tuple[Light, np.ndarray]] = {}
+        self._slots: dict[int, LightSlot] = {}
 
     # ------------------------------------------------------------------ upload
     def _upload(self) -> None:
@@ -223,51 +246,66 @@ class Frame:
         colour targets: ``gl.ScreenTarget.create(..., share_depth_stencil=...)``). Only techniques
         that declare ``"depth_stencil"`` in ``MODIFIES_FRAME`` may have it: its contents are
         theirs to clear and overwrite, and nothing after the G-buffer pass reads them."""
-        if "depth_stencil" not in getattr(technique, "MODIFIES_FRAME", ()):
+        if "depth_stencil" not in technique.MODIFIES_FRAME:
             raise RuntimeError(f"{type(technique).__name__} uses the frame's depth-stencil without declaring "
                                f"'depth_stencil' in MODIFIES_FRAME")
         return self.target
 
-    # ------------------------------------------------------------------ evaluation mask
+    # ------------------------------------------------------------------ light slots
+    def evaluated_mask(self, light: Light) -> np.ndarray:
+        """Compact bool (M,): receiving surface, facing ``light`` (N·L > 0) and lit by its
+        footprint (λ > 0) — the evaluated pixels of DESIGN §7 — computed once per light object."""
+        key = id(light)
+        if key not in self._evaluated:
+            self._evaluated[key] = (light, self._mask_for(light))
+        return self._evaluated[key][1]
+
+    def _mask_for(self, light: Light) -> np.ndarray:
+        """:meth:`evaluated_mask`, computed."""
+        receives = np.array([o.receives for o in self.scene.objects])[self.compact_object]
+        dirs, dist = light.to_light(self.compact_position)
+        facing = np.einsum("ij,ij->i", dirs, self.compact_normal) > 0
+        lam = light.footprint(self.compact_position)
+        return receives & self.compact_valid & facing & (lam > 0) & (dist > 0)
+
+    def slot(self, light_index: int) -> LightSlot:
+        """The :class:`LightSlot` of the scene's light ``light_index`` (made once)."""
+        lights = self.scene.lights
+        if not 0 <= light_index < len(lights):
+            raise IndexError(f"light {light_index} of a scene with {len(lights)} lights")
+        if light_index not in self._slots:
+            light = lights[light_index]
+            self._slots[light_index] = LightSlot(light_index, light, self.evaluated_mask(light), tuple(lights))
+        return self._slots[light_index]
+
+    def as_slot(self, light: "LightSlot | int") -> LightSlot:
+        """``light`` if it is a slot, else the slot of the scene's light with that index."""
+        return light if isinstance(light, LightSlot) else self.slot(int(light))
+
+    def slots(self) -> list[LightSlot]:
+        """The slots of every light of the scene, in order."""
+        return [self.slot(i) for i in range(len(self.scene.lights))]
+
+    def stand_in(self, slot: LightSlot, light: Light) -> LightSlot:
+        """A slot for ``light`` standing in for ``slot``'s light under its index (light sampling):
+        its own evaluated mask, and the scene's lights with ``light`` in the slot's place. The
+        shared scene is not touched, and the mask is not cached (one per sample point)."""
+        mask = self._mask_for(light)
+        lights = list(slot.scene_lights)
+        lights[slot.index] = light
+        return LightSlot(slot.index, light, mask, tuple(lights), stands_in_for=slot.light)
+
     def compact_evaluated(self, light_index: int) -> np.ndarray:
-        """Compact bool (M,): receiving surface, facing the light (N·L > 0) and lit by its
-        footprint (λ > 0) — the evaluated pixels of DESIGN §7, for one light."""
-        if light_index not in self._evaluated:
-            light: Light = self.scene.lights[light_index]
-            receives = np.array([o.receives for o in self.scene.objects])[self.compact_object]
-            dirs, dist = light.to_light(self.compact_position)
-            facing = np.einsum("ij,ij->i", dirs, self.compact_normal) > 0
-            lam = light.footprint(self.compact_position)
-            self._evaluated[light_index] = receives & self.compact_valid & facing & (lam > 0) & (dist > 0)
-        return self._evaluated[light_index]
+        """Compact bool (M,): the evaluated pixels of the scene's light ``light_index``."""
+        return self.slot(light_index).evaluated
 
     def evaluated(self, light_index: int) -> np.ndarray:
-        """Bool (height, width): the evaluated pixels for one light (DESIGN §7)."""
+        """Bool (height, width): the evaluated pixels of the scene's light ``light_index``."""
         return self.to_image(self.compact_evaluated(light_index), fill=False, dtype=bool)
 
-    @contextlib.contextmanager
-    def lit_by(self, light_index: int, light: Light):
-        """Context manager: within it, light ``light_index`` of the scene is ``light`` and its
-        evaluated mask is ``light``'s own (recomputed on first use); on leaving, even by an
-        exception, the scene's light and the cached mask (or its absence) are put back.
-
-        For the light-sampling average (:mod:`shadowlab.light_sampling`), which measures a
-        technique once per point of an area light, each time on a point light at that point
-        under the area light's index. The scene's light list is changed in place: the frame and
-        anything else sharing its scene see the stand-in while the block runs."""
-        if not 0 <= light_index < len(self.scene.lights):
-            raise IndexError(f"light {light_index} of a scene with {len(self.scene.lights)} lights")
-        lights = self.scene.lights
-        old_light = lights[light_index]
-        old_mask = self._evaluated.pop(light_index, None)
-        lights[light_index] = light
-        try:
-            yield self
-        finally:
-            lights[light_index] = old_light
-            self._evaluated.pop(light_index, None)
-            if old_mask is not None:
-                self._evaluated[light_index] = old_mask
+    def evaluated_image(self, slot: LightSlot) -> np.ndarray:
+        """Bool (height, width): the evaluated pixels of ``slot``."""
+        return self.to_image(slot.evaluated, fill=False, dtype=bool)
 
     def release(self) -> None:
         """Free the frame's GL objects."""
@@ -276,5 +314,5 @@ class Frame:
             vao.release()
         self.target.release()
         for obj in (self.tex_position, self.tex_normal, self.tex_ids, self.vbo_position, self.vbo_normal,
-                    self.vbo_object, self.gbuffer_program):
+                    self.vbo_object):
             obj.release()

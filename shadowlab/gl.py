@@ -168,13 +168,25 @@ def shader_source(name: str) -> str:
     return _expand(name)
 
 
+_PROGRAMS: dict = {}
+
+
 def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()):
-    """Compile ``shaders/<name>`` into a moderngl Program.
+    """The moderngl Program of ``shaders/<name>`` with ``defines``, compiled once per process
+    (cached per (file, defines, varyings); the cache owns it: callers never release it).
 
     One file holds every stage, each inside ``#ifdef VERTEX_SHADER`` / ``GEOMETRY_SHADER`` /
     ``FRAGMENT_SHADER``; a stage is built when its macro appears in the file. ``defines`` become
     ``#define KEY VALUE`` lines (compile-time switches only; numeric parameters are uniforms).
     """
+    key = (name, tuple(sorted((str(k), str(v)) for k, v in (defines or {}).items())), tuple(varyings))
+    if key not in _PROGRAMS:
+        _PROGRAMS[key] = _compile(name, defines, varyings)
+    return _PROGRAMS[key]
+
+
+def _compile(name: str, defines: dict | None, varyings: tuple[str, ...]):
+    """:func:`program`, compiled."""
     ctx = context()
     src = shader_source(name)
     head = [GLSL_VERSION] + [f"#define {k} {v}" for k, v in (defines or {}).items()]

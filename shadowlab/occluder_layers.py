@@ -28,25 +28,30 @@ STEP_SCALE = 2.0 ** -16
 #: At most this many intersections per ray (two per closed object crossed, and a few more
 #: for coplanar or touching faces); a ray still going after that counts what it has met.
 MAX_HITS = 32
-#: Per frame: {light index: the layers image} (a study judges many configurations on one frame).
+#: Per frame: {id(light): (light, the layers image)} (a study judges many configurations on one
+#: frame); keyed by the light object, which the entry keeps alive.
 _CACHE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
-def occluder_layers(frame, light_index: int) -> np.ndarray:
+def occluder_layers(frame, slot) -> np.ndarray:
     """Per pixel, how many distinct caster objects lie on the segment from the evaluated point to
-    the light (its centre for an area light): 0, 1, or 2 for two or more. Int8 (height, width),
-    row 0 = top; 0 on pixels not evaluated. Casters are the scene's objects with ``casts``."""
+    the slot's light (its centre for an area light): 0, 1, or 2 for two or more. Int8 (height,
+    width), row 0 = top; 0 on pixels not evaluated. ``slot``: a
+    :class:`~shadowlab.frame.LightSlot` or a scene light's index. Casters are the scene's
+    objects with ``casts``."""
+    slot = frame.as_slot(slot)
     per_frame = _CACHE.setdefault(frame, {})
-    if light_index not in per_frame:
-        per_frame[light_index] = _count_layers(frame, light_index)
-    return per_frame[light_index]
+    key = id(slot.light)
+    if key not in per_frame:
+        per_frame[key] = (slot.light, _count_layers(frame, slot))
+    return per_frame[key][1]
 
 
-def _count_layers(frame, light_index: int) -> np.ndarray:
+def _count_layers(frame, slot) -> np.ndarray:
     """:func:`occluder_layers`, computed."""
     cap = 2  # a ray stops at its second distinct object: all the bleeding region needs
-    light = frame.scene.lights[light_index]
-    evaluated = frame.compact_evaluated(light_index)
+    light = slot.light
+    evaluated = slot.evaluated
     out = np.zeros(len(evaluated), np.int8)
     casters = [i for i, o in enumerate(frame.scene.objects) if o.casts]
     if not casters or not evaluated.any():

@@ -16,6 +16,7 @@ run.json, the report) is :mod:`shadowlab.commands.compare`'s job, not this loop'
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Sequence
@@ -24,10 +25,11 @@ import numpy as np
 import pandas as pd
 
 from . import gl, light_sampling, memory, metrics, texel_footprint, timing
-from .frame import Frame
+from .frame import Frame, LightSlot
 from .occluder_layers import occluder_layers
 from .scene import load_scene
 from .techniques import Technique, TechniqueError, from_spec
+from .techniques.base import FIRST
 from .techniques.raytrace import RayTraced
 
 #: ``on_step(what, total)``: called after each render run (warm-up or timed).
@@ -57,57 +59,122 @@ class Measurement:
     footprint: np.ndarray | None = None
 
 
-def measure(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, warmup: int = 1,
+#: How the pipeline's own columns combine over light samples: the texel footprint is the first
+#: sample's (one image, not N), ``light_samples`` is set once.
+PIPELINE_STATS = {**{k: FIRST for k in texel_footprint.COLUMNS}, "light_samples": FIRST}
+
+
+def measure(tech: Technique, frame: Frame, light: LightSlot | int, repeat: int = 5, warmup: int = 1,
             on_step: Callable[[], None] | None = None, release: bool = True,
             pass_timing: bool = False) -> Measurement:
-    """Set ``tech`` up for one light, time ``warmup`` + ``repeat`` renders of its passes, read its
-    visibility and cost figures, check GL errors, and (``release``) free its GL objects.
+    """Set ``tech`` up for one light slot (or a scene light's index), time ``warmup`` +
+    ``repeat`` renders of its passes, read its visibility and cost figures, check GL errors,
+    and (``release``) free its GL objects — also when any step fails.
 
     ``pass_timing``: then ``repeat`` further renders time each named pass
     (:class:`shadowlab.timing.PassTimer`); they run after the timed renders, so the finishes
     between passes do not perturb ``time_ms_median``.
 
     A light-sampled technique (``LIGHT_SAMPLED``) on an area light is measured as the average of
-    ``light_samples`` hard measurements, one per point of the light
-    (:func:`shadowlab.light_sampling.measure_sampled`: time, setup and stats are the frame's N
-    renders'); on any other light it is measured once, its stats get ``light_samples`` = 1 and
-    a ``light_samples`` > 1 gets a note saying it was ignored. Techniques with
-    ``texel_coordinates`` get ``footprint`` and the ``texel_footprint_*`` columns (light-sampled:
-    the first sample's)."""
-    light = frame.scene.lights[light_index]
-    if light_sampling.is_sampled(tech, light):
-        samples = [0]
-
-        def measure_one(*args, **kwargs) -> Measurement:
-            # the texel footprint (image and columns) of the first light sample only: one image,
-            # not N, and combined_stats then passes that sample's columns through unchanged
-            samples[0] += 1
-            return _measure_hard(*args, footprint=samples[0] == 1, **kwargs)
-
-        return light_sampling.measure_sampled(tech, frame, light_index, measure_one, repeat, warmup, on_step,
-                                              release=release, pass_timing=pass_timing)
-    note = light_sampling.ignored_note(tech, light_index, light)
+    ``light_samples`` hard measurements, one per point of the light, each on a stand-in slot
+    (:func:`measure_sampled`: time, setup and stats are the frame's N renders'); on any other
+    light it is measured once, its stats get ``light_samples`` = 1 and a ``light_samples`` > 1
+    gets a note saying it was ignored. Techniques with ``texel_coordinates`` get ``footprint``
+    and the ``texel_footprint_*`` columns (light-sampled: the first sample's)."""
+    slot = frame.as_slot(light)
+    if light_sampling.is_sampled(tech, slot.light):
+        return measure_sampled(tech, frame, slot, repeat, warmup, on_step, release, pass_timing)
+    note = light_sampling.ignored_note(tech, slot)
     if note is not None:
         tech.notes.append(note)
-    m = _measure_hard(tech, frame, light_index, repeat, warmup, on_step, release, pass_timing)
+    m = _measure_hard(tech, frame, slot, repeat, warmup, on_step, release, pass_timing)
     if note is not None:
         m.notes.insert(0, note)
-    if getattr(tech, "LIGHT_SAMPLED", False):
+    if tech.LIGHT_SAMPLED:
         m.stats["light_samples"] = 1
     return m
 
 
-def _measure_hard(tech: Technique, frame: Frame, light_index: int, repeat: int = 5, warmup: int = 1,
+def check_lights(techniques, scene, light_indices=None, where: str = "") -> None:
+    """TechniqueError, before any rendering, naming the first technique that does not render
+    for one of ``scene``'s lights (those of ``light_indices``; default every light, as compare,
+    study and animate measure every technique on every light)."""
+    indices = range(len(scene.lights)) if light_indices is None else light_indices
+    for tech in techniques:
+        for i in indices:
+            light = scene.lights[i]
+            if not tech.supports(light):
+                raise TechniqueError(f"{where}{tech.short_label()} does not render for light {i} of scene "
+                                     f"{scene.name} ({light.type_name}); it {tech.light_requirement()}")
+
+
+class _EveryNth:
+    """Progress for N renders that count as one: calls ``on_step()`` once every ``n`` calls."""
+
+    def __init__(self, on_step: Callable[[], None] | None, n: int):
+        self.on_step, self.n, self.calls = on_step, n, 0
+
+    def __call__(self) -> None:
+        self.calls += 1
+        if self.on_step is not None and self.calls % self.n == 0:
+            self.on_step()
+
+
+def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 5, warmup: int = 1,
+                    on_step: Callable[[], None] | None = None, release: bool = True,
+                    pass_timing: bool = False) -> Measurement:
+    """The light-sampling loop (:mod:`shadowlab.light_sampling`): ``tech`` measured on a stand-in
+    point-light slot at each of the ``light_samples`` points of ``slot``'s area light, one
+    sample set up, rendered and released at a time, combined into one Measurement — the
+    average visibility, summed timing, setup and pass times, stats combined as ``tech.STATS``
+    declares (plus ``light_samples``), peak memory the maximum, notes deduplicated. The shared
+    scene is never changed. ``release=False`` keeps the last sample's technique set up (its
+    visibility() is that sample's hard image, not the average)."""
+    if not light_sampling.is_sampled(tech, slot.light):
+        raise TypeError(f"{tech.name} on light {slot.index}: not a light-sampled technique on an area light")
+    n = int(tech.light_samples)
+    before = len(tech.notes)
+    average = light_sampling.VisibilityAverage(frame, slot)
+    points = light_sampling.sample_lights(slot.light, n, light_sampling.evaluated_centre(frame, slot))
+    step = _EveryNth(on_step, n)
+    ms = []
+    for i, point_light in enumerate(points):
+        try:
+            m = _measure_hard(tech, frame, frame.stand_in(slot, point_light), repeat, warmup, step,
+                              release=release or i < n - 1, pass_timing=pass_timing, footprint=i == 0)
+        except Exception as exc:
+            exc.add_note(f"{tech.name}: light sample {i + 1} of {n} at {point_light.position.tolist()} "
+                         f"of light {slot.index}")
+            raise
+        average.add(point_light.position, m.visibility)
+        ms.append(dataclasses.replace(m, visibility=None))  # one image at a time
+    notes = list(dict.fromkeys(tech.notes[before:]))
+    tech.notes[before:] = notes
+    pass_times: dict = {}
+    for m in ms:
+        for k, v in m.pass_times.items():
+            pass_times[k] = pass_times.get(k, 0.0) + v
+    stats = {**light_sampling.combined_stats([m.stats for m in ms], {**tech.STATS, **PIPELINE_STATS}, tech.name),
+             "light_samples": n}
+    return dataclasses.replace(ms[0], visibility=average.result(),
+                               timing=light_sampling.combined_timing([m.timing for m in ms]),
+                               stats=stats, notes=notes, pass_times=pass_times,
+                               setup_ms=float(sum(m.setup_ms for m in ms)),
+                               peak_rss_bytes=max(m.peak_rss_bytes for m in ms))
+
+
+def _measure_hard(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 5, warmup: int = 1,
                   on_step: Callable[[], None] | None = None, release: bool = True,
                   pass_timing: bool = False, footprint: bool = True) -> Measurement:
-    """:func:`measure` for the light that is in the scene now, rendered once per run; with
-    ``footprint``, a technique with ``texel_coordinates`` also gets its texel-footprint image and
-    columns (:mod:`shadowlab.texel_footprint`), taken before it is released."""
+    """:func:`measure` for one slot, rendered once per run; with ``footprint``, a technique with
+    ``texel_coordinates`` also gets its texel-footprint image and columns
+    (:mod:`shadowlab.texel_footprint`), taken before it is released. Whatever fails — setup
+    included — the technique's GL objects are released."""
     before = len(tech.notes)
     memory.reset_peak()
     t0 = time.perf_counter()
-    tech.setup(frame, light_index)
     try:
+        tech.prepare(frame, slot)
         frame.ctx.finish()
         setup_ms = 1e3 * (time.perf_counter() - t0)
         t = timing.time_passes(tech.render, repeat=repeat, warmup=warmup, gpu=not tech.cpu, on_step=on_step)
@@ -124,18 +191,21 @@ def _measure_hard(tech: Technique, frame: Frame, light_index: int, repeat: int =
             pass_times = timer.columns()
         vis = tech.visibility()
         stats = tech.stats()
+        undeclared = [k for k in stats if k not in tech.STATS]
+        if undeclared:
+            raise TypeError(f"{tech.name}: stats {undeclared} are not declared in {type(tech).__name__}.STATS")
         m_image = None
-        if footprint and getattr(tech, "texel_coordinates", None) is not None:
-            m_image = texel_footprint.footprint_image(frame, light_index, tech)
+        if footprint and texel_footprint.has_texel_mapping(tech):
+            m_image = texel_footprint.footprint_image(frame, slot, tech)
             stats.update(texel_footprint.footprint_columns(m_image))
-        gl.check_errors(f"{tech.name} on light {light_index}")
+        gl.check_errors(f"{tech.name} on light {slot.index}")
         peak = memory.peak_bytes()
     except BaseException:
         tech.release()  # a failed measurement leaves no GL objects (nor a borrowed depth-stencil) behind
         raise
     if release:
         tech.release()
-    return Measurement(tech, light_index, vis, t, stats, list(dict.fromkeys(tech.notes[before:])), pass_times,
+    return Measurement(tech, slot.index, vis, t, stats, list(dict.fromkeys(tech.notes[before:])), pass_times,
                        setup_ms, peak, m_image)
 
 
@@ -143,8 +213,9 @@ class Evaluator:
     """Judges visibility images of one frame against its ground truth.
 
     The truth of each light is measured once, on first use, with ``truth`` (default: the
-    default :class:`RayTraced`), as are each light's contact lines (contact gap, over-darkening) and its
-    overlapping-casters mask (light bleeding).
+    default :class:`RayTraced`), as are each light's contact lines (contact gap, over-darkening)
+    and its overlapping-casters mask (light bleeding). Lights are given as slots or as the
+    scene light's index; every cache is keyed by the light object of the slot.
     """
 
     def __init__(self, frame: Frame, truth: Technique | None = None, repeat: int = 1, warmup: int = 0,
@@ -156,37 +227,45 @@ class Evaluator:
         self._contact: dict[int, np.ndarray] = {}
         self._overlap: dict[int, np.ndarray] = {}
 
-    def truth(self, light_index: int, on_step: Callable[[], None] | None = None) -> Measurement:
-        """The ground truth's measurement of one light (measured on first use)."""
-        if light_index not in self._truth:
-            self._truth[light_index] = measure(self.truth_technique, self.frame, light_index, self.repeat,
-                                               self.warmup, on_step, pass_timing=self.pass_timing)
-        return self._truth[light_index]
+    def _key(self, light: LightSlot | int) -> tuple[int, LightSlot]:
+        slot = self.frame.as_slot(light)
+        return id(slot.light), slot
 
-    def use_truth(self, light_index: int, visibility: np.ndarray, stats: dict | None = None) -> None:
+    def truth(self, light: LightSlot | int, on_step: Callable[[], None] | None = None) -> Measurement:
+        """The ground truth's measurement of one light (measured on first use)."""
+        key, slot = self._key(light)
+        if key not in self._truth:
+            self._truth[key] = measure(self.truth_technique, self.frame, slot, self.repeat, self.warmup, on_step,
+                                       pass_timing=self.pass_timing)
+        return self._truth[key]
+
+    def use_truth(self, light: LightSlot | int, visibility: np.ndarray, stats: dict | None = None) -> None:
         """Judge against a truth measured elsewhere (a study's cached truth): ``visibility``
         float32 (height, width), row 0 = top, and the cost figures ``stats`` that truth reported
         (its ``truth_stderr_max`` goes on every row)."""
         if visibility.shape != (self.frame.height, self.frame.width):
             raise ValueError(f"truth of shape {visibility.shape} for a {self.frame.width}x{self.frame.height} frame")
-        self._truth[light_index] = Measurement(self.truth_technique, light_index, visibility,
-                                               timing.Timing(float("nan"), float("nan"), []), dict(stats or {}))
+        key, slot = self._key(light)
+        self._truth[key] = Measurement(self.truth_technique, slot.index, visibility,
+                                       timing.Timing(float("nan"), float("nan"), []), dict(stats or {}))
 
-    def contact_lines(self, light_index: int) -> np.ndarray:
+    def contact_lines(self, light: LightSlot | int) -> np.ndarray:
         """Bool (height, width): evaluated receiver pixels where another object touches the
         receiver (:func:`shadowlab.metrics.contact_pixels`)."""
-        if light_index not in self._contact:
+        key, slot = self._key(light)
+        if key not in self._contact:
             f = self.frame
-            self._contact[light_index] = metrics.contact_pixels(f.object_id, f.position, f.pixel_footprint(),
-                                                                f.evaluated(light_index))
-        return self._contact[light_index]
+            self._contact[key] = metrics.contact_pixels(f.object_id, f.position, f.pixel_footprint(),
+                                                        f.evaluated_image(slot))
+        return self._contact[key]
 
-    def overlap(self, light_index: int) -> np.ndarray:
+    def overlap(self, light: LightSlot | int) -> np.ndarray:
         """Bool (height, width): evaluated pixels whose segment to the light crosses two or more
         casters (:func:`shadowlab.occluder_layers.occluder_layers`), for the light-bleeding metric."""
-        if light_index not in self._overlap:
-            self._overlap[light_index] = occluder_layers(self.frame, light_index) >= 2
-        return self._overlap[light_index]
+        key, slot = self._key(light)
+        if key not in self._overlap:
+            self._overlap[key] = occluder_layers(self.frame, slot) >= 2
+        return self._overlap[key]
 
     def row(self, m: Measurement, reference: bool = False) -> dict:
         """The metrics.csv row of a measurement (columns: :data:`shadowlab.metrics.COLUMNS`, then
@@ -194,13 +273,14 @@ class Evaluator:
         light's truth's ``truth_stderr_max`` (0 when the truth reports none: a point-like light,
         or a truth measured elsewhere, :meth:`use_truth`)."""
         frame, tech, li = self.frame, m.technique, m.light
-        row = {"scene": frame.scene.name, "light": li, "light_type": frame.scene.lights[li].type_name,
+        slot = frame.slot(li)
+        row = {"scene": frame.scene.name, "light": li, "light_type": slot.light.type_name,
                "technique": tech.name, "params": tech.params_string(), "label": tech.spec(),
                "short_label": tech.short_label(), "reference": reference,
                "width": frame.width, "height": frame.height}
-        truth_m = m if reference else self.truth(li)
-        row.update(metrics.compare(m.visibility, truth_m.visibility, frame.evaluated(li), self.contact_lines(li),
-                                   self.overlap(li)))
+        truth_m = m if reference else self.truth(slot)
+        row.update(metrics.compare(m.visibility, truth_m.visibility, frame.evaluated_image(slot),
+                                   self.contact_lines(slot), self.overlap(slot)))
         # the sampled truth's standard error bound (DESIGN §9) beside every row of the light
         row["truth_stderr_max"] = float(truth_m.stats.get("truth_stderr_max", 0.0))
         row.update(m.timing.columns())
@@ -245,6 +325,7 @@ def compare_frame(frame: Frame, techniques: Sequence[Technique], repeat: int = 5
                   pass_timing: bool = False) -> Comparison:
     """The ground truth and every technique on every light of ``frame`` (``pass_timing``: also
     per-pass times, see :func:`measure`)."""
+    check_lights(techniques, frame.scene)
     lights = range(len(frame.scene.lights))
     total = total_steps(len(lights), len(techniques), repeat, warmup)
     evaluator = Evaluator(frame, truth, repeat, warmup, pass_timing)
@@ -293,6 +374,7 @@ def measure_configs(scene_ref, specs: Sequence[str], size: tuple[int, int] = (64
         frame = evaluator.frame
     scene = frame.scene if frame is not None else load_scene(scene_ref)
     techniques = [from_spec(s) for s in specs]
+    check_lights(techniques, scene, [light_index])
     frame = frame or Frame(scene, *size)
     evaluator = evaluator or Evaluator(frame, repeat=repeat, warmup=warmup, pass_timing=pass_timing)
     total = (1 + len(techniques)) * (repeat + warmup)

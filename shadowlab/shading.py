@@ -33,11 +33,10 @@ class ShadingPass:
         self.out_tex = ctx.texture((frame.width, frame.height), 4, dtype="f4")
         self.out_fbo = gl.framebuffer([self.out_tex])
         sh = frame.scene.shading
-        gl.set_uniforms(self.prog, {
-            "u_position": 0, "u_normal": 1, "u_ids": 2, "u_materials": 3, "u_visibility": 4,
-            "u_eye": tuple(map(float, frame.camera.eye)), "u_density": float(sh.density),
-            "u_shadow_color": tuple(map(float, sh.shadow_color)),
-        })
+        #: The program is shared (compiled once per process): its uniforms are set on every shade().
+        self.uniforms = {"u_position": 0, "u_normal": 1, "u_ids": 2, "u_materials": 3, "u_visibility": 4,
+                         "u_eye": tuple(map(float, frame.camera.eye)), "u_density": float(sh.density),
+                         "u_shadow_color": tuple(map(float, sh.shadow_color))}
 
     def shade(self, visibilities: list[np.ndarray]) -> np.ndarray:
         """Linear RGB float32 (height, width, 3), row 0 = top, from one visibility image
@@ -47,6 +46,7 @@ class ShadingPass:
             raise ValueError(f"need {len(frame.scene.lights)} visibility images, got {len(visibilities)}")
         from OpenGL import GL
 
+        gl.set_uniforms(self.prog, self.uniforms)
         self.out_fbo.use()
         ctx.viewport = (0, 0, frame.width, frame.height)
         glstate.apply(PassState(blend=("one", "one")))  # the lights add up
@@ -64,5 +64,5 @@ class ShadingPass:
     def release(self) -> None:
         """Free GL objects."""
         gl.park()
-        for obj in (self.quad, self.prog, self.materials, self.vis_tex, self.out_fbo, self.out_tex):
+        for obj in (self.quad, self.materials, self.vis_tex, self.out_fbo, self.out_tex):
             obj.release()

@@ -95,17 +95,30 @@ def footprint_from_jacobian(j: np.ndarray) -> np.ndarray:
         return sigma_max / np.abs(det)
 
 
-def footprint_image(frame, light_index: int, technique) -> np.ndarray:
+#: The metrics columns :func:`footprint_columns` makes.
+COLUMNS = tuple(f"texel_footprint_p{q}" for q in PERCENTILES) + ("texel_footprint_max",)
+
+
+def has_texel_mapping(technique) -> bool:
+    """True for a technique that renders a map per face and can say where a point's texels lie
+    (:class:`shadowlab.techniques.maps.TexelMapping`)."""
+    from .techniques.maps import TexelMapping
+
+    return isinstance(technique, TexelMapping)
+
+
+def footprint_image(frame, slot, technique) -> np.ndarray:
     """Lloyd et al.'s m per pixel (see the module's docstring): float32 (height, width), row 0 =
     top, in image pixels per texel (the texel's longest axis); NaN where the pixel is not
-    evaluated for ``light_index`` (DESIGN §7) or m is undefined there. ``technique`` is set up
-    for that light and has ``texel_coordinates`` (and ``face_index``): a shadow-map technique
-    between ``setup`` and ``release``; TechniqueError for one without texel coordinates."""
-    if getattr(technique, "texel_coordinates", None) is None:
-        raise TechniqueError(f"{getattr(technique, 'name', type(technique).__name__)} has no shadow map, so no "
-                             f"texel footprint (texel_coordinates): shadow_map, filtered_map, pcss and the map "
-                             f"techniques built on them have one")
-    evaluated = frame.compact_evaluated(light_index)
+    evaluated for ``slot`` (a :class:`~shadowlab.frame.LightSlot` or a scene light's index;
+    DESIGN §7) or m is undefined there. ``technique`` is set up for that slot and has a texel
+    mapping (:func:`has_texel_mapping`): a shadow-map technique between ``setup`` and
+    ``release``; TechniqueError for one without."""
+    if not has_texel_mapping(technique):
+        raise TechniqueError(f"{technique.name} has no shadow map, so no texel footprint (texel_coordinates): "
+                             f"shadow_map, filtered_map, pcss and the map techniques built on the map toolkit "
+                             f"have one")
+    evaluated = frame.as_slot(slot).evaluated
     idx = frame.pixel_index[evaluated]
     rows, cols = np.divmod(idx, frame.width)
     p = frame.compact_position[evaluated]

@@ -161,3 +161,24 @@ def floor_points(scene_camera, width, height) -> np.ndarray:
 def rng():
     """A seeded random generator."""
     return np.random.default_rng(1234)
+
+
+def scene_for(cls, default: str = "multi_light") -> str:
+    """A shipped scene every light of which the technique class renders for (its ``LIGHTS``):
+    ``default`` for the techniques that render every hard light, ``sun_scene`` for those that
+    need a directional light, ``soft_overlap`` for those that need an area light."""
+    if {"point", "spot", "directional"} <= cls.LIGHTS:
+        return default
+    return "sun_scene" if "directional" in cls.LIGHTS else "soft_overlap"
+
+
+@pytest.fixture
+def registry_snapshot():
+    """For tests that define Technique subclasses with a ``name`` (which register themselves):
+    the technique registry as it was before the test is put back after it."""
+    from shadowlab.techniques import REGISTRY
+
+    saved = dict(REGISTRY)
+    yield REGISTRY
+    REGISTRY.clear()
+    REGISTRY.update(saved)

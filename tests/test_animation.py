@@ -305,7 +305,7 @@ def test_animate_rejects_a_technique_the_lights_cannot_take(tmp_path, capsys, mo
     monkeypatch.setattr(anim, "Frame", no_frame)
     assert main(["animate", scene, "-t", spec, "--frames", "2", "--size", "32x24", "--out", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
-    assert f"needs {need}" in err and "light " in err, err
+    assert f"needs {need}" in err and "does not render for light 0" in err, err
     assert not (tmp_path / "x").exists()
 
 

@@ -195,7 +195,7 @@ def test_batched_search_matches_per_caster_search(lab, name):
     frame = lab.frame(name, (64, 48))
     for light in range(len(frame.scene.lights)):
         t = BlobShadow()
-        t.setup(frame, light)
+        t.prepare(frame, light)
         new = [(b.caster, b.receiver, b.centre, b.normal, b.form) for b in t.blobs]
         old = _per_caster_blobs(frame.scene, light)
         assert [b[:2] for b in new] == [b[:2] for b in old]
@@ -245,7 +245,7 @@ def test_spill_past_the_table_edge(lab):
         plane = np.abs(frame.position[..., 1] - 1.0) <= 1e-3 * frame.scene.extent()
         assert not np.any((v < 1) & plane & (obj != names.index("table_top")))
     t = BlobShadow()
-    t.setup(frame, 0)
+    t.prepare(frame, 0)
     (blob,) = [b for b in t.blobs if names[b.caster] == "box"]
     assert names[blob.receiver] == "table_top"
 

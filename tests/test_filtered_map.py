@@ -169,7 +169,7 @@ def test_msm_stored_moments_read_back(lab, precision):
     |b_k − z^k|: float32 7.7e-8, 16-bit 2.5e-5 (quantisation); bounds 1e-6 and 1e-4. A shader
     applying the transform transposed would write values outside [0, 1] that the UNORM clamps."""
     t = from_spec(f"filtered_map:variant=msm,precision={precision},kernel=1,resolution=256")
-    t.setup(lab.frame("box_on_plane", SIZE), 0)
+    t.prepare(lab.frame("box_on_plane", SIZE), 0)
     try:
         t.render()
         raw = gl.read_texture(t.moments[0], 4, "f4" if precision == 32 else "u2").astype(np.float64)

@@ -82,7 +82,7 @@ def clean_and_polluted(ctx, frame, spec: str, light: int) -> tuple[np.ndarray, n
     tech = from_spec(spec)
     samplers = [pollute(ctx)]
     try:
-        tech.setup(frame, light)
+        tech.prepare(frame, light)
         samplers.append(pollute(ctx))  # kept alive: deleting a sampler object unbinds it
         tech.render()
         polluted = tech.visibility()

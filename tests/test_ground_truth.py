@@ -127,7 +127,7 @@ def check_closed_form(scene, light_spec, size, offset=np.zeros(3)):
     the closed form; returns the number of floor pixels checked and shadowed."""
     frame = Frame(scene, *size)
     gt = RayTraced()
-    gt.setup(frame, 0)
+    gt.prepare(frame, 0)
     gt.render()
     vis = gt.visibility()
     local_spec = dict(light_spec)
@@ -204,7 +204,7 @@ def test_ground_truth_sees_thin_sheet_on_floor():
     scene = make_scene([FLOOR, sheet], [light], eye=(0.0, 6.0, 4.0), target=(0.0, 0.0, 0.0), fov_y=60.0)
     frame = Frame(scene, 200, 200)
     gt = RayTraced()
-    gt.setup(frame, 0)
+    gt.prepare(frame, 0)
     floor = frame.compact_object == 0
     origins = gt.origins[floor]
     lift = origins[:, 1].astype(np.float64)

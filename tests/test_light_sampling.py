@@ -1,5 +1,5 @@
 """Light sampling (shadowlab.light_sampling): every opted-in hard technique averaged over N points
-of an area light, through the shared machinery (Technique.LIGHT_SAMPLED, Frame.lit_by,
+of an area light, through the shared machinery (Technique.LIGHT_SAMPLED, Frame.stand_in,
 pipeline.measure).
 
 The expected images are built here from the definition (DESIGN §7): over the area light's
@@ -17,6 +17,7 @@ from shadowlab.scene.lights import PointLight
 from shadowlab.pipeline import measure
 from shadowlab.scene import parse_scene
 from shadowlab.techniques import REGISTRY, Param, Technique, TechniqueError, from_spec
+from shadowlab.techniques.base import FIRST, MAX, SUM
 from shadowlab.techniques.raytrace import RayTraced
 from shadowlab.timing import Timing
 
@@ -71,8 +72,8 @@ def hard_average(frame, spec, points):
     each standing in for the area light under its index; also the hard images."""
     total, images = 0.0, []
     for point in points:
-        with frame.lit_by(0, PointLight(position=np.array(point, np.float64))):
-            vis = measure(from_spec(spec), frame, 0, repeat=1, warmup=0).visibility
+        stand_in = frame.stand_in(frame.slot(0), PointLight(position=np.array(point, np.float64)))
+        vis = measure(from_spec(spec), frame, stand_in, repeat=1, warmup=0).visibility
         images.append(vis)
         total = total + vis.astype(np.float64) * factors(frame, point)
     out = total / len(points)
@@ -199,8 +200,8 @@ def test_disc_and_sphere_lights(ctx, light):
             assert np.all((points - light["position"]) @ (offset / dist) >= r * r / dist - 1e-12)  # on the cap seen from there
         total = np.zeros(len(p))
         for point in points:
-            with frame.lit_by(0, PointLight(position=point)):
-                vis = measure(from_spec("shadow_volume"), frame, 0, repeat=1, warmup=0).visibility
+            stand_in = frame.stand_in(frame.slot(0), PointLight(position=point))
+            vis = measure(from_spec("shadow_volume"), frame, stand_in, repeat=1, warmup=0).visibility
             above = np.einsum("ij,ij->i", point - p, nrm) > 0
             total += vis.reshape(-1)[frame.pixel_index] * above
         want = frame.to_image(np.where(ev, front * total / 9, 1.0), fill=1.0, dtype=np.float64)
@@ -212,14 +213,32 @@ def test_disc_and_sphere_lights(ctx, light):
 
 
 def test_combined_timing_and_stats():
-    """Sums of medians and run-by-run sums; stats summed, maxima for sizes, first for views."""
+    """Sums of medians and run-by-run sums; each stat combined by its declared rule (summed,
+    maxima for sizes, first for views); a stat without a rule is an error."""
     t = combined_timing([Timing(2.0, 0.5, [1.0, 2.0, 3.0]), Timing(4.0, 1.0, [4.0, 4.0, 5.0], 1.0)])
     assert (t.median_ms, t.iqr_ms, t.samples_ms, t.gpu_median_ms) == (6.0, 1.5, [5.0, 6.0, 8.0], None)
-    s = combined_stats([{"passes": 2, "memory_bytes": 10, "texel_world": 0.5, "mode": "a"},
-                        {"passes": 3, "memory_bytes": 30, "texel_world": 0.7, "mode": "b"}])
-    assert s == {"passes": 5, "memory_bytes": 30, "texel_world": 0.5, "mode": "a"}
+    rules = {"passes": SUM, "memory_bytes": MAX, "texel_world": FIRST, "mode": FIRST, "faces": FIRST}
+    s = combined_stats([{"passes": 2, "memory_bytes": 10, "texel_world": 0.5, "mode": "a", "faces": 6},
+                        {"passes": 3, "memory_bytes": 30, "texel_world": 0.7, "mode": "b", "faces": 6}], rules)
+    assert s == {"passes": 5, "memory_bytes": 30, "texel_world": 0.5, "mode": "a", "faces": 6}
+    with pytest.raises(KeyError, match="declare it in STATS"):
+        combined_stats([{"passes": 1, "mystery": 2}], {"passes": SUM}, "demo")
     with pytest.raises(ValueError, match="no timing"):
         combined_timing([])
+
+
+@pytest.mark.parametrize("name", SAMPLED)
+def test_every_stat_has_a_rule_and_a_cube_map_keeps_six_faces(frame, name):
+    """Every sampled technique's stats combine by declared rules; four samples of a cube map
+    still report faces = 6 (a description, not work: the bug of summing every number)."""
+    spec = f"{name}:light_samples=4" + (",projection=cube" if name == "shadow_map" else "")
+    m = measure(from_spec(spec), frame, 0, repeat=1, warmup=0)
+    one = measure(from_spec(spec.replace("light_samples=4", "light_samples=1")), frame, 0, repeat=1, warmup=0)
+    assert set(m.stats) - {"light_samples", "texel_footprint_p50", "texel_footprint_p95", "texel_footprint_max"} \
+        <= set(from_spec(name).STATS)
+    if name == "shadow_map":
+        assert one.stats["faces"] == m.stats["faces"] == 6
+        assert m.stats["passes"] == 4 * one.stats["passes"]
 
 
 def test_light_samples_parameter():
@@ -242,7 +261,7 @@ def test_light_samples_parameter():
             from_spec(spec)
 
 
-def test_opting_in_and_out_in_subclasses():
+def test_opting_in_and_out_in_subclasses(registry_snapshot):
     """A subclass of an opted-in class that opts out loses the parameter; declaring it by hand
     is refused (it is the shared one)."""
     class Hard(Technique):
@@ -275,17 +294,16 @@ def test_hard_light_says_light_samples_is_ignored(lab):
     assert "light_samples=8 ignored: light 0 is a point light" in rows["notes"].iloc[0]
 
 
-def test_lit_by_restores_light_and_mask_even_on_error(frame):
-    """Frame.lit_by swaps the light and its evaluated mask and puts both back, also on error."""
-    area, mask = frame.scene.lights[0], frame.compact_evaluated(0).copy()
+def test_stand_in_slots_leave_the_scene_alone(frame):
+    """A stand-in slot carries its own light, mask and light list; the scene, its light and the
+    area light's own slot are untouched (light sampling never mutates shared state)."""
+    area_slot = frame.slot(0)
+    area, mask = frame.scene.lights[0], area_slot.evaluated.copy()
     stand_in = PointLight(position=np.array([0.0, -5.0, 0.0]))  # below the floor: sees its underside
-    with pytest.raises(RuntimeError, match="boom"):
-        with frame.lit_by(0, stand_in):
-            assert frame.scene.lights[0] is stand_in
-            assert not np.array_equal(frame.compact_evaluated(0), mask)
-            raise RuntimeError("boom")
-    assert frame.scene.lights[0] is area
-    assert np.array_equal(frame.compact_evaluated(0), mask)
+    sample = frame.stand_in(area_slot, stand_in)
+    assert sample.light is stand_in and sample.index == 0 and sample.stands_in_for is area
+    assert sample.scene_lights[0] is stand_in and frame.scene.lights[0] is area
+    assert not np.array_equal(sample.evaluated, mask)
+    assert frame.slot(0) is area_slot and np.array_equal(frame.compact_evaluated(0), mask)
     with pytest.raises(IndexError):
-        with frame.lit_by(1, stand_in):
-            pass
+        frame.slot(1)

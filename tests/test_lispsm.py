@@ -18,7 +18,7 @@ SIZE = (320, 240)
 def fitted(lab, scene, spec):
     """A technique of ``spec`` with its faces fitted to the shared frame of ``scene`` (no GL)."""
     tech = from_spec(spec)
-    tech.faces, tech.fit_notes = tech.fit_views(lab.frame(scene, SIZE), 0)
+    tech.faces, tech.fit_notes = tech.fit_views(lab.frame(scene, SIZE), lab.frame(scene, SIZE).slot(0))
     return tech
 
 
@@ -200,5 +200,5 @@ def test_bad_specs(spec, match):
 
 @pytest.mark.parametrize("scene", ["spot_scene", "box_on_plane"])
 def test_non_directional_light_is_an_error(lab, scene):
-    with pytest.raises(TechniqueError, match="directional light only"):
+    with pytest.raises(TechniqueError, match="lispsm does not render for a .* light .*; it needs a directional light"):
         lab.measure(scene, "lispsm", SIZE)

@@ -215,7 +215,7 @@ def test_bad_params(spec, message):
 def test_needs_an_area_light(lab, light):
     """A light that is not an area light: a clear TechniqueError, no GL objects left behind."""
     scene = make_scene([{"mesh": "plane", "size": [4.0, 4.0]}], [light])
-    with pytest.raises(TechniqueError, match="pcss needs an area light"):
+    with pytest.raises(TechniqueError, match="pcss does not render for a .* light .*; it needs an area light"):
         lab.measure(scene, "pcss", (64, 48))
 
 

@@ -10,6 +10,8 @@ from shadowlab.metrics import COLUMNS, CONTRACT_COLUMNS, compare
 from shadowlab.pipeline import compare_frame, measure
 from shadowlab.techniques import REGISTRY, from_spec
 
+from conftest import scene_for
+
 SIZE = (160, 120)
 
 
@@ -24,7 +26,7 @@ def test_techniques_leave_the_gbuffer_untouched(lab, name):
     that need an area light run on an area-light scene, those that need a directional light on
     a sun scene."""
     cls = REGISTRY[name]
-    scene = "soft_overlap" if cls.NEEDS_AREA_LIGHT else "sun_scene" if cls.NEEDS_DIRECTIONAL_LIGHT else "multi_light"
+    scene = scene_for(cls)
     frame = lab.frame(scene, SIZE)
     last = len(frame.scene.lights) - 1
     before = gbuffer_bytes(frame), frame.compact_position.copy(), frame.evaluated(last).copy()

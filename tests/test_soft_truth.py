@@ -74,7 +74,7 @@ def build(key):
 
 def truth(frame, **params) -> RayTraced:
     t = RayTraced(**params)
-    t.setup(frame, 0)
+    t.prepare(frame, 0)
     t.render()
     return t
 

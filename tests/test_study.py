@@ -57,7 +57,7 @@ def test_shipped_suites_load_and_cover_every_family():
     def families(suite):
         return {spec.split(":")[0] for specs in suite.configurations.values() for spec in specs}
 
-    hard = {name for name, cls in REGISTRY.items() if not cls.NEEDS_AREA_LIGHT} - {"raytrace"}
+    hard = {name for name, cls in REGISTRY.items() if cls.LIGHTS != {"area"}} - {"raytrace"}
     assert families(load_suite("quick")) == hard  # the headline covers every hard-shadow family
     assert set().union(*(families(load_suite(n)) for n in suites)) == set(REGISTRY) - {"raytrace"}
 

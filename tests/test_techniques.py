@@ -38,3 +38,60 @@ def test_spec_values_are_typed():
 def test_bad_specs(spec, match):
     with pytest.raises(TechniqueError, match=match):
         from_spec(spec)
+
+
+def test_every_technique_declares_what_the_core_needs():
+    """Each registered technique declares a summary, its passes, the lights it renders for,
+    how each stat combines over light samples, and a plot style of its own (no two alike)."""
+    from shadowlab.techniques.base import ALL_LIGHTS, COMBINE_RULES, PlotStyle
+
+    styles = set()
+    for name, cls in REGISTRY.items():
+        assert cls.name == name and cls.summary and cls.PASSES, name
+        assert cls.LIGHTS and cls.LIGHTS <= ALL_LIGHTS, name
+        assert cls.STATS and set(cls.STATS.values()) <= set(COMBINE_RULES), name
+        assert isinstance(cls.STYLE, PlotStyle), name
+        styles.add((cls.STYLE.color, cls.STYLE.marker))
+    assert len(styles) == len(REGISTRY)
+    assert REGISTRY["pcss"].LIGHTS == {"area"}
+    assert REGISTRY["cascaded_map"].LIGHTS == REGISTRY["lispsm"].LIGHTS == {"directional"}
+
+
+def test_unknown_technique_suggests_a_close_name():
+    with pytest.raises(TechniqueError, match="did you mean 'shadow_map'"):
+        from_spec("shadow_mop")
+
+
+def test_a_technique_registers_itself(registry_snapshot):
+    """Subclassing Technique with a name is all it takes to be known to from_spec; a name that
+    is already taken by another class is refused."""
+    from shadowlab.techniques import Technique
+
+    class Demo(Technique):
+        name = "demo_registered"
+        summary = "a test technique"
+        PASSES = ("nothing",)
+
+    assert from_spec("demo_registered").name == "demo_registered"
+    with pytest.raises(TypeError, match="taken"):
+        class Clash(Technique):
+            name = "shadow_map"
+
+
+def test_planning_refuses_a_light_a_technique_does_not_render_for(tmp_path):
+    """compare, study and animate check every technique against every light before rendering:
+    cascades on a point light and PCSS on a hard light are errors naming both."""
+    from shadowlab.commands.animate import animate
+    from shadowlab.commands.compare import compare
+    from shadowlab.study.suite import SuiteError, load_suite
+
+    with pytest.raises(TechniqueError, match=r"cascaded_map does not render for light 0 of scene box_on_plane "
+                                             r"\(point\); it needs a directional light"):
+        compare("box_on_plane", ["cascaded_map"], size=(64, 48), out=tmp_path / "run")
+    with pytest.raises(TechniqueError, match=r"pcss .*\(directional\); it needs an area light"):
+        animate("sun_scene", ["pcss"], frames=2, size=(64, 48), out=tmp_path / "anim")
+    suite = tmp_path / "s.toml"
+    suite.write_text('name = "s"\nscenes = ["box_on_plane"]\ntechniques = ["lispsm"]\n')
+    with pytest.raises(SuiteError, match=r"lispsm does not render for light 0 of scene box_on_plane"):
+        load_suite(suite)
+    assert not (tmp_path / "run").exists() and not (tmp_path / "anim").exists()

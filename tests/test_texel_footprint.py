@@ -13,7 +13,7 @@ from conftest import floor_points
 from shadowlab.pipeline import measure
 from shadowlab.scene import parse_scene
 from shadowlab.techniques import TechniqueError, from_spec
-from shadowlab.techniques.shadow_map import cube_face_index
+from shadowlab.techniques.maps import cube_face_index
 from shadowlab.texel_footprint import (footprint_columns, footprint_from_jacobian, footprint_image, neighbour_rays,
                                        screen_neighbours, tangent_hits)
 
@@ -35,7 +35,7 @@ def measured_with_map(lab, scene, spec, size):
     tech = from_spec(spec)
     m = measure(tech, lab.frame(scene, size), 0, repeat=1, warmup=0, release=False)
     try:
-        face = tech.faces[0]
+        face = tech.atlas.faces[0]
     finally:
         tech.release()
     return m, face, tech.resolution
@@ -112,7 +112,7 @@ def test_cube_map_point_light_is_finite_everywhere(lab):
     frame = lab.frame("sm_point_cube", size)
     m = measure(tech, frame, 0, repeat=1, warmup=0, release=False)
     try:
-        assert len(tech.faces) == 6
+        assert len(tech.atlas.faces) == 6
         faces = tech.face_index(frame.compact_position[frame.compact_evaluated(0)])
     finally:
         tech.release()

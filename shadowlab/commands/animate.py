@@ -35,7 +35,7 @@ import pandas as pd
 from .. import gl, metrics, provenance, report, temporal, timing
 from ..scene.animation import frame_times, scene_at
 from ..frame import Frame
-from ..pipeline import Evaluator, StepCallback, build_techniques, measure, pass_order
+from ..pipeline import Evaluator, StepCallback, build_techniques, check_lights, measure, pass_order
 from .compare import RunError, check_size, move_into_place, safe_name, staging_dir
 from ..scene import Scene, load_scene
 
@@ -140,27 +140,6 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def check_lights(scene: Scene, techniques) -> None:
-    """TechniqueError, before any GL work, for a technique that cannot run on one of the scene's
-    lights (``animate`` measures every technique on every light; keyframes never change a
-    light's type): ``NEEDS_DIRECTIONAL_LIGHT`` techniques (cascaded_map, lispsm) on a
-    non-directional light, ``NEEDS_AREA_LIGHT`` ones (pcss) on a light that is not an area light."""
-    from ..scene.area_lights import AreaLight
-    from ..scene.lights import DirectionalLight
-    from ..techniques import TechniqueError
-
-    for tech in techniques:
-        for i, light in enumerate(scene.lights):
-            if getattr(tech, "NEEDS_DIRECTIONAL_LIGHT", False) and not isinstance(light, DirectionalLight):
-                need = "a directional light"
-            elif getattr(tech, "NEEDS_AREA_LIGHT", False) and not isinstance(light, AreaLight):
-                need = "an area light"
-            else:
-                continue
-            raise TechniqueError(f"{tech.spec()} needs {need}, but light {i} of scene {scene.name} is "
-                                 f"{light.type_name}: animate runs every technique on every light")
-
-
 def animate(scene_ref, specs: list[str], frames: int | None = None, size: tuple[int, int] = (320, 240),
             out: Path | None = None, repeat: int = 1, warmup: int = 0, on_step: StepCallback | None = None) -> Path:
     """Run the truth and every technique spec on every frame of an animated scene; return the
@@ -172,7 +151,7 @@ def animate(scene_ref, specs: list[str], frames: int | None = None, size: tuple[
     size = check_size(size)
     scene = load_scene(scene_ref)
     techniques = build_techniques(specs)
-    check_lights(scene, techniques)
+    check_lights(techniques, scene, where="animate runs every technique on every light: ")
     n = frame_count(scene, frames)
     out = Path(out) if out is not None else default_out_dir(scene)
     tmp = staging_dir(out)

@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import gl, metrics, provenance, report, timing
 from ..frame import Frame
-from ..pipeline import Comparison, StepCallback, build_techniques, compare_frame
+from ..pipeline import Comparison, StepCallback, build_techniques, check_lights, compare_frame
 from ..scene import Scene, load_scene
 from ..shading import ShadingPass
 
@@ -59,6 +59,7 @@ def compare(scene_ref, specs: list[str], size: tuple[int, int] = (800, 600), out
     size = check_size(size)
     scene = load_scene(scene_ref)
     techniques = build_techniques(specs)
+    check_lights(techniques, scene)
     out = Path(out) if out is not None else default_out_dir(scene)
     tmp = staging_dir(out)
     (tmp / "images").mkdir()

@@ -229,7 +229,7 @@ def scene_at(scene, t: float):
         raise ValueError(f"animation time must lie in [0, 1], got {t}")
     out = copy.copy(scene)
     out.lights = list(scene.lights)
-    anim = getattr(scene, "animation", None)
+    anim = scene.animation
     if anim is None:
         return out
     file = str(scene.path) if scene.path else "<scene>"

@@ -42,17 +42,6 @@ PANEL_COLUMNS = 4
 #: Failed or untimed configurations listed by name in a panel before "... and N more".
 PANEL_LIST_MAX = 5
 
-#: Colour and marker of each technique family in the Pareto figure; families not named here
-#: take the next of :data:`_SPARE_STYLES`.
-FAMILY_STYLES = {
-    "shadow_map": ("#1f77b4", "o"),
-    "shadow_volume": ("#d62728", "s"),
-    "planar": ("#2ca02c", "^"),
-    "shadow_polygons": ("#9467bd", "D"),
-}
-_SPARE_STYLES = [("#8c564b", "P"), ("#e377c2", "X"), ("#7f7f7f", "v"), ("#bcbd22", "<"), ("#17becf", ">"),
-                 ("#ff7f0e", "h")]
-
 #: Columns of :func:`per_configuration`, in order.
 CONFIG_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "reference", "lights",
                   "evaluated_pixels", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
@@ -129,15 +118,22 @@ def _scenes(df: pd.DataFrame) -> list[str]:
 
 
 def _family_order(names) -> list[str]:
-    """Technique families: the known ones in :data:`FAMILY_STYLES` order, then the rest sorted."""
+    """Technique families in the registry's order (unknown names, e.g. failed specs, last, sorted)."""
+    from ..techniques import REGISTRY
+
     names = set(names)
-    return [n for n in FAMILY_STYLES if n in names] + sorted(names - set(FAMILY_STYLES))
+    return [n for n in REGISTRY if n in names] + sorted(names - set(REGISTRY))
 
 
 def _styles(families) -> dict[str, tuple[str, str]]:
-    out, spare = {}, iter(_SPARE_STYLES * 4)
+    """Colour and marker per family: each technique's declared ``STYLE`` (grey dots for names
+    the registry does not know)."""
+    from ..techniques import REGISTRY
+
+    out = {}
     for fam in _family_order(families):
-        out[fam] = FAMILY_STYLES.get(fam) or next(spare)
+        style = REGISTRY[fam].STYLE if fam in REGISTRY else None
+        out[fam] = (style.color, style.marker) if style is not None else ("#999999", ".")
     return out
 
 

@@ -57,11 +57,14 @@ def scene_family(scene_name: str) -> str:
 
 @dataclass(frozen=True)
 class SceneEntry:
-    """One scene of a suite: its name (the file stem), file and hard-case family."""
+    """One scene of a suite: its name (the file stem), file, hard-case family and the types of
+    its lights (read from the file's ``[[lights]]`` tables, for the plan-time check that every
+    configuration renders for them)."""
 
     name: str
     path: Path
     family: str
+    light_types: tuple[str, ...] = ()
 
 
 @dataclass
@@ -155,7 +158,9 @@ def _scene(ref: str, where: str, file: str, base: Path) -> SceneEntry:
     except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:
         raise SuiteError(f"{file}: {where}: scene file {path} cannot be read as TOML: {exc}") from exc
     name = data.get("name", path.stem) if isinstance(data.get("name", path.stem), str) else path.stem
-    return SceneEntry(name, path.resolve(), scene_family(name))
+    lights = data.get("lights", [])
+    types = tuple(t.get("type", "?") for t in lights if isinstance(t, dict)) if isinstance(lights, list) else ()
+    return SceneEntry(name, path.resolve(), scene_family(name), types)
 
 
 def _spec(spec: str, where: str, file: str, written: dict[str, str]) -> str:
@@ -195,6 +200,22 @@ def _sweep_specs(table, where: str, file: str, scene_names: set[str],
         params = ",".join(f"{k}={format_value(v)}" for k, v in zip(axes, combo))
         specs.append(_spec(f"{name}:{params}" if params else name, f"{where} ({params})", file, written))
     return specs, scenes
+
+
+def _check_lights(scenes: list[SceneEntry], configurations: dict[str, list[str]], written: dict[str, str],
+                  file: str) -> None:
+    """SuiteError, at plan time, for a configuration planned on a scene with a light its
+    technique does not render for (``Technique.LIGHTS``: cascades and LiSPSM need a directional
+    light, PCSS an area light); limit such a technique to suitable scenes with a sweep's
+    ``scenes`` list."""
+    for entry in scenes:
+        for spec in configurations[entry.name]:
+            cls = from_spec(spec)
+            for i, kind in enumerate(entry.light_types):
+                if kind not in cls.LIGHTS:
+                    raise SuiteError(f"{file}: {written.get(spec, spec)} does not render for light {i} of scene "
+                                     f"{entry.name} ({kind}); it {cls.light_requirement()} (limit it to other "
+                                     f"scenes with a [[sweeps]] table's scenes list)")
 
 
 def parse_suite(data: dict, file: str = "<suite>", base: Path | None = None) -> Suite:
@@ -241,4 +262,5 @@ def parse_suite(data: dict, file: str = "<suite>", base: Path | None = None) -> 
         configurations[s.name] = [sp for sp in dict.fromkeys(specs) if sp != truth]
     if not any(configurations.values()):
         raise SuiteError(f"{file}: no technique configurations (give techniques or [[sweeps]])")
+    _check_lights(scenes, configurations, written, file)
     return Suite(name, description, size, repeat, warmup, pass_timing, scenes, configurations, truth, file, written)

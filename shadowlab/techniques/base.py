@@ -1,23 +1,40 @@
-"""What every shadow technique is: declared parameters, and a visibility image per light.
+"""What every shadow technique is: declared parameters, declared capabilities, and a
+visibility image per light slot.
 
 A technique is built from a spec string ``name`` or ``name:key=value,...``. Its parameters are
 declared (:class:`Param`) with defaults; an unknown or ill-typed parameter is an error (pbrt's
 unused-parameter report), and :meth:`Technique.spec` round-trips: ``from_spec(t.spec())``
-rebuilds ``t``. The pipeline (:mod:`shadowlab.pipeline`) calls, per (frame, light):
-:meth:`setup` once (untimed allocation and fitting), :meth:`render` repeatedly (the timed
-passes), then :meth:`visibility`, :meth:`stats` and :meth:`release`.
+rebuilds ``t``. The pipeline (:mod:`shadowlab.pipeline`) calls, per (frame, light slot):
+:meth:`Technique.prepare` (which calls the technique's :meth:`setup`: untimed allocation and
+fitting), :meth:`render` repeatedly (the timed passes), then :meth:`visibility`, :meth:`stats`
+and :meth:`release` — the last also when setup or a render failed.
+
+What a technique declares instead of the core guessing (class attributes):
+
+- ``name``, ``summary``, ``PARAMS``, ``PASSES`` (the passes :meth:`render` names, in order);
+- ``LIGHTS``: the light types it renders for (:data:`ALL_LIGHTS` by default); checked once, when
+  a compare, study or animation is planned (:func:`check_lights`), before any rendering;
+- ``LIGHT_SAMPLED``: a hard technique the pipeline may average over points of an area light
+  (Heckbert & Herf 1997); it then gets the shared parameter ``light_samples``
+  (:data:`LIGHT_SAMPLES`) and sees only point lights, one per sample;
+- ``STATS``: every cost figure :meth:`stats` reports, and how it combines over the light samples
+  of one frame: :data:`SUM` (work per render), :data:`MAX` (a size or peak held while one sample
+  is set up) or :data:`FIRST` (describes the configuration or the view);
+- ``STYLE``: its colour and marker in plots (:class:`PlotStyle`);
+- ``cpu`` (work on the CPU: no GL finish around it) and ``MODIFIES_FRAME``.
+
+A technique registers itself by subclassing :class:`Technique` with its own ``name`` in a
+module of :mod:`shadowlab.techniques` (modules there are discovered): adding one touches no
+other file.
 
 Inputs and outputs (the stage contract of DESIGN §2): a technique reads the frame (G-buffer
-textures, vertex buffers, exact points, evaluated masks, the scene) and writes only its own GL
-objects and its visibility image. The one shared resource it may overwrite is the G-buffer's
-depth-stencil attachment, and only if it says so in :attr:`Technique.MODIFIES_FRAME` (see
-:meth:`shadowlab.frame.Frame.depth_stencil_for`). Its notes (fallbacks, skipped objects) go
-to :attr:`Technique.notes`, which the run reports.
-
-Soft shadows from hard techniques: a class that sets ``LIGHT_SAMPLED = True`` gets the shared
-parameter ``light_samples`` (:data:`LIGHT_SAMPLES`), and the pipeline measures it on an area
-light as the average of that many hard measurements from points of the light
-(:mod:`shadowlab.light_sampling`); the technique itself only ever sees point lights.
+textures, vertex buffers, exact points) and its :class:`~shadowlab.frame.LightSlot` (the light,
+its index, its evaluated mask) and never ``frame.scene.lights``; it writes only its own GL
+objects, registered with :meth:`Technique.own` (released by :meth:`release`), and its
+visibility image. The one shared resource it may overwrite is the G-buffer's depth-stencil
+attachment, and only if it says so in ``MODIFIES_FRAME`` (see
+:meth:`shadowlab.frame.Frame.depth_stencil_for`). Its notes (fallbacks, skipped objects) go to
+:attr:`Technique.notes`, which the run reports.
 """
 from __future__ import annotations
 
@@ -26,6 +43,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from .. import gl
 
 
 class TechniqueError(ValueError):
@@ -97,13 +116,45 @@ LIGHT_SAMPLES = Param(1, "area lights: hard renders averaged, one from each of N
                          "light (1 = its centre); ignored, with a note, on other lights", min=1, max=4096)
 
 
+#: Every light type a scene file can hold (``Light.type_name``).
+ALL_LIGHTS = frozenset({"point", "directional", "spot", "target_direct", "area"})
+#: How a stat combines over the light samples of one frame (:mod:`shadowlab.light_sampling`):
+#: summed (work done per render: passes, rays, preprocessing time) ...
+SUM = "sum"
+#: ... the maximum (a size or a peak held while one sample is set up: memory, stencil peak) ...
+MAX = "max"
+#: ... or the first sample's (describes the configuration or one view: faces, depth range).
+FIRST = "first"
+COMBINE_RULES = (SUM, MAX, FIRST)
+
+
+@dataclass(frozen=True)
+class PlotStyle:
+    """A technique family's colour (any matplotlib colour) and marker in plots."""
+
+    color: str
+    marker: str
+
+
+#: id(program) → the technique that holds it (:meth:`Technique.program`).
+_HOLDERS: dict = {}
+
+#: Every registered technique class by name, in the order their modules were imported
+#: (:mod:`shadowlab.techniques` imports every module of the package).
+REGISTRY: dict[str, type] = {}
+
+
 class Technique:
-    """Base class. Subclasses set ``name``, ``PARAMS`` and implement setup/render/visibility.
+    """Base class. Subclasses set ``name``, ``summary``, ``PARAMS``, ``PASSES``, ``STATS``,
+    ``STYLE`` (and ``LIGHTS``, ``LIGHT_SAMPLED`` where they differ from the defaults) and
+    implement :meth:`setup`, :meth:`render` and, unless they draw into the visibility target of
+    :meth:`visibility_target`, :meth:`visibility`.
 
     A subclass that sets ``LIGHT_SAMPLED = True`` gets the shared parameter ``light_samples``
     (:data:`LIGHT_SAMPLES`) appended to its ``PARAMS`` when the class is made, so it parses,
     round-trips in :meth:`spec` and becomes a ``param_light_samples`` column like a declared one;
-    the pipeline then averages the technique over that many points of an area light."""
+    the pipeline then averages the technique over that many points of an area light. A subclass
+    with its own ``name`` registers itself in :data:`REGISTRY`."""
 
     name = "technique"
     summary = ""
@@ -111,31 +162,44 @@ class Technique:
     #: True for a hard technique that the pipeline may average over points of an area light
     #: (Heckbert & Herf 1997): it then has the ``light_samples`` parameter.
     LIGHT_SAMPLED = False
+    #: The light types (``Light.type_name``) the technique renders for. A light-sampled
+    #: technique renders "area" as the average of point lights on it; others that list "area"
+    #: handle the area light themselves (most: as a point light at its centre).
+    LIGHTS: frozenset[str] = ALL_LIGHTS
+    #: Each stat :meth:`stats` reports → how it combines over light samples (:data:`SUM`,
+    #: :data:`MAX`, :data:`FIRST`). A stat not declared here is an error when measured.
+    STATS: dict[str, str] = {}
+    #: Colour and marker of the technique in plots.
+    STYLE: PlotStyle | None = None
     #: True when the work is on the CPU (no GL finish needed around it when timing).
     cpu = False
     #: Shared frame resources this technique overwrites: empty, or {"depth_stencil"}.
     MODIFIES_FRAME: frozenset[str] = frozenset()
     #: The passes :meth:`render` names with :meth:`timed_pass`, in drawing order.
     PASSES: tuple[str, ...] = ()
-    #: True for a technique that only makes sense on an area light (it raises TechniqueError on
-    #: another light): suites and tests give it soft-shadow scenes.
-    NEEDS_AREA_LIGHT = False
-    #: True for a technique that only handles directional lights (cascades, LiSPSM: they fit
-    #: the map to the camera's view along a light at infinity; TechniqueError on another light).
-    NEEDS_DIRECTIONAL_LIGHT = False
     #: Set by the pipeline while it times passes (a :class:`shadowlab.timing.PassTimer`).
     pass_timer = None
 
     def __init_subclass__(cls, **kwargs):
         """Merge the shared ``light_samples`` parameter into an opted-in class's ``PARAMS`` (last,
-        so declared parameters keep their order), and drop it from a class that opts out again
-        while inheriting a parent's ``PARAMS``."""
+        so declared parameters keep their order), check the declarations, and register a class
+        that names itself."""
         super().__init_subclass__(**kwargs)
         declared = {k: p for k, p in cls.PARAMS.items() if k != "light_samples" or p is not LIGHT_SAMPLES}
         if "light_samples" in declared:
             raise TypeError(f"{cls.__name__}: 'light_samples' is the shared parameter of light-sampled "
                             f"techniques; set LIGHT_SAMPLED = True instead of declaring it")
         cls.PARAMS = {**declared, "light_samples": LIGHT_SAMPLES} if cls.LIGHT_SAMPLED else declared
+        bad = {k: v for k, v in cls.STATS.items() if v not in COMBINE_RULES}
+        if bad:
+            raise TypeError(f"{cls.__name__}: STATS rules must be one of {COMBINE_RULES}, got {bad}")
+        unknown = set(cls.LIGHTS) - ALL_LIGHTS
+        if unknown:
+            raise TypeError(f"{cls.__name__}: LIGHTS names unknown light types {sorted(unknown)}")
+        if "name" in cls.__dict__:
+            if cls.name in REGISTRY and REGISTRY[cls.name].__qualname__ != cls.__qualname__:
+                raise TypeError(f"technique name {cls.name!r} is taken by {REGISTRY[cls.name].__name__}")
+            REGISTRY[cls.name] = cls
 
     def __init__(self, **params):
         unknown = sorted(set(params) - set(self.PARAMS))
@@ -144,6 +208,9 @@ class Technique:
             raise TechniqueError(f"{self.name}: unknown parameter '{unknown[0]}' (known: {known})")
         self._params = {k: p.parse(self.name, k, params.get(k, p.default)) for k, p in self.PARAMS.items()}
         self.notes: list[str] = []
+        self._owned: list = []
+        self._programs: list = []
+        self._visibility_texture = None
 
     def __getattr__(self, key):
         params = self.__dict__.get("_params")
@@ -172,17 +239,49 @@ class Technique:
     def __repr__(self) -> str:
         return f"<{self.spec()}>"
 
+    # -- capabilities ------------------------------------------------------------
+    @classmethod
+    def supports(cls, light) -> bool:
+        """True when the technique renders for ``light`` (its type in ``LIGHTS``)."""
+        return light.type_name in cls.LIGHTS
+
+    @classmethod
+    def light_requirement(cls) -> str:
+        """``LIGHTS`` in words, for errors: "needs a directional light", "needs an area light",
+        or "renders for point, spot, ... lights"."""
+        names = sorted(cls.LIGHTS)
+        if len(names) == 1:
+            return f"needs {'an' if names[0][0] in 'aeiou' else 'a'} {names[0]} light"
+        return f"renders for {', '.join(names)} lights"
+
     # -- the per-light protocol -------------------------------------------------
-    def setup(self, frame, light_index: int) -> None:
-        """Untimed preparation for one light of ``frame`` (allocate, fit frusta)."""
+    def prepare(self, frame, slot) -> None:
+        """Bind the technique to ``frame`` and ``slot`` (a :class:`~shadowlab.frame.LightSlot`,
+        or a scene light's index) as ``self.frame``, ``self.slot`` and ``self.light``, then
+        :meth:`setup`. What the pipeline calls; a failure leaves whatever was made registered,
+        for :meth:`release`."""
+        slot = frame.as_slot(slot)
+        if not self.supports(slot.light):
+            raise TechniqueError(f"{self.name} does not render for a {slot.light.type_name} light "
+                                 f"(light {slot.index}); it {self.light_requirement()}")
+        self.frame, self.slot, self.light = frame, slot, slot.light
+        self.setup(frame, slot)
+
+    def setup(self, frame, slot) -> None:
+        """Untimed preparation for one light slot of ``frame`` (allocate, fit frusta); GL
+        objects made here are registered with :meth:`own`."""
 
     def render(self) -> None:
-        """The technique's own passes for the light given to :meth:`setup` (timed)."""
+        """The technique's own passes for the slot given to :meth:`setup` (timed)."""
         raise NotImplementedError
 
     def visibility(self) -> np.ndarray:
-        """Visibility in [0, 1], float32 (height, width), row 0 = top; 1 = lit."""
-        raise NotImplementedError
+        """Visibility in [0, 1], float32 (height, width), row 0 = top; 1 = lit. By default the
+        texture of :meth:`visibility_target`."""
+        if self._visibility_texture is None:
+            raise NotImplementedError(f"{self.name}: no visibility target was made and visibility() "
+                                      f"is not overridden")
+        return gl.read_texture(self._visibility_texture, 1)[..., 0]
 
     def timed_pass(self, name: str, cpu: bool = False):
         """Context manager around one pass of :meth:`render` (``name`` from :attr:`PASSES`;
@@ -192,11 +291,71 @@ class Technique:
         return self.pass_timer.measure(name, cpu)
 
     def stats(self) -> dict:
-        """Cost figures beside time (memory, passes ...), as extra metrics.csv columns."""
+        """Cost figures beside time (memory, passes ...), as extra metrics.csv columns; every
+        key declared in :attr:`STATS`."""
         return {}
 
+    # -- resources ---------------------------------------------------------------
+    def program(self, name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()):
+        """The cached program of ``shaders/<name>`` (:func:`shadowlab.gl.program`), held by this
+        technique until :meth:`release`. Programs are shared within a process, and a technique
+        sets their uniforms in :meth:`setup`: a program another live technique holds is an error
+        (RuntimeError), never a render with someone else's uniforms."""
+        prog = gl.program(name, defines, varyings)
+        holder = _HOLDERS.get(id(prog))
+        if holder is not None and holder is not self:
+            raise RuntimeError(f"{self.name}: program {name} {defines or ''} is held by {holder.name}, which is "
+                               f"still set up; release it first (programs are shared, their uniforms are not)")
+        _HOLDERS[id(prog)] = self
+        self._programs.append(prog)
+        return prog
+
+    def own(self, obj):
+        """Register a GL object (anything with ``release()``) made for the current slot: it is
+        released with the technique (:meth:`release`). Returns ``obj``."""
+        self._owned.append(obj)
+        return obj
+
+    def free(self, *objs) -> None:
+        """Release registered objects now (a buffer or vertex array replaced during rendering;
+        not framebuffers, which :meth:`release` frees after parking the binding)."""
+        for obj in objs:
+            self._owned.remove(obj)
+            obj.release()
+
+    def visibility_target(self, size: tuple[int, int], share_depth_stencil=None):
+        """The technique's visibility image: an owned R32F texture of ``size`` (width, height)
+        and a framebuffer drawing into it, as (texture, framebuffer); :meth:`visibility` reads
+        the texture. With ``share_depth_stencil`` (the frame's, lent by
+        :meth:`~shadowlab.frame.Frame.depth_stencil_for`) the framebuffer is a
+        :class:`~shadowlab.gl.ScreenTarget` drawing with that depth-stencil attachment."""
+        if share_depth_stencil is None:
+            tex, fbo = gl.visibility_target(size)
+            self.own(tex)
+        else:
+            tex = self.own(gl.context().texture(tuple(size), 1, dtype="f4"))
+            fbo = gl.ScreenTarget.create(tuple(size), [tex], share_depth_stencil=share_depth_stencil)
+        self.own(fbo)
+        self._visibility_texture = tex
+        return tex, fbo
+
+    def fullscreen_quad(self, prog):
+        """An owned full-screen quad VertexArray for ``prog`` (:func:`shadowlab.gl.fullscreen_quad`)."""
+        return self.own(gl.fullscreen_quad(prog))
+
     def release(self) -> None:
-        """Free GL resources made by :meth:`setup`."""
+        """Free every GL object registered with :meth:`own` (newest first), so a technique can
+        be set up again; safe to call twice, and after a setup that failed half-way."""
+        owned, self._owned = self._owned, []
+        self._visibility_texture = None
+        for prog in self._programs:
+            if _HOLDERS.get(id(prog)) is self:
+                del _HOLDERS[id(prog)]
+        self._programs = []
+        if owned:
+            gl.park()
+        for obj in reversed(owned):
+            obj.release()
 
 
 def parse_spec(spec: str) -> tuple[str, dict[str, str]]:

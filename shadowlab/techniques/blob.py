@@ -59,7 +59,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..tracing import mesh_scene, nearest_hits
-from .base import Param, Technique
+from .base import FIRST, SUM, Param, PlotStyle, Technique
 
 @dataclass
 class Blob:
@@ -185,6 +185,8 @@ class BlobShadow(Technique):
     summary = "blob shadows: a darkened ellipse per caster on the nearest receiver below it (cheapest baseline)"
     cpu = True
     PASSES = ("blob",)
+    STYLE = PlotStyle("#7f7f7f", "v")
+    STATS = {"blobs": FIRST, "passes": SUM, "preprocess_ms": SUM}
     PARAMS = {
         "opacity": Param(0.8, "darkening at the blob's centre (visibility 1 − opacity)", min=0.0, min_open=True,
                          max=1.0),
@@ -196,10 +198,9 @@ class BlobShadow(Technique):
                                         "within plane_tolerance of the receiver's plane, coplanar neighbours too)"),
     }
 
-    def setup(self, frame, light_index: int) -> None:
+    def setup(self, frame, slot) -> None:
         """Find each caster's receiver below it and its ellipse (untimed; ``preprocess_ms``)."""
         t0 = time.perf_counter()
-        self.frame, self.light = frame, frame.scene.lights[light_index]
         objects = frame.scene.objects
         extent = frame.scene.extent()
         self.tolerance = self.plane_tolerance * extent
@@ -242,7 +243,7 @@ class BlobShadow(Technique):
             self.notes.append(f"blob: no receiver below (no blob): {names}")
         if flat:
             self.notes.append(f"blob: bounding box projects to no area (no blob): {', '.join(flat)}")
-        self.evaluated = frame.compact_evaluated(light_index)
+        self.evaluated = slot.evaluated
         self.points = frame.compact_position[self.evaluated]
         self.objects = frame.compact_object[self.evaluated]  # (N,) object index of each evaluated point
         self.darkening = np.zeros(len(self.points))

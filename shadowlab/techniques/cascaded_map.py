@@ -26,8 +26,9 @@ texels near the camera are small (Engel 2006, "Cascaded shadow maps", ShaderX5; 
 
 Every cascade's light-space depth range runs from the nearest caster to the farthest point it
 covers, clamped to the scene's bounds (as in shadow_map's fitting). The atlas holds the cascades
-side by side (tile i at x = i·resolution); the depth pass is shadow_map's :func:`depth_pass`; the
-lookup is ``shadow_lookup.glsl`` with ``CASCADES`` defined (the cascade chosen by the point's
+side by side (tile i at x = i·resolution; the map toolkit's :class:`~shadowlab.techniques.maps.Atlas`
+row, at most :data:`~shadowlab.techniques.maps.MAX_FACES` cascades); the depth pass is the
+toolkit's; the lookup is ``shadow_lookup.glsl`` with ``CASCADES`` defined (the cascade chosen by the point's
 camera view depth against the splits) and shadow_map's constant and shader-side slope bias. With
 ``blend`` the visibility blends linearly into the next cascade over the last ``blend_width`` of a
 cascade's depth range (the nearer cascade is the one :meth:`face_index` reports there).
@@ -40,13 +41,11 @@ from .. import gl
 from ..geometry import transforms as tf
 from ..geometry.bounds import box_corners
 from ..geometry.frusta import MIN_EXTENT, PAD, LightView
-from ..geometry.transforms import BIAS
-from ..scene.lights import DirectionalLight
-from .base import Param, TechniqueError
-from .shadow_map import FILTERS, ShadowMap, depth_pass, lookup_pass
+from .base import FIRST, Param, PlotStyle, TechniqueError
+from .maps import DEPTH_MAP_STATS, FILTERS, MAX_FACES, DepthMapTechnique
 
-#: Most cascades (the lookup shader's array sizes, passed to it as MAX_FACES).
-MAX_CASCADES = 8
+#: Most cascades: one per face of the map toolkit's atlas.
+MAX_CASCADES = MAX_FACES
 #: Each cascade also covers this fraction of its depth range beyond its splits, so a point whose
 #: float32 view depth in the shader falls on the other side of a split than its float64 depth
 #: here still lies inside the cascade the shader picks.
@@ -172,17 +171,19 @@ def cover_intervals(splits: np.ndarray, blend_start: np.ndarray) -> np.ndarray:
     return np.stack([np.maximum(z0 - margin, 0.0), z1 + margin], axis=1)
 
 
-class CascadedShadowMap(ShadowMap):
+class CascadedShadowMap(DepthMapTechnique):
     """Cascaded shadow maps (Engel 2006) with Zhang et al.'s split scheme, optional blending,
     Valient's stabilisation, and SDSM fitting (Lauritzen et al. 2011); directional lights only."""
 
     name = "cascaded_map"
     summary = "cascaded shadow maps (PSSM splits, blending, stabilisation) and SDSM, directional lights"
+    STYLE = PlotStyle("#17becf", ">")
     PASSES = ("depth", "lookup")
-    LIGHT_SAMPLED = False
-    #: The technique raises TechniqueError on every light but a directional one (suites and
-    #: tests give it scenes with a directional light; the same flag as lispsm's).
-    NEEDS_DIRECTIONAL_LIGHT = True
+    #: The cascades follow the camera's view along a light at infinity (suites and tests give it
+    #: scenes with a directional light; planning a compare, study or animation elsewhere is an error).
+    LIGHTS = frozenset({"directional"})
+    ATLAS_LAYOUT = "row"
+    STATS = {**DEPTH_MAP_STATS, "cascades": FIRST, "splits": FIRST, "cascade_texel_world": FIRST}
     PARAMS = {
         "cascades": Param(4, "number of cascades (view-depth slices, one map each)", min=1, max=MAX_CASCADES),
         "resolution": Param(1024, "width and height of each cascade's map in texels", min=16, max=16384),
@@ -205,19 +206,16 @@ class CascadedShadowMap(ShadowMap):
     }
 
     # ------------------------------------------------------------------ fitting
-    def _fit(self, frame, light_index: int) -> None:
-        """Splits, blend starts and one LightView per cascade (``self.splits``, ``self.blend_start``,
-        ``self.faces``)."""
-        light = frame.scene.lights[light_index]
-        if not isinstance(light, DirectionalLight):
-            raise TechniqueError(f"cascaded_map: directional lights only (light {light_index} is "
-                                 f"{light.type_name}; use shadow_map for it)")
+    def fit_views(self, frame, slot) -> tuple[list[LightView], list[str]]:
+        """Splits and blend starts (``self.splits``, ``self.blend_start``) and one LightView per
+        cascade, with notes for the run."""
+        light = slot.light
         cam = frame.camera
         tan_y = float(np.tan(np.radians(cam.fov_y) / 2.0))
         tan_x = tan_y * frame.width / frame.height
         n = self.cascades
-        evaluated = frame.compact_evaluated(light_index)
-        points = frame.compact_position[evaluated]
+        points = frame.compact_position[slot.evaluated]
+        notes: list[str] = []
         casters, scene_bounds = frame.caster_bounds(), frame.scene.bounds()
         sdsm = self._params["fit"] == "sdsm"
         if sdsm and len(points):
@@ -225,69 +223,39 @@ class CascadedShadowMap(ShadowMap):
             near, far = float(depth.min()), float(depth.max())
             far = max(far, near * (1.0 + PAD), near + MIN_EXTENT)
             if self.stabilize:
-                self.notes.append("cascaded_map: stabilize is ignored with fit=sdsm (the boxes follow the samples)")
+                notes.append("cascaded_map: stabilize is ignored with fit=sdsm (the boxes follow the samples)")
         else:
             if sdsm:
-                self.notes.append("cascaded_map: sdsm found no evaluated point; splits over the camera's range")
+                notes.append("cascaded_map: sdsm found no evaluated point; splits over the camera's range")
             near, far = float(cam.near), float(cam.far)
         self.splits = practical_splits(near, far, n, self.split_lambda)
         ranges = np.diff(self.splits)
         self.blend_start = self.splits[1:] - (self.blend_width * ranges if self.blend else 0.0)
         intervals = cover_intervals(self.splits, self.blend_start)
         if sdsm and len(points):
-            self.faces, notes = fit_sdsm_cascades(frame.view, tan_x, tan_y, points, intervals, light.direction,
+            faces, sdsm_notes = fit_sdsm_cascades(frame.view, tan_x, tan_y, points, intervals, light.direction,
                                                   casters, scene_bounds, self.resolution)
-            self.notes.extend(notes)
-        else:
-            self.faces = fit_frustum_cascades(frame.view, tan_x, tan_y, intervals, light.direction, casters,
-                                              scene_bounds, self.resolution, self.stabilize and not sdsm)
+            return faces, notes + sdsm_notes
+        return fit_frustum_cascades(frame.view, tan_x, tan_y, intervals, light.direction, casters,
+                                    scene_bounds, self.resolution, self.stabilize and not sdsm), notes
 
-    # ------------------------------------------------------------------ setup
-    def setup(self, frame, light_index: int) -> None:
-        """Fit the cascades, allocate the atlas (cascades side by side) and the programs."""
-        ctx = frame.ctx
-        self.frame, self.light = frame, frame.scene.lights[light_index]
-        self._fit(frame, light_index)
-        n, res = len(self.faces), self.resolution
-        self.atlas = (n * res, res)
-        max_size = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
-        if max(self.atlas) > max_size:
-            raise TechniqueError(f"{self.name}: a {self.atlas[0]}x{self.atlas[1]} atlas exceeds GL_MAX_TEXTURE_SIZE "
-                                 f"{max_size}; lower the resolution or the cascades")
-        self.rects = [(i * res, 0, res, res) for i in range(n)]
-        self.layers = [gl.DepthTexture.create(self.atlas, self.depth_bits)]
-        self.map = self.layers[0]
-        self.sampler = None
-        self.depth_prog = gl.program("shadow_depth.glsl")
-        self.lookup_prog = gl.program("shadow_lookup.glsl", defines={"CASCADES": 1, "MAX_FACES": MAX_CASCADES})
-        pad = MAX_CASCADES - n
-        mats = [BIAS @ f.view_proj for f in self.faces] + [np.eye(4)] * pad
-        self.lookup_prog["u_light_matrix"].write(
-            np.ascontiguousarray(np.stack([m.T for m in mats]), dtype="f4").tobytes())
-        rects = np.zeros((MAX_CASCADES, 4), np.float32)
-        rects[:n] = self.rects
-        gl.set_uniforms(self.lookup_prog, self.light.uniforms())
-        gl.set_uniforms(self.lookup_prog, {
-            "u_position": 0, "u_normal": 1, "u_map": 2, "u_faces": n, "u_face_rect": rects,
-            "u_atlas_size": tuple(map(float, self.atlas)),
+    # ------------------------------------------------------------------ lookup
+    def lookup_defines(self) -> dict:
+        """The lookup picks the cascade by the point's view depth."""
+        return {"CASCADES": 1}
+
+    def comparison_uniforms(self) -> dict:
+        """Constant and shader-side slope bias, PCF radius, the camera's view-depth row, the far
+        split, blend start and texel size of each cascade (padded to the atlas's MAX_FACES)."""
+        return {
             "u_bias": float(self.bias), "u_slope_scale": float(self.slope_scale), "u_normal_offset": 0.0,
-            "u_texel_world": float(self.faces[0].texel_world), "u_texel_angle": 0.0,
+            "u_texel_world": float(self.atlas.faces[0].texel_world), "u_texel_angle": 0.0,
             "u_kernel_radius": FILTERS[self.filter],
-            "u_view_depth": tuple(float(v) for v in -frame.view[2]),
-            "u_cascade_far": np.concatenate([self.splits[1:], np.zeros(pad)]),
-            "u_blend_start": np.concatenate([self.blend_start, np.zeros(pad)]),
-            "u_cascade_texel": np.array([f.texel_world for f in self.faces] + [0.0] * pad),
-        })
-        self.quad = gl.fullscreen_quad(self.lookup_prog)
-        self.vis_tex, self.vis_fbo = gl.visibility_target((frame.width, frame.height))
-
-    # ------------------------------------------------------------------ passes
-    def render(self) -> None:
-        """One depth pass into every cascade's tile, then the lookup over the G-buffer."""
-        with self.timed_pass("depth"):
-            depth_pass(self.frame, self.map, self.depth_prog, self.faces, self.rects)
-        with self.timed_pass("lookup"):
-            lookup_pass(self.frame, self.vis_fbo, self.quad, self.map.texture)
+            "u_view_depth": tuple(float(v) for v in -self.frame.view[2]),
+            "u_cascade_far": self.atlas.padded(self.splits[1:]),
+            "u_blend_start": self.atlas.padded(self.blend_start),
+            "u_cascade_texel": self.atlas.padded([f.texel_world for f in self.atlas.faces]),
+        }
 
     # ------------------------------------------------------------------ texel mapping
     def face_index(self, points: np.ndarray) -> np.ndarray:
@@ -300,8 +268,9 @@ class CascadedShadowMap(ShadowMap):
     def stats(self) -> dict:
         """Atlas memory, cascades, passes (one depth pass per cascade + the lookup), the split
         depths and each cascade's world texel size (strings), and cascade 0's texel size."""
-        return {"memory_bytes": self.map.nbytes, "cascades": len(self.faces), "faces": len(self.faces),
-                "passes": len(self.faces) + 1, "depth_range": self.faces[0].depth_range,
+        faces = self.atlas.faces
+        return {"memory_bytes": self.map.nbytes, "cascades": len(faces), "faces": len(faces),
+                "passes": len(faces) + 1, "depth_range": faces[0].depth_range,
                 "splits": " ".join(f"{z:.6g}" for z in self.splits),
-                "cascade_texel_world": " ".join(f"{f.texel_world:.6g}" for f in self.faces),
-                "texel_world": float(self.faces[0].texel_world)}
+                "cascade_texel_world": " ".join(f"{f.texel_world:.6g}" for f in faces),
+                "texel_world": float(faces[0].texel_world)}

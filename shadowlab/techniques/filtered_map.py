@@ -7,7 +7,8 @@ blurred, bilinearly sampled — before the comparison, so the shadow's edge come
 
 Depth is *linear* in [0, 1] over the fitted near/far planes of the map:
 z = (d − near) / (far − near), d the distance along the view's axis (−z in view space); the
-receiver's t the same. Light fitting is shadow_map's (:func:`fit_light_views`): spot, point
+receiver's t the same. Light fitting and the atlas are the map toolkit's
+(:func:`~shadowlab.techniques.maps.fit_light_views`, :class:`~shadowlab.techniques.maps.Atlas`): spot, point
 (one frustum, or a cube of six faces in an atlas), directional and target-direct lights.
 
 Passes: the moments from the light (one per face), a separable box blur of ``kernel`` texels
@@ -64,10 +65,9 @@ from __future__ import annotations
 import numpy as np
 
 from .. import gl, glstate
-from ..geometry.transforms import BIAS
 from ..glstate import PassState
-from .base import Param, Technique, TechniqueError
-from .shadow_map import TexelMapping, fit_light_views
+from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError
+from .maps import ATLAS_DEFINES, Atlas, TexelMapping, fit_light_views
 
 VARIANTS = ("vsm", "esm", "evsm2", "evsm4", "msm")
 #: The variant's number in the shaders (u_variant; the shaders get these as #defines).
@@ -178,6 +178,9 @@ class FilteredShadowMap(TexelMapping, Technique):
     summary = ("filtered shadow maps: variance (Donnelly & Lauritzen 2006), exponential (Annen et al. 2008), "
                "exponential variance (Lauritzen & McCool 2008), moment (Peters & Klein 2015)")
     PASSES = ("moments", "blur", "lookup")
+    STYLE = PlotStyle("#e377c2", "X")
+    STATS = {"memory_bytes": MAX, "bits_per_texel": FIRST, "faces": FIRST, "passes": SUM, "depth_range": FIRST,
+             "texel_world": FIRST}
     PARAMS = {
         "variant": Param("vsm", "vsm (two moments, Chebyshev bound), esm (exp(c z)), evsm2 / evsm4 (Chebyshev on "
                                 "exp-warped depth: positive, positive and negative), msm (Hamburger 4 moments)",
@@ -236,66 +239,53 @@ class FilteredShadowMap(TexelMapping, Technique):
                     f"{np.floor(negative_bound * 100) / 100:g}")
 
     # ------------------------------------------------------------------ setup
-    def setup(self, frame, light_index: int) -> None:
-        """Fit the faces (shadow_map's fitting), allocate the moments atlas, its ping-pong copy,
-        the depth buffer and the programs."""
+    def setup(self, frame, slot) -> None:
+        """Fit the faces (the map toolkit's fitting), allocate the moments atlas, its ping-pong
+        copy, the depth buffer and the programs."""
         ctx = frame.ctx
-        self.frame, self.light = frame, frame.scene.lights[light_index]
-        self.faces, notes = fit_light_views(frame, light_index, self.resolution, self.projection)
+        faces, notes = fit_light_views(frame, slot, self.resolution, self.projection)
         self.notes.extend(notes)
-        n = len(self.faces)
-        ranges = {linear_range(f) for f in self.faces}
-        self.near, self.far = linear_range(self.faces[0])
+        ranges = {linear_range(f) for f in faces}
+        self.near, self.far = linear_range(faces[0])
         if any(abs(a - self.near) > 1e-6 * abs(self.far) or abs(b - self.far) > 1e-6 * abs(self.far)
                for a, b in ranges):
             raise TechniqueError(f"{self.name}: the map's faces have different depth ranges {sorted(ranges)}")
-        cols, rows = (3, 2) if n == 6 else (1, 1)
-        r = self.resolution
-        self.atlas = (cols * r, rows * r)
-        max_size = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
-        if max(self.atlas) > max_size:
-            raise TechniqueError(f"{self.name}: a {self.atlas[0]}x{self.atlas[1]} map exceeds GL_MAX_TEXTURE_SIZE "
-                                 f"{max_size}; lower the resolution")
-        self.rects = [((i % cols) * r, (i // cols) * r, r, r) for i in range(n)]
+        self.atlas = Atlas.grid(faces, self.resolution, self.name)
+        size = self.atlas.size
         comps = COMPONENTS[self.variant]
-        self.moments = [ctx.texture(self.atlas, comps, dtype=DTYPES[(self.variant, self.precision)])
+        self.moments = [self.own(ctx.texture(size, comps, dtype=DTYPES[(self.variant, self.precision)]))
                         for _ in range(2)]
         for tex in self.moments:
             tex.filter = (ctx.LINEAR, ctx.LINEAR)
             tex.repeat_x = tex.repeat_y = False
-        self.depth_rb = ctx.depth_renderbuffer(self.atlas)
-        self.moments_fbo = gl.framebuffer([self.moments[0]], self.depth_rb)
-        self.blur_fbos = [gl.framebuffer([tex]) for tex in self.moments]
+        self.depth_rb = self.own(ctx.depth_renderbuffer(size))
+        self.moments_fbo = self.own(gl.framebuffer([self.moments[0]], self.depth_rb))
+        self.blur_fbos = [self.own(gl.framebuffer([tex])) for tex in self.moments]
         # Clear value: the moments of z = 1 (the far plane) — nothing casts there.
         self.clear = self._far_moments()
 
-        self.depth_prog = gl.program("filtered_depth.glsl", defines=VARIANT_DEFINES)
+        self.depth_prog = self.program("filtered_depth.glsl", defines=VARIANT_DEFINES)
         gl.set_uniforms(self.depth_prog, {"u_near": self.near, "u_far": self.far,
                                           "u_exponent": float(self.exponent),
                                           "u_derivative_weight": DERIVATIVE_WEIGHT})
         self._set_variant_uniforms(self.depth_prog)
-        self.blur_prog = gl.program("filtered_lookup.glsl", defines={"BLUR": 1})
+        self.blur_prog = self.program("filtered_lookup.glsl", defines={"BLUR": 1})
         gl.set_uniforms(self.blur_prog, {"u_moments": 0, "u_radius": self.kernel // 2})
-        self.blur_quad = gl.fullscreen_quad(self.blur_prog)
+        self.blur_quad = self.fullscreen_quad(self.blur_prog)
 
-        self.lookup_prog = gl.program("filtered_lookup.glsl", defines=VARIANT_DEFINES)
-        mats = [BIAS @ f.view_proj for f in self.faces] + [np.eye(4)] * (6 - n)
-        views = [f.view for f in self.faces] + [np.eye(4)] * (6 - n)
-        self.lookup_prog["u_light_matrix"].write(b"".join(gl.mat_bytes(m) for m in mats))
-        self.lookup_prog["u_light_view"].write(b"".join(gl.mat_bytes(m) for m in views))
-        rects = np.zeros((6, 4), np.float32)
-        rects[:n] = self.rects
+        self.lookup_prog = self.program("filtered_lookup.glsl", defines={**VARIANT_DEFINES, **ATLAS_DEFINES})
+        self.atlas.write_uniforms(self.lookup_prog)
+        self.lookup_prog["u_light_view"].write(self.atlas.view_matrices())
         gl.set_uniforms(self.lookup_prog, self.light.uniforms())
         gl.set_uniforms(self.lookup_prog, {
-            "u_position": 0, "u_moments": 1, "u_faces": n, "u_face_rect": rects,
-            "u_atlas_size": tuple(map(float, self.atlas)), "u_near": self.near, "u_far": self.far,
+            "u_position": 0, "u_moments": 1, "u_near": self.near, "u_far": self.far,
             "u_exponent": float(self.exponent),
             "u_min_variance": float(self.min_variance), "u_bleed_reduction": float(self.bleed_reduction),
             "u_moment_bias": float(self.moment_bias), "u_moment_bias_target": MSM_BIAS_TARGET,
         })
         self._set_variant_uniforms(self.lookup_prog)
-        self.quad = gl.fullscreen_quad(self.lookup_prog)
-        self.vis_tex, self.vis_fbo = gl.visibility_target((frame.width, frame.height))
+        self.quad = self.fullscreen_quad(self.lookup_prog)
+        self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
 
     def _quantized(self) -> bool:
         """True for the 16-bit MSM map, stored through the quantisation transform."""
@@ -339,10 +329,10 @@ class FilteredShadowMap(TexelMapping, Technique):
         with self.timed_pass("moments"):
             self.moments_fbo.use()
             glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True))
-            self.frame.ctx.viewport = (0, 0, *self.atlas)
+            self.frame.ctx.viewport = (0, 0, *self.atlas.size)
             GL.glClearBufferfv(GL.GL_COLOR, 0, self.clear)
             GL.glClearBufferfv(GL.GL_DEPTH, 0, (1.0,))
-            for face, rect in zip(self.faces, self.rects):
+            for face, rect in zip(self.atlas.faces, self.atlas.rects):
                 self.frame.ctx.viewport = rect
                 self.depth_prog["u_light_view_proj"].write(gl.mat_bytes(face.view_proj))
                 self.depth_prog["u_light_view"].write(gl.mat_bytes(face.view))
@@ -355,7 +345,7 @@ class FilteredShadowMap(TexelMapping, Technique):
                     glstate.apply(PassState())
                     self.moments[src].use(0)
                     self.blur_prog["u_direction"].value = direction
-                    for rect in self.rects:
+                    for rect in self.atlas.rects:
                         self.frame.ctx.viewport = rect
                         self.blur_prog["u_rect"].value = rect
                         self.blur_quad.render()
@@ -366,27 +356,15 @@ class FilteredShadowMap(TexelMapping, Technique):
             self.moments[0].use(1)
             self.quad.render()
 
-    def visibility(self) -> np.ndarray:
-        """Visibility in [0, 1], float32 (height, width), row 0 = top (fractional: filtered)."""
-        return gl.read_texture(self.vis_tex, 1)[..., 0]
-
     def stats(self) -> dict:
         """Cost: memory (the moments atlas, its blur copy, the depth buffer), bits per texel of
         the map, passes per frame."""
-        texels = self.atlas[0] * self.atlas[1]
+        texels = self.atlas.texels
         bits = bits_per_texel(self.variant, self.precision)
         per_map = texels * bits // 8
-        faces = len(self.faces)
+        faces = len(self.atlas.faces)
         return {"memory_bytes": 2 * per_map + texels * DEPTH_BUFFER_BYTES,
                 "bits_per_texel": bits, "faces": faces,
                 "passes": faces + (2 * faces if self.kernel > 1 else 0) + 1,  # moments, blur, lookup
-                "depth_range": self.faces[0].depth_range,
-                "texel_world": float(self.faces[0].texel_world) or None}
-
-    def release(self) -> None:
-        """Free the maps, framebuffers, programs and visibility target."""
-        gl.park()
-        self.frame.forget(self.depth_prog)
-        for obj in [self.quad, self.blur_quad, self.vis_fbo, self.vis_tex, self.moments_fbo, *self.blur_fbos,
-                    *self.moments, self.depth_rb, self.depth_prog, self.blur_prog, self.lookup_prog]:
-            obj.release()
+                "depth_range": self.atlas.faces[0].depth_range,
+                "texel_world": float(self.atlas.faces[0].texel_world) or None}

@@ -5,10 +5,11 @@ A uniform shadow map spends as many texels on a far receiver as on a near one, w
 magnifies the near ones: perspective aliasing. LiSPSM renders the map through a perspective
 warp P whose axis lies in the map's plane (light-space y: the view direction projected
 perpendicular to the light), so texels shrink towards the viewer; the light stays directional
-after the warp. Only the fitting differs from :class:`ShadowMap`: ``self.faces`` is one
-LightView whose ``view`` is the light-space rotation and whose ``proj`` is the whole warp (P,
-then the orthographic fit into the unit cube); depth pass, lookup, bias variants, filters and
-the texel mapping are ShadowMap's. The maths is in :mod:`shadowlab.geometry.lispsm_frustum`.
+after the warp. Only the fitting differs from a shadow map: the atlas holds one LightView whose
+``view`` is the light-space rotation and whose ``proj`` is the whole warp (P, then the
+orthographic fit into the unit cube); depth pass, lookup and texel mapping are the map
+toolkit's (:class:`~shadowlab.techniques.maps.DepthMapTechnique`), the bias variants and
+filters shadow_map's (:class:`~shadowlab.techniques.shadow_map.ComparisonVariants`). The maths is in :mod:`shadowlab.geometry.lispsm_frustum`.
 
 The body B (the paper's "focused" body; our choice of focus box, ``fit=``): the camera's view
 frustum (the frame's fitted camera: near/far fitted to the scene's bounds, so its far plane
@@ -42,27 +43,28 @@ from ..geometry import lispsm_frustum as lf
 from ..geometry import transforms as tf
 from ..geometry.bounds import box_corners
 from ..geometry.frusta import LightView
-from ..scene.lights import DirectionalLight
-from .base import Param, TechniqueError
-from .shadow_map import SHADOWABLE_OFFSET, ShadowMap, shadowable
+from .base import FIRST, Param, PlotStyle
+from .maps import DEPTH_MAP_STATS, DepthMapTechnique, shadowable_receivers
+from .shadow_map import COMPARISON_PARAMS, VARIANTS, ComparisonVariants
 
 #: Central-difference step for the texel-size estimate, × the body's extent.
 TEXEL_STEP = 1e-4
 
 
-class LiSPSM(ShadowMap):
+class LiSPSM(ComparisonVariants, DepthMapTechnique):
     """Light space perspective shadow map of a directional light (one warped face)."""
 
     name = "lispsm"
     summary = "light space perspective shadow maps (Wimmer et al. 2004): n_opt warp, directional lights"
-    LIGHT_SAMPLED = False  # directional lights only: there is no area light to sample
-    #: The technique raises TechniqueError on every light but a directional one (suites and
-    #: tests give it scenes with a directional light).
-    NEEDS_DIRECTIONAL_LIGHT = True
+    STYLE = PlotStyle("#ff7f0e", "h")
+    #: The warp is defined for a light at infinity only (suites and tests give it scenes with a
+    #: directional light; planning a compare, study or animation elsewhere is an error).
+    LIGHTS = frozenset({"directional"})
+    STATS = {**DEPTH_MAP_STATS, "n_used": FIRST, "gamma_deg": FIRST}
     PARAMS = {
-        **{k: p for k, p in ShadowMap.PARAMS.items() if k not in ("projection", "near", "fit", "variant")},
+        **{k: p for k, p in COMPARISON_PARAMS.items() if k != "variant"},
         "variant": Param("slope", "depth comparison (slope: offset from the warped map's own depth slope)",
-                         choices=ShadowMap.PARAMS["variant"].choices),
+                         choices=VARIANTS),
         "fit": Param("shadowable", "the box the view frustum is clipped to: bounds of the shadowable receivers, "
                                    "of every visible receiver, or of the scene (the paper's)",
                      choices=("shadowable", "receivers", "scene")),
@@ -70,14 +72,11 @@ class LiSPSM(ShadowMap):
                         "(0 = n_opt)", min=0.0),
     }
 
-    def fit_views(self, frame, light_index: int) -> tuple[list[LightView], list[str]]:
+    def fit_views(self, frame, slot) -> tuple[list[LightView], list[str]]:
         """One LightView: light-space rotation and the LiSPSM warp fitted to the body B."""
-        light = frame.scene.lights[light_index]
-        if not isinstance(light, DirectionalLight):
-            raise TechniqueError(f"{self.name}: light {light_index} is {light.type_name}; LiSPSM warps the map "
-                                 f"of a directional light only (use shadow_map for this light)")
+        light = slot.light
         notes: list[str] = []
-        receivers = self._receivers(frame, light_index)
+        receivers = self._receivers(frame, slot)
         focus = frame.scene.bounds() if self.fit == "scene" or len(receivers) == 0 else \
             np.stack([receivers.min(axis=0), receivers.max(axis=0)])
         cam = frame.camera
@@ -113,23 +112,18 @@ class LiSPSM(ShadowMap):
         sizes = lf.texel_world_sizes(proj @ rotation, rotation, samples, self.resolution, TEXEL_STEP * extent)
         return [LightView(rotation, proj, texel_world=float(np.median(sizes)))], notes
 
-    def _receivers(self, frame, light_index: int) -> np.ndarray:
+    def _receivers(self, frame, slot) -> np.ndarray:
         """The evaluated receiver points (M, 3) the focus box bounds (``fit``; empty for ``scene``)."""
         if self.fit == "scene":
             return np.zeros((0, 3))
-        light = frame.scene.lights[light_index]
-        evaluated = frame.compact_evaluated(light_index)
-        points = frame.compact_position[evaluated]
         if self.fit == "shadowable":
-            keep = shadowable(points, frame.compact_normal[evaluated], light, frame.caster_bounds(),
-                              eps=SHADOWABLE_OFFSET * frame.scene.extent())
-            points = points[keep]
-        return points
+            return shadowable_receivers(frame, slot)
+        return frame.compact_position[slot.evaluated]
 
     def stats(self) -> dict:
-        """ShadowMap's figures, the warp's ``n_used`` (None: uniform fallback) and ``gamma_deg``;
-        ``depth_range`` is the map's extent along the light (world units) and ``texel_world``
-        the median world texel size over the covered receivers."""
+        """The depth map's figures, the warp's ``n_used`` (None: uniform fallback) and
+        ``gamma_deg``; ``depth_range`` is the map's extent along the light (world units) and
+        ``texel_world`` the median world texel size over the covered receivers."""
         out = super().stats()
         out.update(depth_range=self._depth_range, n_used=self.n_used, gamma_deg=self.gamma_deg)
         return out

@@ -3,7 +3,7 @@
 Randima Fernando, "Percentage-Closer Soft Shadows", SIGGRAPH 2005 sketch; NVIDIA's whitepaper
 "Integrating Realistic Soft Shadows into Your Game Engine" (Bavoil 2008) for the uv scaling.
 One depth map is rendered from the light's centre (a perspective frustum, the shadow map's
-fitting: :func:`shadowlab.techniques.shadow_map.fit_light_views`). Fernando's parallel planes
+fitting: :func:`shadowlab.techniques.maps.fit_light_views`). Fernando's parallel planes
 are planes parallel to the light: h is the height above the light's plane along
 :func:`height_axis` (rect, disc: the normal; sphere: the map's axis), h_r the receiver's. The
 light seen from the receiver P and cut by the plane at height h is a copy of the light scaled
@@ -56,8 +56,8 @@ import numpy as np
 from .. import gl
 from ..scene.area_lights import AreaLight, DiscLight, RectLight, SphereLight, basis, concentric_disc, strata
 from ..geometry.transforms import BIAS
-from .base import Param, Technique, TechniqueError
-from .shadow_map import CLEAR_DEPTH, TexelMapping, depth_pass, fit_light_views, lookup_pass
+from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError
+from .maps import CLEAR_DEPTH, Atlas, TexelMapping, depth_pass, fit_light_views, lookup_pass
 
 #: Depth format of the map (24-bit fixed point, as the shadow map's default).
 DEPTH_BITS = 24
@@ -152,7 +152,12 @@ class PCSS(TexelMapping, Technique):
     name = "pcss"
     summary = "percentage-closer soft shadows (Fernando 2005): blocker search, penumbra estimate, PCF"
     PASSES = ("depth", "lookup")
-    NEEDS_AREA_LIGHT = True
+    STYLE = PlotStyle("#8c564b", "P")
+    #: Only an area light has the size the penumbra estimate needs (suites and tests give it
+    #: soft-shadow scenes; planning a compare, study or animation elsewhere is an error).
+    LIGHTS = frozenset({"area"})
+    STATS = {"memory_bytes": MAX, "faces": FIRST, "passes": SUM, "depth_range": FIRST, "light_size": FIRST,
+             "texel_world": FIRST}
     PARAMS = {
         "resolution": Param(2048, "shadow map width and height in texels", min=16, max=16384),
         "bias": Param(0.002, "constant depth bias in window-depth units [0, 1], subtracted from the "
@@ -167,28 +172,18 @@ class PCSS(TexelMapping, Technique):
                                       "(Isidoro 2006) instead of the centre's depth"),
     }
 
-    def setup(self, frame, light_index: int) -> None:
-        """Check the light, fit the map's frustum, allocate the map, programs and uniforms."""
-        ctx = frame.ctx
-        light = frame.scene.lights[light_index]
-        if not isinstance(light, AreaLight):
-            raise TechniqueError(f"pcss needs an area light (type = \"area\": rect, disc or sphere); light "
-                                 f"{light_index} is a {light.type_name} light")
-        self.frame, self.light = frame, light
+    def setup(self, frame, slot) -> None:
+        """Fit the map's frustum, allocate the map, programs and uniforms."""
+        light = slot.light
         # Every evaluated receiver (fit=receivers): the shadowable fit tests segments to the
         # centre only and would leave the outer penumbra off the map.
-        self.faces, notes = fit_light_views(frame, light_index, self.resolution, "frustum", 0.0, "receivers")
+        faces, notes = fit_light_views(frame, slot, self.resolution, "frustum", 0.0, "receivers")
         self.notes.extend(notes)
-        face = self.faces[0]
-        self.rects = [(0, 0, self.resolution, self.resolution)]  # the one face fills the map
-        size = (self.resolution, self.resolution)
-        max_size = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
-        if self.resolution > max_size:
-            raise TechniqueError(f"pcss: a {self.resolution}² map exceeds GL_MAX_TEXTURE_SIZE {max_size}; "
-                                 f"lower the resolution")
-        self.map = gl.DepthTexture.create(size, DEPTH_BITS)
-        self.depth_prog = gl.program("shadow_depth.glsl")
-        self.lookup_prog = gl.program("pcss.glsl", defines={"BLOCKER_SAMPLES": self.blocker_samples,
+        self.atlas = Atlas.grid(faces[:1], self.resolution, self.name)  # the one face fills the map
+        face = self.atlas.faces[0]
+        self.map = self.own(gl.DepthTexture.create(self.atlas.size, DEPTH_BITS))
+        self.depth_prog = self.program("shadow_depth.glsl")
+        self.lookup_prog = self.program("pcss.glsl", defines={"BLOCKER_SAMPLES": self.blocker_samples,
                                                             "FILTER_SAMPLES": self.filter_samples})
         proj, view = face.proj, face.view
         near, far = near_far(proj)
@@ -221,32 +216,18 @@ class PCSS(TexelMapping, Technique):
             "u_filter_offsets": sample_offsets(self.filter_samples, disc),
         })
         self.near, self.far = near, far
-        self.quad = gl.fullscreen_quad(self.lookup_prog)
-        self.vis_tex, self.vis_fbo = gl.visibility_target((frame.width, frame.height))
+        self.quad = self.fullscreen_quad(self.lookup_prog)
+        self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
 
     def render(self) -> None:
         """The depth pass from the light's centre, then the PCSS lookup over the G-buffer."""
         with self.timed_pass("depth"):
-            depth_pass(self.frame, self.map, self.depth_prog, self.faces, self.rects)
+            depth_pass(self.frame, self.map, self.depth_prog, self.atlas)
         with self.timed_pass("lookup"):
             lookup_pass(self.frame, self.vis_fbo, self.quad, self.map.texture)
-
-    def visibility(self) -> np.ndarray:
-        """Visibility float32 (height, width) in [0, 1], row 0 = top, from the lookup pass."""
-        return gl.read_texture(self.vis_tex, 1)[..., 0]
 
     def stats(self) -> dict:
         """Map memory, passes per frame, the map's depth range and the light size used."""
         return {"memory_bytes": self.map.nbytes, "faces": 1, "passes": 2,
                 "depth_range": self.far - self.near, "light_size": light_size(self.light),
                 "texel_world": None}
-
-    def release(self) -> None:
-        """Free the map, programs and visibility target (those a failed setup got to make)."""
-        gl.park()
-        made = self.__dict__
-        if "depth_prog" in made:
-            self.frame.forget(self.depth_prog)
-        for key in ("map", "quad", "vis_fbo", "vis_tex", "depth_prog", "lookup_prog"):
-            if key in made:
-                made.pop(key).release()

@@ -37,7 +37,7 @@ import numpy as np
 
 from .. import gl, glstate
 from ..glstate import PassState, Stencil
-from .base import Param, Technique
+from .base import FIRST, SUM, Param, PlotStyle, Technique
 
 #: Planarity tolerance: largest distance of a vertex from the fitted plane, relative to the
 #: object's bounding-box diagonal.
@@ -89,13 +89,13 @@ class PlanarShadow(Technique):
     #: Its own depth pre-pass and the stencil of the fixes live in the G-buffer's depth-stencil.
     MODIFIES_FRAME = frozenset({"depth_stencil"})
     PASSES = ("stencil", "darken")
+    STYLE = PlotStyle("#2ca02c", "^")
+    STATS = {"planar_receivers": FIRST, "polygons": SUM, "passes": SUM, "preprocess_ms": SUM}
     LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.light_sampling)
 
-    def setup(self, frame, light_index: int) -> None:
+    def setup(self, frame, slot) -> None:
         """Find planar receivers, build their projections, render the depth pre-pass."""
         t0 = time.perf_counter()
-        ctx = frame.ctx
-        self.frame, self.light = frame, frame.scene.lights[light_index]
         light_h = self.light.homogeneous()
         self.receivers: list[PlanarReceiver] = []
         skipped = []
@@ -119,14 +119,13 @@ class PlanarShadow(Technique):
             self.notes.append(f"not planar, so no shadow from planar: {', '.join(skipped)}")
         self.preprocess_ms = 1e3 * (time.perf_counter() - t0)
         defines = {"CLIP_LIGHT": 1} if self.clip_light else None
-        self.prog = gl.program("planar.glsl", defines=defines)
+        self.prog = self.program("planar.glsl", defines=defines)
         self.prog["u_view_proj"].write(gl.mat_bytes(frame.view_projection))
         self.prog["u_keep"].value = 1.0 - float(self.opacity)
-        self.depth_prog = gl.program("depth_only.glsl")
+        self.depth_prog = self.program("depth_only.glsl")
         self.depth_prog["u_view_proj"].write(gl.mat_bytes(frame.view_projection))
-        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
-        self.target = gl.ScreenTarget.create((frame.width, frame.height), [self.vis_tex],
-                                             share_depth_stencil=frame.depth_stencil_for(self))
+        self.vis_tex, self.target = self.visibility_target((frame.width, frame.height),
+                                                           share_depth_stencil=frame.depth_stencil_for(self))
         self.target.use()
         glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False))
         self.target.clear_depth_stencil()
@@ -173,22 +172,9 @@ class PlanarShadow(Technique):
                     if i != rec.index:
                         self._draw_object(self.prog, i)
 
-    def visibility(self) -> np.ndarray:
-        """Visibility: 1, times 1 − opacity per darkening layer."""
-        return gl.read_texture(self.vis_tex, 1)[..., 0]
-
     def stats(self) -> dict:
         """Receivers, flattened triangles per frame, preprocessing time."""
         objs = self.frame.scene.objects
         tris = sum(len(o.faces) for r in self.receivers for i, o in enumerate(objs) if o.casts and i != r.index)
         return {"planar_receivers": len(self.receivers), "polygons": int(tris),
                 "passes": len(self.receivers) * (2 if self.clip else 1), "preprocess_ms": self.preprocess_ms}
-
-    def release(self) -> None:
-        """Free GL objects."""
-        gl.park()
-        for prog in (self.prog, self.depth_prog):
-            self.frame.forget(prog)
-            prog.release()
-        self.target.release()
-        self.vis_tex.release()

@@ -63,7 +63,8 @@ from ..geometry.frusta import LightView
 from ..geometry.transforms import BIAS
 from ..glstate import PassState
 from ..scene.lights import T_INFINITE
-from .base import Param, Technique, TechniqueError
+from .base import SUM, MAX, Param, PlotStyle, Technique
+from .maps import check_texture_size
 
 RECEIVERS = ("others", "non_casters")
 FILTERS = ("nearest", "linear")
@@ -125,6 +126,8 @@ class ProjectiveShadow(Technique):
     summary = ("projective shadow textures (Segal et al. 1992; Nguyen 1999): per caster a shadow image from the "
                "light projected onto the receivers; no self-shadowing")
     PASSES = ("mask", "lookup")
+    STYLE = PlotStyle("#bcbd22", "<")
+    STATS = {"memory_bytes": MAX, "shadow_images": SUM, "passes": SUM}
     LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.light_sampling)
     PARAMS = {
         "resolution": Param(512, "width and height of each caster's shadow image in texels", min=16, max=8192),
@@ -137,21 +140,16 @@ class ProjectiveShadow(Technique):
     }
 
     # ------------------------------------------------------------------ setup
-    def setup(self, frame, light_index: int) -> None:
+    def setup(self, frame, slot) -> None:
         """Fit each caster's view, allocate its image and framebuffer, the receiver flags and
         the programs (untimed)."""
         ctx = frame.ctx
-        self.frame, self.light = frame, frame.scene.lights[light_index]
         objects = frame.scene.objects
-        max_size = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
-        if len(objects) > max_size:
-            raise TechniqueError(f"{self.name}: {len(objects)} objects exceed the receiver flag texture's "
-                                 f"GL_MAX_TEXTURE_SIZE {max_size}")
-        if self.resolution > max_size:
-            raise TechniqueError(f"{self.name}: resolution {self.resolution} exceeds GL_MAX_TEXTURE_SIZE {max_size}")
+        check_texture_size((len(objects), 1), self.name, "receiver flag texture (one texel per object)")
+        check_texture_size((self.resolution, self.resolution), self.name, "shadow image")
         takes = [o.receives and (self.receivers == "others" or not o.casts) for o in objects]
-        self.flags = ctx.texture((max(len(objects), 1), 1), 1, (np.array(takes or [False]) * 255).astype(np.uint8),
-                                 dtype="f1")
+        self.flags = self.own(ctx.texture((max(len(objects), 1), 1), 1,
+                                          (np.array(takes or [False]) * 255).astype(np.uint8), dtype="f1"))
         self.flags.filter = (ctx.NEAREST, ctx.NEAREST)
 
         self.casters: list[tuple[int, LightView, np.ndarray]] = []  # (object index, view, bounds)
@@ -172,14 +170,14 @@ class ProjectiveShadow(Technique):
         filt = ctx.LINEAR if self.filter == "linear" else ctx.NEAREST
         self.masks = []
         for _ in self.casters:
-            tex = ctx.texture(size, 1, dtype="f1")
+            tex = self.own(ctx.texture(size, 1, dtype="f1"))
             tex.filter = (filt, filt)
             tex.repeat_x = tex.repeat_y = False
-            self.masks.append((tex, gl.framebuffer([tex])))
+            self.masks.append((tex, self.own(gl.framebuffer([tex]))))
 
-        self.mask_prog = gl.program("projective.glsl", defines={"MASK": 1})
+        self.mask_prog = self.program("projective.glsl", defines={"MASK": 1})
         gl.set_uniforms(self.mask_prog, {"u_covered": COVERED})
-        self.lookup_prog = gl.program("projective.glsl")
+        self.lookup_prog = self.program("projective.glsl")
         light_h = self.light.homogeneous()
         gl.set_uniforms(self.lookup_prog, {
             "u_position": 0, "u_ids": 1, "u_receives": 2, "u_mask": 3,
@@ -187,8 +185,8 @@ class ProjectiveShadow(Technique):
             "u_segment_end": 1.0 if light_h[3] != 0 else float(T_INFINITE),
             "u_parallel": PARALLEL_EPS, "u_lit": LIT,
         })
-        self.quad = gl.fullscreen_quad(self.lookup_prog)
-        self.vis_tex, self.vis_fbo = gl.visibility_target((frame.width, frame.height))
+        self.quad = self.fullscreen_quad(self.lookup_prog)
+        self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
 
     # ------------------------------------------------------------------ passes
     def render(self) -> None:
@@ -222,24 +220,9 @@ class ProjectiveShadow(Technique):
                                                    "u_box_max": tuple(map(float, bounds[1]))})
                 self.quad.render()
 
-    def visibility(self) -> np.ndarray:
-        """Visibility in [0, 1], float32 (height, width), row 0 = top (fractional only with
-        ``filter=linear``)."""
-        return gl.read_texture(self.vis_tex, 1)[..., 0]
-
     def stats(self) -> dict:
         """Cost: memory of every shadow image (R8, ``resolution``² each) and the receiver flags,
         the number of shadow images, passes per frame (mask + lookup per caster)."""
         images = len(self.casters)
         return {"memory_bytes": images * self.resolution ** 2 * MASK_BYTES + self.flags.width * FLAG_BYTES,
                 "shadow_images": images, "passes": 2 * images}
-
-    def release(self) -> None:
-        """Free the images, framebuffers, flag texture, programs and visibility target."""
-        gl.park()
-        self.frame.forget(self.mask_prog)
-        for tex, fbo in self.masks:
-            fbo.release()
-            tex.release()
-        for obj in (self.quad, self.vis_fbo, self.vis_tex, self.flags, self.mask_prog, self.lookup_prog):
-            obj.release()

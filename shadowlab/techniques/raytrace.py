@@ -66,7 +66,7 @@ import numpy as np
 from ..scene.area_lights import AreaLight, above_horizon
 from ..scene.lights import T_LIGHT
 from ..tracing import DEFAULT_OFFSET_SCALE, caster_scene, occluded, offset_origins
-from .base import Param, Technique
+from .base import FIRST, SUM, Param, PlotStyle, Technique
 
 #: Samples (shadow rays) per chunk of pixels of an area light.
 CHUNK_RAYS = 2 ** 20
@@ -189,14 +189,17 @@ class RayTraced(Technique):
         "decorrelate": Param(True, "area lights: independent jitter per pixel (false: one jittered "
                                    "pattern shared by every pixel)"),
     }
+    #: Rays are work per render; the samples per pixel and the error bound describe the truth.
+    STATS = {"rays": SUM, "samples": FIRST, "truth_stderr_max": FIRST}
+    #: The reference: black stars where a plot shows it at all.
+    STYLE = PlotStyle("#000000", "*")
 
-    def setup(self, frame, light_index: int) -> None:
+    def setup(self, frame, slot) -> None:
         """Offset origins (per frame) and the evaluated pixels of this light."""
-        self.frame, self.light = frame, frame.scene.lights[light_index]
         self.is_area = isinstance(self.light, AreaLight)
         self.scene = caster_scene(frame) if frame.has_casters else None
         self.origins = offset_origins(frame, self.offset_scale)
-        self.evaluated = frame.compact_evaluated(light_index)
+        self.evaluated = slot.evaluated
         self.eval_origins = np.ascontiguousarray(self.origins[self.evaluated])
         self.eval_points = frame.compact_position[self.evaluated]
         self.eval_normals = frame.compact_normal[self.evaluated]

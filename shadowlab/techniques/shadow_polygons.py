@@ -45,7 +45,7 @@ from ..geometry.frusta import side_planes
 from ..geometry.triangles import triangle_normals, triangle_planes
 from ..geometry.vectors import dot3
 from ..glstate import PassState
-from .base import Param, Technique, TechniqueError
+from .base import FIRST, SUM, Param, PlotStyle, Technique, TechniqueError
 
 #: Receiver/caster pair tests of the bulk culling per step (bounds its temporaries, ~200 MB).
 PAIR_TESTS_PER_STEP = 1 << 22
@@ -69,6 +69,9 @@ class ShadowPolygons(Technique):
     name = "shadow_polygons"
     summary = "exact object-space shadow polygons (convex clipping), precomputed per static light"
     PASSES = ("draw",)
+    STYLE = PlotStyle("#9467bd", "D")
+    STATS = {"preprocess_ms": SUM, "compile_ms": SUM, "pairs_clipped": SUM, "polygons": SUM,
+             "fragment_triangles": SUM, "dropped_faces": FIRST}
     LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.light_sampling)
     PARAMS = {
         "epsilon": Param(1e-9, "geometric tolerance of every predicate, relative to the scene's size",
@@ -77,7 +80,7 @@ class ShadowPolygons(Technique):
                             min=1, max=8),
     }
 
-    def setup(self, frame, light_index: int) -> None:
+    def setup(self, frame, slot) -> None:
         """Compute the fragments for this light (the preprocessing) and upload them. The compiled
         kernel is loaded (or, on a fresh install, compiled) first, once per process: that time
         is in ``setup_ms`` and reported as ``compile_ms``, not in ``preprocess_ms``."""
@@ -85,10 +88,9 @@ class ShadowPolygons(Technique):
 
         self.compile_ms = compiled_clipping.warm()
         t0 = time.perf_counter()
-        self.frame = frame
-        light_h = frame.scene.lights[light_index].homogeneous()
+        light_h = slot.light.homogeneous()
         eps = self.epsilon * frame.scene.extent()
-        rec_tris, rec_ids, caster_tris = self.polygons(frame, light_index)
+        rec_tris, rec_ids, caster_tris = self.polygons(frame, slot)
         work = fragment_triangles(rec_tris, caster_tris, light_h, eps, progress=_progress_bar(self.name))
         self.pairs_clipped = work.pairs
         self.fragment_count = work.fragments
@@ -96,24 +98,24 @@ class ShadowPolygons(Technique):
         triangle_ids = np.repeat(rec_ids[work.receiver].astype(np.int32), 3)
         self.preprocess_ms = 1e3 * (time.perf_counter() - t0)
         ctx = frame.ctx
-        self.prog = gl.program("shadow_fragments.glsl")
+        self.prog = self.program("shadow_fragments.glsl")
         self.prog["u_view_proj"].write(gl.mat_bytes(frame.view_projection))
         gl.set_uniforms(self.prog, {"u_ids": 0, "u_shadowed": 0.0})
         self.count = len(vertices)
-        self.vbo = ctx.buffer(vertices.tobytes() if len(vertices) else b"\0" * 12)
-        self.ibo_ids = ctx.buffer(triangle_ids.tobytes() if len(triangle_ids) else b"\0" * 4)
-        self.vao = ctx.vertex_array(self.prog, [(self.vbo, "3f", "in_pos"), (self.ibo_ids, "1i", "in_triangle")])
-        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
-        self.vis_fbo = gl.framebuffer([self.vis_tex])
+        self.vbo = self.own(ctx.buffer(vertices.tobytes() if len(vertices) else b"\0" * 12))
+        self.ibo_ids = self.own(ctx.buffer(triangle_ids.tobytes() if len(triangle_ids) else b"\0" * 4))
+        self.vao = self.own(ctx.vertex_array(self.prog, [(self.vbo, "3f", "in_pos"),
+                                                         (self.ibo_ids, "1i", "in_triangle")]))
+        self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
 
-    def polygons(self, frame, light_index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """What this light's preprocessing clips: the receiver triangles (R, 3, 3) float64 that
+    def polygons(self, frame, slot) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What the preprocessing of ``slot`` (or a scene light's index) clips: the receiver triangles (R, 3, 3) float64 that
         get its shadows (see ``max_lights``), their indices (R,) in the frame's triangle order,
         and the caster triangles (C, 3, 3) (a closed mesh's light-facing faces only); counts the
         faces left without this light's shadows in ``dropped_faces``."""
-        self.frame = frame
+        slot = frame.as_slot(slot)
         scene = frame.scene
-        light = scene.lights[light_index]
+        light = slot.light
         starts = np.cumsum([0] + [len(o.faces) for o in scene.objects])
         casters = []
         for obj in scene.objects:
@@ -129,7 +131,7 @@ class ShadowPolygons(Technique):
         self.dropped_faces = 0
         for i, obj in enumerate(scene.objects):
             if obj.receives:
-                keep = self._kept_faces(obj, light_index)
+                keep = self._kept_faces(obj, slot)
                 self.dropped_faces += int((~keep).sum())
                 receivers.append(obj.triangles[keep])
                 receiver_ids.append(starts[i] + np.flatnonzero(keep))
@@ -137,9 +139,10 @@ class ShadowPolygons(Technique):
         rec_ids = np.concatenate(receiver_ids) if receiver_ids else np.zeros(0, np.int64)
         return rec_tris, rec_ids, caster_tris
 
-    def _kept_faces(self, obj, light_index: int) -> np.ndarray:
-        """Bool per face: this light is among the face's ``max_lights`` strongest lights."""
-        lights = self.frame.scene.lights
+    def _kept_faces(self, obj, slot) -> np.ndarray:
+        """Bool per face: the slot's light is among the face's ``max_lights`` strongest of the
+        scene's lights as this render sees them (``slot.scene_lights``)."""
+        lights = slot.scene_lights
         if len(lights) <= self.max_lights:
             return np.ones(len(obj.faces), bool)
         tris = obj.triangles
@@ -151,7 +154,7 @@ class ShadowPolygons(Technique):
             facing = np.abs(np.einsum("ij,ij->i", dirs, normal))  # two-sided receivers
             contrib.append(light.footprint(centre) * facing * float(light.color @ _LUMA))
         contrib = np.array(contrib)  # (lights, faces)
-        rank = (contrib > contrib[light_index]).sum(axis=0)  # lights strictly stronger
+        rank = (contrib > contrib[slot.index]).sum(axis=0)  # lights strictly stronger
         return rank < self.max_lights
 
     def render(self) -> None:
@@ -166,22 +169,12 @@ class ShadowPolygons(Technique):
             if self.count:
                 self.vao.render(vertices=self.count)
 
-    def visibility(self) -> np.ndarray:
-        """Binary visibility: 0 inside a fragment on its own receiver triangle."""
-        return gl.read_texture(self.vis_tex, 1)[..., 0]
-
     def stats(self) -> dict:
         """Preprocessing time (and the kernel's one-time load or compile), pairs clipped,
         fragments and triangles produced, faces dropped."""
         return {"preprocess_ms": self.preprocess_ms, "compile_ms": self.compile_ms, "pairs_clipped": self.pairs_clipped,
                 "polygons": self.fragment_count, "fragment_triangles": self.count // 3,
                 "dropped_faces": self.dropped_faces}
-
-    def release(self) -> None:
-        """Free GL objects."""
-        gl.park()
-        for obj in (self.vao, self.vbo, self.ibo_ids, self.prog, self.vis_fbo, self.vis_tex):
-            obj.release()
 
 
 @dataclass

@@ -52,7 +52,7 @@ from .. import gl, glstate
 from ..geometry import adjacency as adj
 from ..geometry import transforms as tf
 from ..glstate import PassState, Stencil
-from .base import Param, Technique
+from .base import MAX, SUM, Param, PlotStyle, Technique
 
 #: Everitt & Kilgard's ε for the infinite projection: keeps w = 0 points just inside the far plane.
 INFINITE_EPSILON = 2.4e-7
@@ -93,13 +93,16 @@ class ShadowVolume(Technique):
     #: Counts in the G-buffer's stencil, after its own depth pre-pass into the same attachment.
     MODIFIES_FRAME = frozenset({"depth_stencil"})
     PASSES = ("silhouette", "volume", "caps", "count")
+    STYLE = PlotStyle("#d62728", "s")
+    STATS = {"silhouette_edges": SUM, "stencil_peak_count": MAX, "zpass_casters": SUM, "zfail_casters": SUM,
+             "zpass_caster_triangles": SUM, "zfail_caster_triangles": SUM, "volume_fragments": SUM,
+             "stencil_updates": SUM, "fill_per_pixel": SUM, "volume_triangles": SUM}
     LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.light_sampling)
 
     # ------------------------------------------------------------------ setup
-    def setup(self, frame, light_index: int) -> None:
+    def setup(self, frame, slot) -> None:
         """Plan each caster, build programs and buffers, and render the depth pre-pass."""
         ctx = frame.ctx
-        self.frame, self.light = frame, frame.scene.lights[light_index]
         if self.far == "infinite":
             cam = frame.camera
             self.proj = tf.perspective_infinite(cam.fov_y, frame.width / frame.height, cam.near, INFINITE_EPSILON)
@@ -129,21 +132,21 @@ class ShadowVolume(Technique):
         # it as clip distance 0 (see shaders/shadow_volume_common.glsl).
         self.defines = {"NEAR_CLIP": 1} if self.far == "clamp" else None
         self.clip_distances = 1 if self.far == "clamp" else 0
-        self.vs_prog = gl.program("shadow_volume.glsl", defines=self.defines)
+        self.vs_prog = self.program("shadow_volume.glsl", defines=self.defines)
         for key, val in self.matrices.items():
             self.vs_prog[key].write(val)
         gl.set_uniforms(self.vs_prog, self.light.uniforms())
         # The scene's triangles twice: as surface points (pre-pass, near caps) and extruded to
         # infinity (far caps); caps are then drawn by index, with no per-frame vertex copies.
         corners = frame.triangles.reshape(-1, 3)
-        self.scene4 = ctx.buffer(_flagged(corners, 0.0).tobytes())
-        self.scene_ext = ctx.buffer(_flagged(corners, 1.0).tobytes())
-        self.scene4_vao = ctx.vertex_array(self.vs_prog, [(self.scene4, "3f 1f", "in_pos", "in_extrude")])
+        self.scene4 = self.own(ctx.buffer(_flagged(corners, 0.0).tobytes()))
+        self.scene_ext = self.own(ctx.buffer(_flagged(corners, 1.0).tobytes()))
+        self.scene4_vao = self.own(ctx.vertex_array(self.vs_prog, [(self.scene4, "3f 1f", "in_pos", "in_extrude")]))
         self.volume_buffers: dict[bool, tuple] = {}  # zfail flag -> (vbo, vao) of CPU-path volumes
         self.indexed: dict[str, tuple] = {}
         self.gpu, self.gs_prog = {}, None
         if any(p.path == "gpu" for p in self.plans):
-            self.gs_prog = gl.program("shadow_volume_gs.glsl", defines=self.defines)
+            self.gs_prog = self.program("shadow_volume_gs.glsl", defines=self.defines)
             gl.set_uniforms(self.gs_prog, self.light.uniforms())
             for key, val in self.matrices.items():
                 self.gs_prog[key].write(val)
@@ -151,15 +154,15 @@ class ShadowVolume(Technique):
                                            "u_far_cap": not self.light.at_infinity})
             for p in self.plans:
                 if p.path == "gpu":
-                    vbo = ctx.buffer(p.table.vertices.astype("f4").tobytes())
-                    ibo = ctx.buffer(p.table.adjacency_indices().tobytes())
-                    vao = ctx.vertex_array(self.gs_prog, [(vbo, "3f", "in_pos")], index_buffer=ibo, index_element_size=4)
+                    vbo = self.own(ctx.buffer(p.table.vertices.astype("f4").tobytes()))
+                    ibo = self.own(ctx.buffer(p.table.adjacency_indices().tobytes()))
+                    vao = self.own(ctx.vertex_array(self.gs_prog, [(vbo, "3f", "in_pos")], index_buffer=ibo,
+                                                    index_element_size=4))
                     self.gpu[p.index] = (vbo, ibo, vao)
-        self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
-        self.target = gl.ScreenTarget.create((frame.width, frame.height), [self.vis_tex],
-                                             share_depth_stencil=frame.depth_stencil_for(self))
-        self.const_prog = gl.program("constant.glsl")
-        self.quad = gl.fullscreen_quad(self.const_prog)
+        self.vis_tex, self.target = self.visibility_target((frame.width, frame.height),
+                                                           share_depth_stencil=frame.depth_stencil_for(self))
+        self.const_prog = self.program("constant.glsl")
+        self.quad = self.fullscreen_quad(self.const_prog)
         self._depth_prepass()
 
     def _depth_prepass(self) -> None:
@@ -255,21 +258,26 @@ class ShadowVolume(Technique):
                          depth_clamp=self.far == "clamp", clip_distances=self.clip_distances,
                          stencil=self._counting(zfail) if stencil else None)
 
+    def _dynamic(self, store: dict, key, nbytes: int, make_vao) -> tuple:
+        """(buffer, vertex array) kept in ``store[key]`` and re-filled each frame: a dynamic buffer
+        of at least ``nbytes`` and ``make_vao(buffer)``, both owned; replaced by larger ones
+        when ``nbytes`` outgrows it."""
+        entry = store.get(key)
+        if entry is None or entry[0].size < nbytes:
+            if entry is not None:
+                self.free(entry[1], entry[0])
+            buf = self.own(self.frame.ctx.buffer(reserve=max(nbytes, MIN_DYNAMIC_BUFFER_BYTES), dynamic=True))
+            entry = store[key] = (buf, self.own(make_vao(buf)))
+        return entry
+
     def _draw_indexed(self, key: str, vbo, idx: np.ndarray) -> None:
         """Triangles of ``vbo`` (the scene's corners, flagged) picked by vertex indices; the index
         buffer and its vertex array are kept per ``key`` and only re-filled each frame."""
         data = idx.astype("i4").tobytes()
-        entry = self.indexed.get(key)
-        if entry is None or entry[0].size < len(data):
-            if entry is not None:
-                entry[1].release()
-                entry[0].release()
-            ibo = self.frame.ctx.buffer(reserve=max(len(data), MIN_DYNAMIC_BUFFER_BYTES), dynamic=True)
-            vao = self.frame.ctx.vertex_array(self.vs_prog, [(vbo, "3f 1f", "in_pos", "in_extrude")],
-                                              index_buffer=ibo, index_element_size=4)
-            entry = self.indexed[key] = (ibo, vao)
-        entry[0].write(data)
-        entry[1].render(vertices=len(idx))
+        ibo, vao = self._dynamic(self.indexed, key, len(data), lambda buf: self.frame.ctx.vertex_array(
+            self.vs_prog, [(vbo, "3f 1f", "in_pos", "in_extrude")], index_buffer=buf, index_element_size=4))
+        ibo.write(data)
+        vao.render(vertices=len(idx))
 
     def _draw_volumes(self, zfail: bool, volume, cap_idx, flip_idx, far_idx, counting: bool = True) -> None:
         """The volume geometry of the casters counted with ``zfail``, under that method's volume
@@ -278,16 +286,10 @@ class ShadowVolume(Technique):
         ctx = self.frame.ctx
         with self.timed_pass("volume"):
             if len(volume):
-                entry = self.volume_buffers.get(zfail)
-                if entry is None or entry[0].size < volume.nbytes:
-                    if entry is not None:
-                        entry[1].release()
-                        entry[0].release()
-                    vbo = ctx.buffer(reserve=max(volume.nbytes, MIN_DYNAMIC_BUFFER_BYTES), dynamic=True)
-                    vao = ctx.vertex_array(self.vs_prog, [(vbo, "3f 1f", "in_pos", "in_extrude")])
-                    entry = self.volume_buffers[zfail] = (vbo, vao)
-                entry[0].write(volume.tobytes())
-                entry[1].render(vertices=len(volume))
+                vbo, vao = self._dynamic(self.volume_buffers, zfail, volume.nbytes, lambda buf: ctx.vertex_array(
+                    self.vs_prog, [(buf, "3f 1f", "in_pos", "in_extrude")]))
+                vbo.write(volume.tobytes())
+                vao.render(vertices=len(volume))
             for p in self.plans:
                 if p.path != "gpu" or p.zfail != zfail:
                     continue
@@ -337,10 +339,6 @@ class ShadowVolume(Technique):
             self.const_prog["u_value"].value = 1.0
             self.quad.render()
 
-    def visibility(self) -> np.ndarray:
-        """Binary visibility from the stencil count."""
-        return gl.read_texture(self.vis_tex, 1)[..., 0]
-
     def stats(self) -> dict:
         """Silhouette edges, volume triangles, stencil fill and peak count (untimed extra passes),
         and how many casters (and their triangles) were counted with z-pass and with z-fail."""
@@ -378,24 +376,6 @@ class ShadowVolume(Technique):
         out["fill_per_pixel"] = out["volume_fragments"] / (self.frame.width * self.frame.height)
         out["volume_triangles"] = int(prims)  # primitives generated (geometry shader output included)
         return out
-
-    def release(self) -> None:
-        """Free GL objects (the shared depth-stencil stays with the frame)."""
-        gl.park()
-        for vbo, ibo, vao in self.gpu.values():
-            for obj in (vao, ibo, vbo):
-                obj.release()
-        for vbo, vao in self.volume_buffers.values():
-            vao.release()
-            vbo.release()
-        for ibo, vao in self.indexed.values():
-            vao.release()
-            ibo.release()
-        self.target.release()
-        for obj in (self.scene4_vao, self.scene4, self.scene_ext, self.vs_prog, self.quad, self.const_prog, self.vis_tex):
-            obj.release()
-        if self.gs_prog is not None:
-            self.gs_prog.release()
 
 
 def near_plane_quad(frame) -> np.ndarray:

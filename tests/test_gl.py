@@ -93,3 +93,153 @@ def test_releasing_the_current_framebuffer_leaves_moderngl_usable(ctx):
     fbo.color_attachments[0].release()
     fbo.release()
     gl.park()
+
+
+# --------------------------------------------------------------------------- shader files
+
+FULLSCREEN = """// test: a full-screen vertex stage
+#ifdef VERTEX_SHADER
+in vec2 in_pos;
+void main() {
+    gl_Position = vec4(in_pos, 0.0, 1.0);
+}
+#endif
+"""
+HELPER = """// test: a helper function
+float helper(float x) {
+    return 2.0 * x;
+}
+"""
+
+
+@pytest.fixture
+def shader_files(tmp_path, monkeypatch):
+    """Write test-only GLSL files (name → text) into a temporary shaders/ folder that
+    gl.shader_dir() then returns; fullscreen.glsl and helper.glsl are always there."""
+    monkeypatch.setattr(gl, "shader_dir", lambda: tmp_path)
+
+    def write(**files):
+        for name, text in {"fullscreen": FULLSCREEN, "helper": HELPER, **files}.items():
+            (tmp_path / f"{name}.glsl").write_text(text)
+        return tmp_path
+    return write
+
+
+def build_error(name: str, defines=None) -> str:
+    with pytest.raises(gl.ShaderError) as exc:
+        gl.program(name, defines)
+    return str(exc.value)
+
+
+def test_error_after_an_include_names_its_file_and_line(ctx, shader_files):
+    shader_files(broken="""// test: an error after two includes
+#include "fullscreen.glsl"
+
+#ifdef FRAGMENT_SHADER
+#include "helper.glsl"
+out float out_value;
+void main() {
+    out_value = helper(undeclared_name);
+}
+#endif
+""")
+    message = build_error("broken.glsl", {"SOME_SWITCH": 1})
+    assert "broken.glsl {SOME_SWITCH=1}" in message  # the file and its defines
+    assert "broken.glsl:8(" in message and "undeclared_name" in message, message
+    assert not any(f"{n}:8(" in message for n in ("0", "1", "helper.glsl")), message
+
+
+def test_error_inside_an_include_names_the_included_file(ctx, shader_files):
+    shader_files(bad_helper="// test: a broken helper\nfloat helper(float x) {\n    return 2.0 * y;\n}\n",
+                 uses_bad="""// test: includes a broken helper
+#include "fullscreen.glsl"
+#ifdef FRAGMENT_SHADER
+#include "bad_helper.glsl"
+out float out_value;
+void main() { out_value = helper(1.0); }
+#endif
+""")
+    message = build_error("uses_bad.glsl")
+    assert "bad_helper.glsl:3(" in message and "uses_bad.glsl:" not in message, message
+
+
+def test_line_numbers_survive_an_include_in_a_skipped_group(ctx, shader_files):
+    """The vertex stage skips the FRAGMENT_SHADER group, and with it the #line marker after the
+    include there: the line after #endif must still be numbered right."""
+    shader_files(skipped="""// test: an include in a group the vertex stage skips
+#ifdef FRAGMENT_SHADER
+#include "helper.glsl"
+#endif
+#ifdef VERTEX_SHADER
+in vec2 in_pos;
+void main() {
+    gl_Position = vec4(in_pos, 0.0, 1.0) * missing_scale;
+}
+#endif
+""")
+    message = build_error("skipped.glsl")
+    assert "skipped.glsl:8(" in message and "missing_scale" in message, message
+
+
+def test_preprocessor_error_in_an_include_names_it(ctx, shader_files):
+    shader_files(stops="// test\n\n#error stop here\n", top="""// test
+#include "fullscreen.glsl"
+#include "stops.glsl"
+""")
+    message = build_error("top.glsl")
+    assert "stops.glsl:3(" in message and "stop here" in message, message
+
+
+def test_a_file_included_twice_is_expanded_once(ctx, shader_files):
+    shader_files(shared="// test: defines a function\nfloat shared_fn(float x) { return x + 1.0; }\n",
+                 user="// test\n#include \"shared.glsl\"\nfloat user_fn(float x) { return shared_fn(x); }\n",
+                 twice="""// test: includes shared.glsl directly and through user.glsl
+#include "fullscreen.glsl"
+#include "shared.glsl"
+#include "user.glsl"
+#ifdef FRAGMENT_SHADER
+#include "shared.glsl"
+out float out_value;
+void main() { out_value = user_fn(shared_fn(1.0)) + undeclared_after_guard; }
+#endif
+""")
+    src = gl.shader_source("twice.glsl")
+    assert src.count("float shared_fn(") == 1 and "#include" not in src
+    message = build_error("twice.glsl")  # compiles but for the deliberate error: no redefinition
+    assert "redefin" not in message and "twice.glsl:8(" in message, message
+
+
+def test_include_cycles_and_conflicting_guards_are_errors(ctx, shader_files):
+    shader_files(cycle_a='// test\n#include "cycle_b.glsl"\n', cycle_b='// test\n#include "cycle_a.glsl"\n',
+                 branches="""// test: the same file included in both branches
+#include "fullscreen.glsl"
+#ifdef SOMETHING
+#include "helper.glsl"
+#else
+#include "helper.glsl"
+#endif
+""")
+    with pytest.raises(gl.ShaderError, match="cycle: cycle_a.glsl -> cycle_b.glsl -> cycle_a.glsl"):
+        gl.shader_source("cycle_a.glsl")
+    # the guard would drop the #else branch's copy: an error rather than a silently missing file
+    with pytest.raises(gl.ShaderError, match="branches.glsl:6: helper.glsl was first included under other"):
+        gl.shader_source("branches.glsl")
+    with pytest.raises(gl.ShaderError, match="not found.*nowhere.glsl.*at top_missing.glsl:2"):
+        shader_files(top_missing='// test\n#include "nowhere.glsl"\n')
+        gl.shader_source("top_missing.glsl")
+
+
+def test_stages_come_from_ifdef_lines_not_mentions(ctx, shader_files):
+    """A comment naming GEOMETRY_SHADER makes no geometry stage (which, without a main, would
+    not compile); the vertex stage of an include counts."""
+    from OpenGL import GL
+
+    shader_files(mentions="""// test: no GEOMETRY_SHADER section here; #ifdef GEOMETRY_SHADER in a comment is no line of its own
+#include "fullscreen.glsl"
+#ifdef FRAGMENT_SHADER
+out float out_value;
+void main() { out_value = 1.0; }
+#endif
+""")
+    prog = gl.program("mentions.glsl")
+    assert GL.glGetProgramiv(prog.glo, GL.GL_ATTACHED_SHADERS) == 2  # vertex and fragment only

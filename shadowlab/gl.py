@@ -10,6 +10,7 @@ that row 0 is the *top* of the image (DESIGN §5).
 """
 from __future__ import annotations
 
+import difflib
 import os
 import re
 import sys
@@ -144,6 +145,8 @@ _CONDITIONAL = re.compile(r"^\s*#\s*(if|ifdef|ifndef|elif|else|endif)\b")
 # (a comment, an #ifndef) makes none.
 _STAGE_LINE = re.compile(r"^[ \t]*#[ \t]*ifdef[ \t]+(VERTEX_SHADER|GEOMETRY_SHADER|FRAGMENT_SHADER)\b", re.M)
 _STAGES = {"vertex": "VERTEX_SHADER", "geometry": "GEOMETRY_SHADER", "fragment": "FRAGMENT_SHADER"}
+# `uniform <type> <name>[...], <name>...;` at the start of a line (block declarations are not used).
+_UNIFORM = re.compile(r"^[ \t]*(?:layout\s*\([^)]*\)\s*)?uniform\s+(?:(?:lowp|mediump|highp)\s+)?\w+\s+([^;{]+);", re.M)
 # A location in a driver's info log, at the start of a line after an optional "ERROR: ":
 # Mesa "S:L(C): error", NVIDIA "S(L) : error", AMD/Intel "ERROR: S:L: ...".
 _LOCATION = re.compile(r"^([ \t]*(?:[A-Za-z]+:[ \t]*)?)(\d+)(?::(\d+)|\((\d+)\))", re.M)
@@ -161,6 +164,14 @@ LINE_STRIDE = 10000
 class ShaderError(RuntimeError):
     """A shader program did not build: a GLSL compile or link error (locations rewritten to
     ``file.glsl:line``), a missing include, an include cycle or a conflicting include."""
+
+
+class UnknownUniformError(KeyError):
+    """:func:`set_uniforms` was given a name the program's source never declares (a misspelt or
+    stale uniform); the message names the program file and the close matches."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
 
 
 def shader_dir() -> Path:
@@ -285,15 +296,29 @@ def shader_source(name: str) -> str:
     return expansion(name).text
 
 
+def declared_uniforms(stage_source: str) -> frozenset[str]:
+    """Names of the uniforms a stage's source declares in the branches its ``#ifdef``s keep
+    (:func:`shadowlab.glstate.active_source`), arrays by their bare name as moderngl lists them."""
+    names = set()
+    for declarators in _UNIFORM.findall(glstate.active_source(stage_source)):
+        for part in declarators.split(","):
+            m = re.match(r"\s*(\w+)", part)
+            if m:
+                names.add(m.group(1))
+    return frozenset(names)
+
+
 @dataclass(frozen=True)
 class ProgramInfo:
     """What the lab knows of a program it compiled: its file, defines, the clip distances its
-    vertex or geometry stage writes (each needs GL_CLIP_DISTANCEi enabled when it draws) and its
-    table of source-string numbers (``files[k]``: string k of its ``#line`` markers)."""
+    vertex or geometry stage writes (each needs GL_CLIP_DISTANCEi enabled when it draws), the
+    uniforms its compiled stages declare (the compiler may drop unused ones) and its table of
+    source-string numbers (``files[k]``: string k of its ``#line`` markers)."""
 
     name: str
     defines: dict
     clip_distances: frozenset
+    uniforms: frozenset = frozenset()
     files: tuple = ()
 
     def label(self) -> str:
@@ -339,7 +364,8 @@ def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = 
     except moderngl.Error as exc:
         raise ShaderError(f"{label} failed to build (locations as file:line):\n{exp.rewrite(str(exc)).strip()}"
                           ) from None
-    prog.extra = ProgramInfo(name, defines, glstate.clip_distances_written(stages), exp.files)
+    declared = frozenset().union(*(declared_uniforms(src) for src in stages.values()))
+    prog.extra = ProgramInfo(name, defines, glstate.clip_distances_written(stages), declared, exp.files)
     return prog
 
 
@@ -356,14 +382,26 @@ def query(key, **kinds):
 
 
 def set_uniforms(prog, values: dict) -> None:
-    """Set the uniforms in ``values`` that ``prog`` uses (the compiler drops unused ones)."""
+    """Set the uniforms in ``values`` on ``prog``: numpy arrays are written as float32 / int32
+    bytes (arrays of uniforms), other values through moderngl's ``.value``.
+
+    A name the program's compiled stages declare but the compiler dropped (unused) is skipped.
+    For a program made by :func:`program`, a name they do not declare at all raises
+    :class:`UnknownUniformError` (a ``KeyError``) naming the program file and close matches.
+    """
+    info = program_info(prog)
     for key, val in values.items():
-        if key in prog:
-            member = prog[key]
-            if isinstance(val, np.ndarray):
-                member.write(np.ascontiguousarray(val, dtype="f4" if val.dtype.kind == "f" else "i4").tobytes())
-            else:
-                member.value = val
+        if key not in prog:
+            if info is not None and key not in info.uniforms:
+                close = difflib.get_close_matches(key, sorted(info.uniforms), n=3)
+                hint = f"; did you mean {' or '.join(close)}?" if close else ""
+                raise UnknownUniformError(f"{info.label()} declares no uniform {key!r}{hint}")
+            continue
+        member = prog[key]
+        if isinstance(val, np.ndarray):
+            member.write(np.ascontiguousarray(val, dtype="f4" if val.dtype.kind == "f" else "i4").tobytes())
+        else:
+            member.value = val
 
 
 # --------------------------------------------------------------------------- render targets

@@ -243,3 +243,36 @@ void main() { out_value = 1.0; }
 """)
     prog = gl.program("mentions.glsl")
     assert GL.glGetProgramiv(prog.glo, GL.GL_ATTACHED_SHADERS) == 2  # vertex and fragment only
+
+
+def test_unknown_uniforms_are_errors(ctx, shader_files):
+    shader_files(uniforms="""// test: uniforms used, unused and behind a define
+#include "fullscreen.glsl"
+uniform float u_used;
+uniform float u_unused, u_also_unused;          // declared, dropped by the compiler
+uniform vec4 u_array[3];
+#ifdef FANCY
+uniform float u_fancy;
+#endif
+#ifdef FRAGMENT_SHADER
+out float out_value;
+void main() { out_value = u_used + u_array[2].x; }
+#endif
+""")
+    prog = gl.program("uniforms.glsl")
+    info = gl.program_info(prog)
+    assert {"u_used", "u_unused", "u_also_unused", "u_array"} <= info.uniforms and "u_fancy" not in info.uniforms
+    gl.set_uniforms(prog, {"u_used": 0.5, "u_unused": 1.0, "u_also_unused": 2.0,
+                           "u_array": np.ones((3, 4), np.float32)})  # unused ones: skipped
+    assert prog["u_used"].value == 0.5
+    with pytest.raises(KeyError) as exc:
+        gl.set_uniforms(prog, {"u_usde": 1.0})
+    assert "uniforms.glsl" in str(exc.value) and "did you mean u_used" in str(exc.value), str(exc.value)
+    with pytest.raises(gl.UnknownUniformError, match="'u_fancy'"):
+        gl.set_uniforms(prog, {"u_fancy": 1.0})
+    gl.set_uniforms(gl.program("uniforms.glsl", {"FANCY": 1}), {"u_fancy": 1.0})  # declared there
+
+
+def test_a_misspelt_uniform_of_a_shipped_program_names_the_right_one(ctx):
+    with pytest.raises(gl.UnknownUniformError, match=r"shade.glsl \{\} declares no uniform 'u_densty'; did you mean u_density"):
+        gl.set_uniforms(gl.program("shade.glsl"), {"u_densty": 0.5})

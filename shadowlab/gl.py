@@ -333,8 +333,18 @@ def program_info(prog) -> ProgramInfo | None:
     return info if isinstance(info, ProgramInfo) else None
 
 
+#: Compiled programs by (shader folder, file, defines, varyings) -> (program, uniform values at link).
+_PROGRAMS: dict[tuple, tuple] = {}
+
+
+def _canonical_defines(defines: dict | None) -> tuple[tuple[str, str], ...]:
+    """Defines as sorted (name, text) pairs: the cache key, and the order of the #define lines."""
+    return tuple(sorted((str(k), str(v)) for k, v in (defines or {}).items()))
+
+
 def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()):
-    """Compile ``shaders/<name>`` into a moderngl Program.
+    """The moderngl Program of ``shaders/<name>``, compiled once per process for each
+    (file, defines, varyings).
 
     One file holds every stage of one program, each inside ``#ifdef VERTEX_SHADER`` /
     ``GEOMETRY_SHADER`` / ``FRAGMENT_SHADER``; a stage is built when the file (its includes
@@ -342,18 +352,31 @@ def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = 
     (compile-time switches between variants of the program; numeric parameters are uniforms);
     ``varyings`` make a transform-feedback program (no fragment stage).
 
+    The cache owns the program: callers share it and must not ``release()`` it
+    (:func:`release_programs` frees them all). Each call hands it back with every uniform at its
+    value just after linking, as a fresh compile would; a caller sets the uniforms it needs
+    after its own call, and two users alive at once share uniform values.
+
     A GLSL error raises :class:`ShaderError` naming the file, the defines and each error's
     ``file.glsl:line``.
     """
     import moderngl
 
-    defines = dict(defines or {})
-    exp = expansion(name)
-    head = [GLSL_VERSION] + [f"#define {k} {v}" for k, v in defines.items()]
+    canonical = _canonical_defines(defines)
+    folder = shader_dir()
+    key = (str(folder), name, canonical, tuple(varyings))
+    cached = _PROGRAMS.get(key)
+    if cached is not None and not isinstance(cached[0].mglo, moderngl.InvalidObject):
+        prog, initial = cached
+        for uniform, data in initial.items():
+            prog[uniform].write(data)
+        return prog
+    exp = _expansion(folder, name)
+    head = [GLSL_VERSION] + [f"#define {k} {v}" for k, v in canonical]
     macros = set(_STAGE_LINE.findall(exp.text))
     stages = {stage: "\n".join(head + [f"#define {macro} 1", exp.text])
               for stage, macro in _STAGES.items() if macro in macros}
-    label = f"{name} {{{', '.join(f'{k}={v}' for k, v in defines.items())}}}"
+    label = f"{name} {{{', '.join(f'{k}={v}' for k, v in canonical)}}}"
     if "vertex" not in stages:
         raise ShaderError(f"{label}: no '#ifdef VERTEX_SHADER' section (in the file or its includes)")
     if varyings:
@@ -365,8 +388,20 @@ def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = 
         raise ShaderError(f"{label} failed to build (locations as file:line):\n{exp.rewrite(str(exc)).strip()}"
                           ) from None
     declared = frozenset().union(*(declared_uniforms(src) for src in stages.values()))
-    prog.extra = ProgramInfo(name, defines, glstate.clip_distances_written(stages), declared, exp.files)
+    prog.extra = ProgramInfo(name, dict(defines or {}), glstate.clip_distances_written(stages), declared,
+                             exp.files)
+    initial = {u: prog[u].read() for u in prog if isinstance(prog[u], moderngl.Uniform)}
+    _PROGRAMS[key] = (prog, initial)
     return prog
+
+
+def release_programs() -> None:
+    """Release every program :func:`program` compiled and empty its cache (tests, shutdown): the
+    next call compiles afresh. Nothing may draw with the released programs afterwards (a
+    frame's vertex arrays of them go with the frame)."""
+    for prog, _ in _PROGRAMS.values():
+        prog.release()
+    _PROGRAMS.clear()
 
 
 _QUERIES: dict = {}

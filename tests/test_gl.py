@@ -18,7 +18,6 @@ def test_include_expands_and_stages_compile(ctx):
     assert "light_footprint" in src and "#include" not in src
     prog = gl.program("shade.glsl")
     assert "u_visibility" in prog
-    prog.release()
 
 
 def test_stencil_round_trip(ctx):
@@ -276,3 +275,48 @@ void main() { out_value = u_used + u_array[2].x; }
 def test_a_misspelt_uniform_of_a_shipped_program_names_the_right_one(ctx):
     with pytest.raises(gl.UnknownUniformError, match=r"shade.glsl \{\} declares no uniform 'u_densty'; did you mean u_density"):
         gl.set_uniforms(gl.program("shade.glsl"), {"u_densty": 0.5})
+
+
+def test_programs_are_cached_per_file_defines_and_varyings(ctx, shader_files):
+    shader_files(cached="""// test
+uniform float u_scale;
+#ifdef VERTEX_SHADER
+in vec3 in_pos;
+out float out_scaled;
+void main() {
+    out_scaled = u_scale * in_pos.x;
+    gl_Position = vec4(in_pos * SIDE * u_scale, 1.0);
+}
+#endif
+#ifdef FRAGMENT_SHADER
+out float out_value;
+void main() { out_value = 1.0; }
+#endif
+""")
+    a = gl.program("cached.glsl", {"SIDE": 1, "OTHER": 2})
+    assert gl.program("cached.glsl", {"OTHER": "2", "SIDE": 1}) is a  # defines in canonical form
+    assert gl.program("cached.glsl", {"SIDE": 2, "OTHER": 2}) is not a
+    assert gl.program("cached.glsl", {"SIDE": 1, "OTHER": 2}, varyings=("out_scaled",)) is not a
+    # handed back as freshly linked: uniforms a previous user set are back at 0
+    a["u_scale"].value = 3.0
+    assert gl.program("cached.glsl", {"SIDE": 1, "OTHER": 2})["u_scale"].value == 0.0
+    gl.release_programs()
+    b = gl.program("cached.glsl", {"SIDE": 1, "OTHER": 2})
+    assert b is not a and b["u_scale"].value == 0.0
+
+
+def test_real_programs_are_shared_and_frames_keep_drawing(ctx):
+    """Two frames draw with the one cached program; each keeps its own vertex array of it."""
+    from shadowlab.frame import Frame
+    from shadowlab.scene import load_scene
+
+    prog = gl.program("shadow_depth.glsl")
+    assert gl.program("shadow_depth.glsl") is prog and gl.program("shadow_depth.glsl", {"PEEL": 1}) is not prog
+    frames = [Frame(load_scene("box_on_plane"), 16, 12) for _ in range(2)]
+    try:
+        vaos = [f.vertex_array(prog) for f in frames]
+        assert vaos[0] is not vaos[1] and frames[0].vertex_array(gl.program("shadow_depth.glsl")) is vaos[0]
+    finally:
+        for f in frames:
+            f.release()
+    assert gl.program("shadow_depth.glsl") is prog  # releasing the frames left the program alone

@@ -161,7 +161,6 @@ def test_draw_checker_sees_what_llvmpipe_forgives(ctx):
     glstate.apply(glstate.PassState())
     sampler.release()
     depth.release()
-    prog.release()
 
 
 def test_the_preprocessor_follows_ifdefs():

@@ -385,9 +385,8 @@ class FilteredShadowMap(TexelMapping, Technique):
                 "texel_world": float(self.faces[0].texel_world) or None}
 
     def release(self) -> None:
-        """Free the maps, framebuffers, programs and visibility target."""
+        """Free the maps, framebuffers and visibility target (gl.program's cache keeps the programs)."""
         gl.park()
-        self.frame.forget(self.depth_prog)
         for obj in [self.quad, self.blur_quad, self.vis_fbo, self.vis_tex, self.moments_fbo, *self.blur_fbos,
-                    *self.moments, self.depth_rb, self.depth_prog, self.blur_prog, self.lookup_prog]:
+                    *self.moments, self.depth_rb]:
             obj.release()

@@ -242,11 +242,10 @@ class PCSS(TexelMapping, Technique):
                 "texel_world": None}
 
     def release(self) -> None:
-        """Free the map, programs and visibility target (those a failed setup got to make)."""
+        """Free the map and visibility target (those a failed setup got to make; gl.program's
+        cache keeps the programs)."""
         gl.park()
         made = self.__dict__
-        if "depth_prog" in made:
-            self.frame.forget(self.depth_prog)
-        for key in ("map", "quad", "vis_fbo", "vis_tex", "depth_prog", "lookup_prog"):
+        for key in ("map", "quad", "vis_fbo", "vis_tex"):
             if key in made:
                 made.pop(key).release()

@@ -185,10 +185,7 @@ class PlanarShadow(Technique):
                 "passes": len(self.receivers) * (2 if self.clip else 1), "preprocess_ms": self.preprocess_ms}
 
     def release(self) -> None:
-        """Free GL objects."""
+        """Free GL objects (gl.program's cache keeps the programs)."""
         gl.park()
-        for prog in (self.prog, self.depth_prog):
-            self.frame.forget(prog)
-            prog.release()
         self.target.release()
         self.vis_tex.release()

@@ -235,11 +235,11 @@ class ProjectiveShadow(Technique):
                 "shadow_images": images, "passes": 2 * images}
 
     def release(self) -> None:
-        """Free the images, framebuffers, flag texture, programs and visibility target."""
+        """Free the images, framebuffers, flag texture and visibility target (gl.program's cache
+        keeps the programs)."""
         gl.park()
-        self.frame.forget(self.mask_prog)
         for tex, fbo in self.masks:
             fbo.release()
             tex.release()
-        for obj in (self.quad, self.vis_fbo, self.vis_tex, self.flags, self.mask_prog, self.lookup_prog):
+        for obj in (self.quad, self.vis_fbo, self.vis_tex, self.flags):
             obj.release()

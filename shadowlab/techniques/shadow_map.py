@@ -333,20 +333,13 @@ class ShadowMap(TexelMapping, Technique):
                 "texel_world": float(self.faces[0].texel_world) or None}
 
     def release(self) -> None:
-        """Free the depth layers, programs and visibility target."""
+        """Free the depth layers and visibility target (gl.program's cache keeps the programs)."""
         gl.park()
-        drawn = [self.depth_prog]  # programs that drew the scene's vertex arrays
-        others = [self.lookup_prog]
         if len(self.layers) == 3:
-            drawn.append(self.peel_prog)
-            others.append(self.resolve_prog)
             self.resolve_quad.release()
-        for prog in drawn:
-            self.frame.forget(prog)
-        progs = drawn + others
         for layer in self.layers:
             layer.release()
         if self.sampler is not None:
             self.sampler.release()
-        for obj in [self.quad, self.vis_fbo, self.vis_tex] + progs:
+        for obj in [self.quad, self.vis_fbo, self.vis_tex]:
             obj.release()

@@ -180,7 +180,7 @@ class ShadowPolygons(Technique):
     def release(self) -> None:
         """Free GL objects."""
         gl.park()
-        for obj in (self.vao, self.vbo, self.ibo_ids, self.prog, self.vis_fbo, self.vis_tex):
+        for obj in (self.vao, self.vbo, self.ibo_ids, self.vis_fbo, self.vis_tex):
             obj.release()
 
 

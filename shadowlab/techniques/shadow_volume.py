@@ -392,10 +392,8 @@ class ShadowVolume(Technique):
             vao.release()
             ibo.release()
         self.target.release()
-        for obj in (self.scene4_vao, self.scene4, self.scene_ext, self.vs_prog, self.quad, self.const_prog, self.vis_tex):
+        for obj in (self.scene4_vao, self.scene4, self.scene_ext, self.quad, self.vis_tex):
             obj.release()
-        if self.gs_prog is not None:
-            self.gs_prog.release()
 
 
 def near_plane_quad(frame) -> np.ndarray:

@@ -1,7 +1,7 @@
 // Filtered shadow maps (VSM: Donnelly & Lauritzen 2006; ESM: Annen et al. 2008; EVSM: Lauritzen
-// & McCool 2008; MSM: Peters & Klein 2015, Hamburger 4MSM), two programs:
-// with BLUR defined, one direction of the separable box filter over one face of the moments
-// atlas; otherwise the lookup over the G-buffer, one visibility value per screen pixel.
+// & McCool 2008; MSM: Peters & Klein 2015, Hamburger 4MSM): the lookup over the G-buffer, one
+// visibility value per screen pixel, in the moments atlas that filtered_depth.glsl wrote and
+// filtered_blur.glsl filtered.
 // The atlas holds u_faces faces (1, or 6 for a point light's cube, chosen by the major axis of
 // the light-to-point vector as in shadow_lookup.glsl); face f has u_light_matrix[f] = bias ·
 // projection · view, its view u_light_view[f], and occupies u_face_rect[f] (texels). Depth t is
@@ -9,34 +9,12 @@
 #include "fullscreen.glsl"
 
 #ifdef FRAGMENT_SHADER
-#define HALF_TEXEL 0.5                   // texel centres are at integer + 0.5 (GL 4.5 core §8.14)
-
-#ifdef BLUR
-// Box filter of 2 u_radius + 1 texels along u_direction, taps clamped to the face u_rect (x0,
-// y0, width, height) so that a cube face never reads its neighbour. Weights are 1 / taps and
-// accumulated one by one: an ESM average of values up to exp(88) never overflows. All four
-// channels are filtered (a map with fewer drops the rest); the sum is float32 and the target's
-// format stores it again (16-bit maps: half floats, or MSM's quantised 16-bit UNORM).
-uniform sampler2D u_moments;
-uniform ivec2 u_direction;
-uniform int u_radius;
-uniform ivec4 u_rect;
-out vec4 out_moments;
-void main() {
-    ivec2 t = ivec2(gl_FragCoord.xy);
-    ivec2 lo = u_rect.xy, hi = u_rect.xy + u_rect.zw - 1;
-    float w = 1.0 / float(2 * u_radius + 1);
-    vec4 sum = vec4(0.0);
-    for (int i = -u_radius; i <= u_radius; ++i)
-        sum += w * texelFetch(u_moments, clamp(t + i * u_direction, lo, hi), 0);
-    out_moments = sum;
-}
-#else
 #include "lights.glsl"
 #define LIT 1.0
 #define TOTAL_MASS 1.0                   // MSM: the zeroth moment b0 = E[z⁰] of any depth distribution
 #define MAX_FACES 6
 #define BASE_LEVEL 0.0                   // the atlas has no mipmaps: sample its level 0 explicitly
+#define HALF_TEXEL 0.5                   // texel centres are at integer + 0.5 (GL 4.5 core §8.14)
 
 uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
 uniform sampler2D u_moments;             // filtered moments, bilinear sampling
@@ -159,5 +137,4 @@ void main() {
     else if (u_variant == VARIANT_MSM) out_visibility = msm(m, t);
     else out_visibility = evsm(m, t);
 }
-#endif
 #endif

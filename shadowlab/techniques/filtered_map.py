@@ -275,7 +275,7 @@ class FilteredShadowMap(TexelMapping, Technique):
                                           "u_derivative_weight": DERIVATIVE_WEIGHT,
                                           "u_moment_max": FORMAT_MAX[self.precision]})
         self._set_variant_uniforms(self.depth_prog)
-        self.blur_prog = gl.program("filtered_lookup.glsl", defines={"BLUR": 1})
+        self.blur_prog = gl.program("filtered_blur.glsl")
         gl.set_uniforms(self.blur_prog, {"u_moments": 0, "u_radius": self.kernel // 2})
         self.blur_quad = gl.fullscreen_quad(self.blur_prog)
 

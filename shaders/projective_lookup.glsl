@@ -1,31 +1,9 @@
 // Projective shadow textures (Segal et al. 1992, "Fast shadows and lighting effects using
 // texture mapping"; Nguyen 1999, "Casting shadows on volumes"; Akenine-Möller et al., Real-Time
-// Rendering 4th ed. §7.2), two programs:
-// with MASK defined, one caster drawn alone from the light into its shadow image (a binary
-// mask: u_covered where the caster covers a texel, 0 elsewhere); otherwise the lookup over the
-// G-buffer, which projects that image onto the receivers. The lookup writes 1 − mask(P) where P
+// Rendering 4th ed. §7.2), the lookup program: over the G-buffer, it projects one caster's
+// shadow image (projective_mask.glsl) onto the receivers. It writes 1 − mask(P) where P
 // takes this caster's image and 1 elsewhere; the pass blends it multiplicatively into the
 // visibility target (dst = dst · src), one pass per caster.
-
-#ifdef MASK
-uniform mat4 u_light_view_proj;          // projection · view of the caster's fitted light view
-uniform float u_covered;                 // the mask's value where the caster covers a texel
-
-#ifdef VERTEX_SHADER
-in vec3 in_pos;
-void main() {
-    gl_Position = u_light_view_proj * vec4(in_pos, 1.0);
-}
-#endif
-
-#ifdef FRAGMENT_SHADER
-out float out_mask;
-void main() {
-    out_mask = u_covered;
-}
-#endif
-
-#else
 #include "fullscreen.glsl"
 
 #ifdef FRAGMENT_SHADER
@@ -85,5 +63,4 @@ void main() {
     // explicit level: implicit derivatives are undefined after the non-uniform returns above
     out_visibility = u_lit - textureLod(u_mask, st, BASE_LEVEL).r;
 }
-#endif
 #endif

@@ -139,7 +139,8 @@ def check_errors(where: str = "") -> None:
 
 # --------------------------------------------------------------------------- shaders
 
-_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*(?://.*)?$')  # a line comment may follow
+_ANY_INCLUDE = re.compile(r"^\s*#\s*include\b")
 _CONDITIONAL = re.compile(r"^\s*#\s*(if|ifdef|ifndef|elif|else|endif)\b")
 # A stage exists when the file has an `#ifdef <STAGE>_SHADER` line; the macro's name elsewhere
 # (a comment, an #ifndef) makes none.
@@ -245,6 +246,8 @@ def _expand(folder: Path, name: str) -> Expansion:
         resync = False
         for i, line in enumerate(lines, 1):
             inc = _INCLUDE.match(line)
+            if inc is None and _ANY_INCLUDE.match(line):
+                raise ShaderError(f'{fname}:{i}: an #include line must read #include "file.glsl"')
             if inc:
                 child, here = inc.group(1), f"{fname}:{i}"
                 if child in chain + (fname,):

@@ -197,7 +197,7 @@ def test_a_file_included_twice_is_expanded_once(ctx, shader_files):
 #include "shared.glsl"
 #include "user.glsl"
 #ifdef FRAGMENT_SHADER
-#include "shared.glsl"
+#include "shared.glsl"  // a comment may follow an include
 out float out_value;
 void main() { out_value = user_fn(shared_fn(1.0)) + undeclared_after_guard; }
 #endif
@@ -226,6 +226,9 @@ def test_include_cycles_and_conflicting_guards_are_errors(ctx, shader_files):
     with pytest.raises(gl.ShaderError, match="not found.*nowhere.glsl.*at top_missing.glsl:2"):
         shader_files(top_missing='// test\n#include "nowhere.glsl"\n')
         gl.shader_source("top_missing.glsl")
+    with pytest.raises(gl.ShaderError, match="malformed.glsl:2: an #include line must read"):
+        shader_files(malformed='// test\n#include <helper.glsl>\n')
+        gl.shader_source("malformed.glsl")
 
 
 def test_stages_come_from_ifdef_lines_not_mentions(ctx, shader_files):

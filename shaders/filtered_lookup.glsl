@@ -14,9 +14,8 @@
 #define TOTAL_MASS 1.0                   // MSM: the zeroth moment b0 = E[z⁰] of any depth distribution
 #define MAX_FACES 6
 #define BASE_LEVEL 0.0                   // the atlas has no mipmaps: sample its level 0 explicitly
-#define HALF_TEXEL 0.5                   // texel centres are at integer + 0.5 (GL 4.5 core §8.14)
 
-uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
+#include "gbuffer_fetch.glsl"
 uniform sampler2D u_moments;             // filtered moments, bilinear sampling
 uniform vec2 u_atlas_size;               // atlas width, height in texels
 uniform int u_faces;
@@ -38,6 +37,7 @@ uniform vec4 u_moment_bias_target;       // MSM: b' = (1 - α) b + α · this
 out float out_visibility;
 
 #include "cube_face.glsl"
+#include "atlas.glsl"
 
 // Chebyshev's one-sided upper bound on P(z >= t) (Donnelly & Lauritzen 2006, §3.1), then the
 // light-bleeding reduction linstep(u_bleed_reduction, 1, p_max) (Lauritzen, GPU Gems 3 ch. 8).
@@ -115,21 +115,17 @@ float esm(float e, float t) {
 }
 
 void main() {
-    vec4 p4 = texelFetch(u_position, ivec2(gl_FragCoord.xy), 0);
     out_visibility = LIT;
-    if (p4.w == 0.0) return;
-    vec3 P = p4.xyz;
+    vec3 P;
+    if (!gbuffer_position(P)) return;
     int f = face_of(P);
-    vec4 s = u_light_matrix[f] * vec4(P, 1.0);
-    if (s.w <= 0.0) return;              // behind the light's centre of projection
-    vec3 c = s.xyz / s.w;
+    vec3 c;
+    if (!map_coordinates(f, P, c)) return;  // behind the light's centre of projection
     if (any(lessThan(c.xy, vec2(0.0))) || any(greaterThan(c.xy, vec2(1.0)))) return;  // outside the map
     float t = (-(u_light_view[f] * vec4(P, 1.0)).z - u_near) / (u_far - u_near);
     if (t < 0.0 || t > 1.0) return;      // outside the fitted depth range: nothing casts there
     // Bilinear sample (moments filter linearly), its footprint kept inside this face.
-    vec2 inner = u_face_rect[f].xy + vec2(HALF_TEXEL);
-    vec2 atlas = clamp(u_face_rect[f].xy + c.xy * u_face_rect[f].zw, inner,
-                       inner + u_face_rect[f].zw - vec2(2.0 * HALF_TEXEL));
+    vec2 atlas = bilinear_inside_face(f, atlas_texel(f, c.xy));
     // explicit level: implicit derivatives are undefined after the non-uniform returns above
     vec4 m = textureLod(u_moments, atlas / u_atlas_size, BASE_LEVEL);
     if (u_variant == VARIANT_ESM) out_visibility = esm(m.x, t);

@@ -7,8 +7,7 @@
 #include "fullscreen.glsl"
 
 #ifdef FRAGMENT_SHADER
-uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
-uniform isampler2D u_ids;                // G-buffer (object id, triangle id); -1 where uncovered
+#include "gbuffer_fetch.glsl"
 uniform sampler2D u_receives;            // texel (i, 0): 1 where object i may take caster images
 uniform sampler2D u_mask;                // this caster's shadow image (nearest or bilinear)
 uniform mat4 u_light_matrix;             // bias · projection · view: world → projective (s, t, r, q)
@@ -44,13 +43,12 @@ bool segment_meets_box(vec3 P, vec3 d) {
 
 void main() {
     out_visibility = u_lit;
-    ivec2 pixel = ivec2(gl_FragCoord.xy);
-    vec4 p4 = texelFetch(u_position, pixel, 0);
-    int id = texelFetch(u_ids, pixel, 0).r;
-    if (p4.w == 0.0 || id < 0) return;                            // nothing visible here
+    vec3 P;
+    bool covered = gbuffer_position(P);
+    int id = gbuffer_ids().x;
+    if (!covered || id < 0) return;                               // nothing visible here
     if (id == u_caster) return;                                   // no self-shadowing (by construction)
     if (texelFetch(u_receives, ivec2(id, 0), 0).r == 0.0) return; // not a receiver of caster images
-    vec3 P = p4.xyz;
     vec4 s = u_light_matrix * vec4(P, 1.0);
     if (u_clip == 1) {
         if (s.w <= 0.0) return;                                   // behind the light's centre of projection

@@ -3,15 +3,8 @@
 // Rendering 4th ed. §7.2), the mask program: one caster drawn alone from the light into its
 // shadow image (a binary mask: u_covered where the caster covers a texel, 0 elsewhere), which
 // projective_lookup.glsl then projects onto the receivers.
-uniform mat4 u_light_view_proj;          // projection · view of the caster's fitted light view
+#include "light_vertex.glsl"            // u_light_view_proj: the caster's fitted light view
 uniform float u_covered;                 // the mask's value where the caster covers a texel
-
-#ifdef VERTEX_SHADER
-in vec3 in_pos;
-void main() {
-    gl_Position = u_light_view_proj * vec4(in_pos, 1.0);
-}
-#endif
 
 #ifdef FRAGMENT_SHADER
 out float out_mask;

@@ -323,3 +323,21 @@ def test_real_programs_are_shared_and_frames_keep_drawing(ctx):
         for f in frames:
             f.release()
     assert gl.program("shadow_depth.glsl") is prog  # releasing the frames left the program alone
+
+
+def test_log_locations_of_other_drivers_are_rewritten():
+    """Info-log formats of drivers this machine lacks: NVIDIA 'S(L) : error', AMD 'ERROR: S:L:';
+    the file comes from the line number (Mesa reports every compiler error as string 0)."""
+    exp = gl.Expansion("", (gl.PRELUDE, "main.glsl", "inc.glsl"))
+    stride = gl.LINE_STRIDE
+    log = (f"0({2 * stride + 7}) : error C1008: undefined variable \"x\"\n"
+           f"ERROR: 0:{stride + 12}: 'y' : undeclared identifier\n"
+           f"0:{stride + 3}(9): error: `z' undeclared\n"
+           "0:2(1): error: bad define\n"
+           "vertex shader output 1:2 is no location\n")
+    assert exp.rewrite(log).splitlines() == [
+        "inc.glsl:7 : error C1008: undefined variable \"x\"",
+        "ERROR: main.glsl:12: 'y' : undeclared identifier",
+        "main.glsl:3(9): error: `z' undeclared",
+        "<prelude>:2(1): error: bad define",
+        "vertex shader output 1:2 is no location"]

@@ -71,7 +71,7 @@ def gs_only_timer(frame, table, light, repeat):
         GL.glDisable(GL.GL_RASTERIZER_DISCARD)
 
     ms = time_passes(gs_only, repeat=repeat, warmup=1).median_ms
-    for obj in (vao, ibo, vbo, prog):
+    for obj in (vao, ibo, vbo):  # prog: gl.program's cache keeps it
         obj.release()
     return ms
 

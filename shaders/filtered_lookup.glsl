@@ -1,7 +1,7 @@
 // Filtered shadow maps (VSM: Donnelly & Lauritzen 2006; ESM: Annen et al. 2008; EVSM: Lauritzen
-// & McCool 2008; MSM: Peters & Klein 2015, Hamburger 4MSM), two programs:
-// with BLUR defined, one direction of the separable box filter over one face of the moments
-// atlas; otherwise the lookup over the G-buffer, one visibility value per screen pixel.
+// & McCool 2008; MSM: Peters & Klein 2015, Hamburger 4MSM): the lookup over the G-buffer, one
+// visibility value per screen pixel, in the moments atlas that filtered_depth.glsl wrote and
+// filtered_blur.glsl filtered.
 // The atlas holds u_faces faces (1, or 6 for a point light's cube, chosen by the major axis of
 // the light-to-point vector as in shadow_lookup.glsl); face f has u_light_matrix[f] = bias ·
 // projection · view, its view u_light_view[f], and occupies u_face_rect[f] (texels). Depth t is
@@ -9,29 +9,6 @@
 #include "fullscreen.glsl"
 
 #ifdef FRAGMENT_SHADER
-#define HALF_TEXEL 0.5                   // texel centres are at integer + 0.5 (GL 4.5 core §8.14)
-
-#ifdef BLUR
-// Box filter of 2 u_radius + 1 texels along u_direction, taps clamped to the face u_rect (x0,
-// y0, width, height) so that a cube face never reads its neighbour. Weights are 1 / taps and
-// accumulated one by one: an ESM average of values up to exp(88) never overflows. All four
-// channels are filtered (a map with fewer drops the rest); the sum is float32 and the target's
-// format stores it again (16-bit maps: half floats, or MSM's quantised 16-bit UNORM).
-uniform sampler2D u_moments;
-uniform ivec2 u_direction;
-uniform int u_radius;
-uniform ivec4 u_rect;
-out vec4 out_moments;
-void main() {
-    ivec2 t = ivec2(gl_FragCoord.xy);
-    ivec2 lo = u_rect.xy, hi = u_rect.xy + u_rect.zw - 1;
-    float w = 1.0 / float(2 * u_radius + 1);
-    vec4 sum = vec4(0.0);
-    for (int i = -u_radius; i <= u_radius; ++i)
-        sum += w * texelFetch(u_moments, clamp(t + i * u_direction, lo, hi), 0);
-    out_moments = sum;
-}
-#else
 #include "lights.glsl"
 #define LIT 1.0
 #define TOTAL_MASS 1.0                   // MSM: the zeroth moment b0 = E[z⁰] of any depth distribution
@@ -40,7 +17,7 @@ void main() {
 #endif
 #define BASE_LEVEL 0.0                   // the atlas has no mipmaps: sample its level 0 explicitly
 
-uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
+#include "gbuffer_fetch.glsl"
 uniform sampler2D u_moments;             // filtered moments, bilinear sampling
 uniform vec2 u_atlas_size;               // atlas width, height in texels
 uniform int u_faces;
@@ -62,6 +39,7 @@ uniform vec4 u_moment_bias_target;       // MSM: b' = (1 - α) b + α · this
 out float out_visibility;
 
 #include "cube_face.glsl"
+#include "atlas.glsl"
 
 // Chebyshev's one-sided upper bound on P(z >= t) (Donnelly & Lauritzen 2006, §3.1), then the
 // light-bleeding reduction linstep(u_bleed_reduction, 1, p_max) (Lauritzen, GPU Gems 3 ch. 8).
@@ -139,21 +117,17 @@ float esm(float e, float t) {
 }
 
 void main() {
-    vec4 p4 = texelFetch(u_position, ivec2(gl_FragCoord.xy), 0);
     out_visibility = LIT;
-    if (p4.w == 0.0) return;
-    vec3 P = p4.xyz;
+    vec3 P;
+    if (!gbuffer_position(P)) return;
     int f = face_of(P);
-    vec4 s = u_light_matrix[f] * vec4(P, 1.0);
-    if (s.w <= 0.0) return;              // behind the light's centre of projection
-    vec3 c = s.xyz / s.w;
+    vec3 c;
+    if (!map_coordinates(f, P, c)) return;  // behind the light's centre of projection
     if (any(lessThan(c.xy, vec2(0.0))) || any(greaterThan(c.xy, vec2(1.0)))) return;  // outside the map
     float t = (-(u_light_view[f] * vec4(P, 1.0)).z - u_near) / (u_far - u_near);
     if (t < 0.0 || t > 1.0) return;      // outside the fitted depth range: nothing casts there
     // Bilinear sample (moments filter linearly), its footprint kept inside this face.
-    vec2 inner = u_face_rect[f].xy + vec2(HALF_TEXEL);
-    vec2 atlas = clamp(u_face_rect[f].xy + c.xy * u_face_rect[f].zw, inner,
-                       inner + u_face_rect[f].zw - vec2(2.0 * HALF_TEXEL));
+    vec2 atlas = bilinear_inside_face(f, atlas_texel(f, c.xy));
     // explicit level: implicit derivatives are undefined after the non-uniform returns above
     vec4 m = textureLod(u_moments, atlas / u_atlas_size, BASE_LEVEL);
     if (u_variant == VARIANT_ESM) out_visibility = esm(m.x, t);
@@ -161,5 +135,4 @@ void main() {
     else if (u_variant == VARIANT_MSM) out_visibility = msm(m, t);
     else out_visibility = evsm(m, t);
 }
-#endif
 #endif

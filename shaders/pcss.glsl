@@ -38,8 +38,7 @@
 #define SHADOWED 0.0
 #define HALF_TEXEL 0.5                   // texel centres are at integer + 0.5 (GL 4.5 core §8.14)
 
-uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
-uniform sampler2D u_normal;              // G-buffer geometric normal
+#include "gbuffer_fetch.glsl"
 uniform sampler2D u_map;                 // window depth from the light's centre
 uniform mat4 u_light_matrix;             // bias · projection · view
 uniform float u_near;                    // the map's near and far planes (linear depth)
@@ -106,17 +105,14 @@ bool blocks(float stored, float ref) {
 }
 
 void main() {
-    vec4 p4 = texelFetch(u_position, ivec2(gl_FragCoord.xy), 0);
     out_visibility = LIT;
-    if (p4.w == 0.0) return;
-    vec3 P = p4.xyz;
+    vec3 P;
+    if (!gbuffer_position(P)) return;
     if (u_one_sided == 1 && dot(P - light_position, u_light_normal) <= 0.0) {
         out_visibility = SHADOWED;       // behind the emitting side (DESIGN §7)
         return;
     }
-    vec3 L = light_dir_to(P);
-    vec3 N = normalize(texelFetch(u_normal, ivec2(gl_FragCoord.xy), 0).xyz);
-    if (dot(N, L) < 0.0) N = -N;         // two-sided receivers: the side facing the light
+    vec3 N = gbuffer_normal_towards(light_dir_to(P));  // two-sided receivers: the side facing the light
     vec4 s = u_light_matrix * vec4(P, 1.0);
     if (s.w <= 0.0) return;              // behind the light's centre of projection
     vec3 c = s.xyz / s.w;

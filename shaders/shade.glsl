@@ -9,9 +9,7 @@
 #define MATERIAL_SPECULAR 1  // rgb = k_S, a = shininess s
 #define MATERIAL_AMBIENT 2   // rgb = k_A
 
-uniform sampler2D u_position;
-uniform sampler2D u_normal;
-uniform isampler2D u_ids;
+#include "gbuffer_fetch.glsl"
 uniform sampler2D u_materials;   // one column per object, rows as above
 uniform sampler2D u_visibility;  // this light's visibility image, 1 = lit
 uniform vec3 u_eye;
@@ -20,13 +18,13 @@ uniform vec3 u_shadow_color;
 out vec4 out_color;
 
 void main() {
-    ivec2 px = ivec2(gl_FragCoord.xy);
-    ivec2 ids = texelFetch(u_ids, px, 0).xy;
+    ivec2 px = gbuffer_pixel();
+    ivec2 ids = gbuffer_ids();
     if (ids.y < 0) discard;
-    vec3 P = texelFetch(u_position, px, 0).xyz;
-    vec3 N = normalize(texelFetch(u_normal, px, 0).xyz);
+    vec3 P;
+    gbuffer_position(P);           // covered: the ids say so
     vec3 V = normalize(u_eye - P);
-    if (dot(N, V) < 0.0) N = -N;   // two-sided surfaces
+    vec3 N = gbuffer_normal_towards(V);  // two-sided surfaces
     vec4 kd = texelFetch(u_materials, ivec2(ids.x, MATERIAL_DIFFUSE), 0);
     vec4 ks = texelFetch(u_materials, ivec2(ids.x, MATERIAL_SPECULAR), 0);
     vec3 ka = texelFetch(u_materials, ivec2(ids.x, MATERIAL_AMBIENT), 0).rgb;

@@ -1,14 +1,7 @@
 // Shadow-map depth pass (Williams 1978): casters rendered from the light into one face of the
 // depth atlas; depth only. With PEEL defined (depth peeling, Everitt 2001), fragments not
 // strictly behind the first layer are discarded, leaving the second-nearest surface.
-uniform mat4 u_light_view_proj;
-
-#ifdef VERTEX_SHADER
-in vec3 in_pos;
-void main() {
-    gl_Position = u_light_view_proj * vec4(in_pos, 1.0);
-}
-#endif
+#include "light_vertex.glsl"
 
 #ifdef FRAGMENT_SHADER
 #ifdef PEEL

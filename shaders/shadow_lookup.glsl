@@ -20,10 +20,8 @@
 #ifndef MAX_FACES
 #error "MAX_FACES: the map toolkit's atlas size (shadowlab.techniques.maps.ATLAS_DEFINES)"
 #endif
-#define HALF_TEXEL 0.5                   // texel centres are at integer + 0.5 (GL 4.5 core §8.14)
 
-uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
-uniform sampler2D u_normal;              // G-buffer geometric normal
+#include "gbuffer_fetch.glsl"
 #ifdef FILTER_HW
 uniform sampler2DShadow u_map;           // comparison sampler, linear filtering
 #else
@@ -48,18 +46,13 @@ uniform float u_cascade_texel[MAX_FACES];  // world size of a texel of each casc
 out float out_visibility;
 
 #include "cube_face.glsl"
-
-vec3 to_map(int f, vec3 p) {             // (u, v, depth) in [0, 1] within face f
-    vec4 s = u_light_matrix[f] * vec4(p, 1.0);
-    return s.xyz / s.w;
-}
+#include "atlas.glsl"
 
 // Visibility of the receiver point Q (normal N towards the light) in face f; texel: the world
 // size of a map texel at Q. Points outside the face's map are lit.
 float face_visibility(int f, vec3 Q, vec3 N, float texel) {
-    vec4 s = u_light_matrix[f] * vec4(Q, 1.0);
-    if (s.w <= 0.0) return LIT;          // behind the light's centre of projection
-    vec3 c = s.xyz / s.w;
+    vec3 c;
+    if (!map_coordinates(f, Q, c)) return LIT;  // behind the light's centre of projection
     if (any(lessThan(c, vec3(0.0))) || any(greaterThan(c, vec3(1.0)))) return LIT;  // outside the map
     float bias = u_bias;
     if (u_slope_scale > 0.0) {
@@ -79,16 +72,13 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
         }
     }
     float ref = c.z - bias;
-    vec2 atlas = u_face_rect[f].xy + c.xy * u_face_rect[f].zw;   // texel coordinates in the atlas
+    vec2 atlas = atlas_texel(f, c.xy);
 #ifdef FILTER_HW
-    // Keep the 2x2 bilinear footprint inside this face of the atlas: a texel centre sits half a
-    // texel in from the face's edge, and taps beyond it would read the neighbouring cube face.
-    vec2 inner = u_face_rect[f].xy + vec2(HALF_TEXEL);
-    // textureLod at level 0: this runs after non-uniform control flow (early returns, the cascade
-    // choice), where texture()'s implicit derivatives are undefined (GLSL 4.50 §8.9); the map has
-    // one level, so level 0 is what texture() means here on any driver.
-    return textureLod(u_map, vec3(clamp(atlas, inner, inner + u_face_rect[f].zw - vec2(2.0 * HALF_TEXEL))
-                                  / u_atlas_size, ref), 0.0);
+    // The 2x2 bilinear footprint kept inside this face of the atlas. textureLod at level 0: this
+    // runs after non-uniform control flow (early returns, the cascade choice), where texture()'s
+    // implicit derivatives are undefined (GLSL 4.50 §8.9); the map has one level, so level 0 is
+    // what texture() means here on any driver.
+    return textureLod(u_map, vec3(bilinear_inside_face(f, atlas) / u_atlas_size, ref), 0.0);
 #else
     ivec2 lo = ivec2(u_face_rect[f].xy), hi = lo + ivec2(u_face_rect[f].zw) - 1;
     ivec2 t = clamp(ivec2(floor(atlas)), lo, hi);
@@ -104,13 +94,10 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
 }
 
 void main() {
-    vec4 p4 = texelFetch(u_position, ivec2(gl_FragCoord.xy), 0);
     out_visibility = LIT;
-    if (p4.w == 0.0) return;
-    vec3 P = p4.xyz;
-    vec3 L = light_dir_to(P);
-    vec3 N = normalize(texelFetch(u_normal, ivec2(gl_FragCoord.xy), 0).xyz);
-    if (dot(N, L) < 0.0) N = -N;         // two-sided receivers: the side facing the light
+    vec3 P;
+    if (!gbuffer_position(P)) return;
+    vec3 N = gbuffer_normal_towards(light_dir_to(P));  // two-sided receivers: the side facing the light
 #ifdef CASCADES
     // The first cascade whose far split lies beyond P's view depth (the last one past the far split).
     float depth = dot(u_view_depth, vec4(P, 1.0));

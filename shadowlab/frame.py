@@ -314,5 +314,5 @@ class Frame:
             vao.release()
         self.target.release()
         for obj in (self.tex_position, self.tex_normal, self.tex_ids, self.vbo_position, self.vbo_normal,
-                    self.vbo_object):
+                    self.vbo_object):  # gbuffer_program: gl.program's cache keeps it
             obj.release()

@@ -10,6 +10,7 @@ that row 0 is the *top* of the image (DESIGN §5).
 """
 from __future__ import annotations
 
+import difflib
 import os
 import re
 import sys
@@ -138,9 +139,40 @@ def check_errors(where: str = "") -> None:
 
 # --------------------------------------------------------------------------- shaders
 
-_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.M)
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*(?://.*)?$')  # a line comment may follow
+_ANY_INCLUDE = re.compile(r"^\s*#\s*include\b")
+_CONDITIONAL = re.compile(r"^\s*#\s*(if|ifdef|ifndef|elif|else|endif)\b")
+# A stage exists when the file has an `#ifdef <STAGE>_SHADER` line; the macro's name elsewhere
+# (a comment, an #ifndef) makes none.
+_STAGE_LINE = re.compile(r"^[ \t]*#[ \t]*ifdef[ \t]+(VERTEX_SHADER|GEOMETRY_SHADER|FRAGMENT_SHADER)\b", re.M)
 _STAGES = {"vertex": "VERTEX_SHADER", "geometry": "GEOMETRY_SHADER", "fragment": "FRAGMENT_SHADER"}
+# `uniform <type> <name>[...], <name>...;` at the start of a line (block declarations are not used).
+_UNIFORM = re.compile(r"^[ \t]*(?:layout\s*\([^)]*\)\s*)?uniform\s+(?:(?:lowp|mediump|highp)\s+)?\w+\s+([^;{]+);", re.M)
+# A location in a driver's info log, at the start of a line after an optional "ERROR: ":
+# Mesa "S:L(C): error", NVIDIA "S(L) : error", AMD/Intel "ERROR: S:L: ...".
+_LOCATION = re.compile(r"^([ \t]*(?:[A-Za-z]+:[ \t]*)?)(\d+)(?::(\d+)|\((\d+)\))", re.M)
 GLSL_VERSION = "#version 330 core"
+
+#: Source-string number 0: the lines the lab puts before a file (#version, the defines, the stage
+#: macro); the files of an expansion are numbered from 1 in the order they are first included.
+PRELUDE = "<prelude>"
+#: ``#line`` numbers of source string k run from k · LINE_STRIDE + 1: the file is then known from
+#: the line number alone. Mesa (22.x) reports compiler errors as source string 0 whatever ``#line``
+#: said (only its preprocessor errors carry the number), NVIDIA reports both; the line decides.
+LINE_STRIDE = 10000
+
+
+class ShaderError(RuntimeError):
+    """A shader program did not build: a GLSL compile or link error (locations rewritten to
+    ``file.glsl:line``), a missing include, an include cycle or a conflicting include."""
+
+
+class UnknownUniformError(KeyError):
+    """:func:`set_uniforms` was given a name the program's source never declares (a misspelt or
+    stale uniform); the message names the program file and the close matches."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""
 
 
 def shader_dir() -> Path:
@@ -152,68 +184,149 @@ def shader_dir() -> Path:
     raise FileNotFoundError(f"no shaders/ folder beside {here}: the installation is incomplete")
 
 
-def _expand(name: str, seen: tuple[str, ...] = ()) -> str:
-    if name in seen:
-        raise ValueError(f"#include cycle: {' -> '.join(seen + (name,))}")
-    path = shader_dir() / name
-    if not path.is_file():
-        raise FileNotFoundError(f"shader file not found: {path}")
-    text = path.read_text()
-    return _INCLUDE.sub(lambda m: _expand(m.group(1), seen + (name,)), text)
+@dataclass(frozen=True)
+class Expansion:
+    """A GLSL file with its ``#include``s expanded: ``text`` (with ``#line`` markers, no
+    #version) and ``files``, the table of source-string numbers (``files[k]`` is string k; 0 is
+    :data:`PRELUDE`, 1 the file itself)."""
+
+    text: str
+    files: tuple[str, ...]
+
+    def locate(self, string: int, line: int) -> tuple[str, int] | None:
+        """The (file, line) of a location a driver reported as source string ``string``, line
+        ``line``; None when it is none of this expansion's."""
+        number, local = divmod(line, LINE_STRIDE)
+        if 1 <= number < len(self.files):  # a marked line: the number says which file
+            return self.files[number], local
+        if number == 0 and string == 0:  # before the first marker: the prelude
+            return PRELUDE, line
+        return None
+
+    def rewrite(self, log: str) -> str:
+        """A compiler's or linker's info log with each ``S:L`` / ``S(L)`` location at the start
+        of a line rewritten to ``file.glsl:L``."""
+        def replace(m: re.Match) -> str:
+            where = self.locate(int(m.group(2)), int(m.group(3) or m.group(4)))
+            return m.group(0) if where is None else f"{m.group(1)}{where[0]}:{where[1]}"
+        return _LOCATION.sub(replace, log)
+
+
+def _expand(folder: Path, name: str) -> Expansion:
+    """Expand ``folder/name``: each ``#include "file"`` is replaced by that file's text (itself
+    expanded) between ``#line`` markers, so that every line keeps its file and line number.
+
+    Include guard: a file already included in this expansion is not expanded again (the
+    ``#include`` line becomes a comment). Because the first inclusion then serves the later
+    ones, it must be live wherever they are: the conditionals (``#if*`` groups, by file and line)
+    open at the first inclusion must all be open at the later one; otherwise it is an error
+    (include the file once, where every user sees it). A cycle is an error.
+    """
+    files = [PRELUDE]
+    first_site: dict[str, tuple] = {}   # included file -> the conditional groups open at its first #include
+    open_groups: list[tuple[str, int, int]] = []  # (file, line of its #if*, branch: 0, 1 after #else/#elif ...)
+    out: list[str] = []
+
+    def marker(number: int, line: int) -> str:
+        return f"#line {number * LINE_STRIDE + line} {number}"
+
+    def walk(fname: str, chain: tuple[str, ...], site: str | None) -> None:
+        path = folder / fname
+        if not path.is_file():
+            raise ShaderError(f"shader file not found: {path}" + (f" (#include at {site})" if site else ""))
+        lines = path.read_text().splitlines()
+        if len(lines) >= LINE_STRIDE:
+            raise ShaderError(f"{fname}: {len(lines)} lines; the #line scheme allows {LINE_STRIDE - 1}")
+        number = len(files)
+        files.append(fname)
+        out.append(marker(number, 1))
+        # A #line inside a group the preprocessor skips is ignored, and it then counts on from the
+        # last one it obeyed: once this file has expanded an include, each #else / #elif /
+        # #endif is followed by a marker restating this file's line.
+        resync = False
+        for i, line in enumerate(lines, 1):
+            inc = _INCLUDE.match(line)
+            if inc is None and _ANY_INCLUDE.match(line):
+                raise ShaderError(f'{fname}:{i}: an #include line must read #include "file.glsl"')
+            if inc:
+                child, here = inc.group(1), f"{fname}:{i}"
+                if child in chain + (fname,):
+                    raise ShaderError(f"#include cycle: {' -> '.join(chain + (fname, child))} (at {here})")
+                if child in first_site:
+                    first = first_site[child]
+                    if tuple(open_groups[:len(first)]) != first:
+                        raise ShaderError(f"{here}: {child} was first included under other #if conditions; "
+                                          f"include it once where every user of it sees it")
+                    out.append(f"// (already included: {child})")  # one line for one: numbering unchanged
+                    continue
+                first_site[child] = tuple(open_groups)
+                walk(child, chain + (fname,), here)
+                out.append(marker(number, i + 1))
+                resync = True
+                continue
+            out.append(line)
+            cond = _CONDITIONAL.match(line)
+            if cond is None:
+                continue
+            kind = cond.group(1)
+            if kind in ("if", "ifdef", "ifndef"):
+                open_groups.append((fname, i, 0))
+                continue
+            if open_groups:
+                group = open_groups.pop()
+                if kind != "endif":
+                    open_groups.append((group[0], group[1], group[2] + 1))
+            if resync:
+                out.append(marker(number, i + 1))
+
+    walk(name, (), None)
+    return Expansion("\n".join(out), tuple(files))
 
 
 @lru_cache(maxsize=None)
+def _expansion(folder: Path, name: str) -> Expansion:
+    return _expand(folder, name)
+
+
+def expansion(name: str) -> Expansion:
+    """``shaders/<name>`` expanded (:class:`Expansion`: its text and its table of files)."""
+    return _expansion(shader_dir(), name)
+
+
 def shader_source(name: str) -> str:
-    """The GLSL text of ``shaders/<name>`` with every ``#include "file"`` expanded (no #version)."""
-    return _expand(name)
+    """The GLSL text of ``shaders/<name>`` with every ``#include "file"`` expanded once, between
+    ``#line`` markers (no #version)."""
+    return expansion(name).text
 
 
-_PROGRAMS: dict = {}
-
-
-def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()):
-    """The moderngl Program of ``shaders/<name>`` with ``defines``, compiled once per process
-    (cached per (file, defines, varyings); the cache owns it: callers never release it).
-
-    One file holds every stage, each inside ``#ifdef VERTEX_SHADER`` / ``GEOMETRY_SHADER`` /
-    ``FRAGMENT_SHADER``; a stage is built when its macro appears in the file. ``defines`` become
-    ``#define KEY VALUE`` lines (compile-time switches only; numeric parameters are uniforms).
-    """
-    key = (name, tuple(sorted((str(k), str(v)) for k, v in (defines or {}).items())), tuple(varyings))
-    if key not in _PROGRAMS:
-        _PROGRAMS[key] = _compile(name, defines, varyings)
-    return _PROGRAMS[key]
-
-
-def _compile(name: str, defines: dict | None, varyings: tuple[str, ...]):
-    """:func:`program`, compiled."""
-    ctx = context()
-    src = shader_source(name)
-    head = [GLSL_VERSION] + [f"#define {k} {v}" for k, v in (defines or {}).items()]
-    stages = {}
-    for stage, macro in _STAGES.items():
-        if macro in src:
-            stages[stage] = "\n".join(head + [f"#define {macro} 1", "#line 1", src])
-    if "vertex" not in stages:
-        raise ValueError(f"{name}: no VERTEX_SHADER section")
-    kwargs = dict(vertex_shader=stages["vertex"], geometry_shader=stages.get("geometry"))
-    if varyings:
-        kwargs["varyings"] = varyings
-    else:
-        kwargs["fragment_shader"] = stages.get("fragment")
-    prog = ctx.program(**kwargs)
-    prog.extra = ProgramInfo(name, dict(defines or {}), glstate.clip_distances_written(stages))
-    return prog
+def declared_uniforms(stage_source: str) -> frozenset[str]:
+    """Names of the uniforms a stage's source declares in the branches its ``#ifdef``s keep
+    (:func:`shadowlab.glstate.active_source`), arrays by their bare name as moderngl lists them."""
+    names = set()
+    for declarators in _UNIFORM.findall(glstate.active_source(stage_source)):
+        for part in declarators.split(","):
+            m = re.match(r"\s*(\w+)", part)
+            if m:
+                names.add(m.group(1))
+    return frozenset(names)
 
 
 @dataclass(frozen=True)
 class ProgramInfo:
-    """What the lab knows of a program it compiled: its file, defines, and the clip distances
-    its vertex or geometry stage writes (each needs GL_CLIP_DISTANCEi enabled when it draws)."""
+    """What the lab knows of a program it compiled: its file, defines, the clip distances its
+    vertex or geometry stage writes (each needs GL_CLIP_DISTANCEi enabled when it draws), the
+    uniforms its compiled stages declare (the compiler may drop unused ones) and its table of
+    source-string numbers (``files[k]``: string k of its ``#line`` markers)."""
 
     name: str
     defines: dict
     clip_distances: frozenset
+    uniforms: frozenset = frozenset()
+    files: tuple = ()
+
+    def label(self) -> str:
+        """The program file and its defines, e.g. ``shadow_lookup.glsl {FILTER_HW=1}``."""
+        return f"{self.name} {{{', '.join(f'{k}={v}' for k, v in self.defines.items())}}}"
 
 
 def program_info(prog) -> ProgramInfo | None:
@@ -221,6 +334,77 @@ def program_info(prog) -> ProgramInfo | None:
     object itself, so it goes with it); None for other programs."""
     info = getattr(prog, "extra", None)
     return info if isinstance(info, ProgramInfo) else None
+
+
+#: Compiled programs by (shader folder, file, defines, varyings) -> (program, uniform values at link).
+_PROGRAMS: dict[tuple, tuple] = {}
+
+
+def _canonical_defines(defines: dict | None) -> tuple[tuple[str, str], ...]:
+    """Defines as sorted (name, text) pairs: the cache key, and the order of the #define lines."""
+    return tuple(sorted((str(k), str(v)) for k, v in (defines or {}).items()))
+
+
+def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()):
+    """The moderngl Program of ``shaders/<name>``, compiled once per process for each
+    (file, defines, varyings).
+
+    One file holds every stage of one program, each inside ``#ifdef VERTEX_SHADER`` /
+    ``GEOMETRY_SHADER`` / ``FRAGMENT_SHADER``; a stage is built when the file (its includes
+    expanded) has that ``#ifdef`` line. ``defines`` become ``#define KEY VALUE`` lines
+    (compile-time switches between variants of the program; numeric parameters are uniforms);
+    ``varyings`` make a transform-feedback program (no fragment stage).
+
+    The cache owns the program: callers share it and must not ``release()`` it
+    (:func:`release_programs` frees them all). Each call hands it back with every uniform at its
+    value just after linking, as a fresh compile would; a caller sets the uniforms it needs
+    after its own call, and two users alive at once share uniform values.
+
+    A GLSL error raises :class:`ShaderError` naming the file, the defines and each error's
+    ``file.glsl:line``.
+    """
+    import moderngl
+
+    canonical = _canonical_defines(defines)
+    folder = shader_dir()
+    key = (str(folder), name, canonical, tuple(varyings))
+    cached = _PROGRAMS.get(key)
+    if cached is not None and not isinstance(cached[0].mglo, moderngl.InvalidObject):
+        prog, initial = cached
+        for uniform, data in initial.items():
+            prog[uniform].write(data)
+        return prog
+    exp = _expansion(folder, name)
+    head = [GLSL_VERSION] + [f"#define {k} {v}" for k, v in canonical]
+    macros = set(_STAGE_LINE.findall(exp.text))
+    stages = {stage: "\n".join(head + [f"#define {macro} 1", exp.text])
+              for stage, macro in _STAGES.items() if macro in macros}
+    label = f"{name} {{{', '.join(f'{k}={v}' for k, v in canonical)}}}"
+    if "vertex" not in stages:
+        raise ShaderError(f"{label}: no '#ifdef VERTEX_SHADER' section (in the file or its includes)")
+    if varyings:
+        stages.pop("fragment", None)  # transform feedback: vertex (and geometry) only
+    try:
+        prog = context().program(vertex_shader=stages["vertex"], geometry_shader=stages.get("geometry"),
+                                 fragment_shader=stages.get("fragment"), varyings=tuple(varyings))
+    except moderngl.Error as exc:
+        raise ShaderError(f"{label} failed to build (locations as file:line):\n{exp.rewrite(str(exc)).strip()}"
+                          ) from None
+    declared = frozenset().union(*(declared_uniforms(src) for src in stages.values()))
+    prog.extra = ProgramInfo(name, dict(defines or {}), glstate.clip_distances_written(stages), declared,
+                             exp.files)
+    initial = {u: prog[u].read() for u in prog if isinstance(prog[u], moderngl.Uniform)}
+    _PROGRAMS[key] = (prog, initial)
+    return prog
+
+
+def release_programs() -> None:
+    """Release every program :func:`program` compiled and empty its cache (tests, shutdown): the
+    next call compiles afresh. Nothing may draw with the released programs afterwards (a
+    frame's vertex arrays of them go with the frame)."""
+    for prog, _ in _PROGRAMS.values():
+        prog.release()
+    _PROGRAMS.clear()
 
 
 _QUERIES: dict = {}
@@ -236,14 +420,26 @@ def query(key, **kinds):
 
 
 def set_uniforms(prog, values: dict) -> None:
-    """Set the uniforms in ``values`` that ``prog`` uses (the compiler drops unused ones)."""
+    """Set the uniforms in ``values`` on ``prog``: numpy arrays are written as float32 / int32
+    bytes (arrays of uniforms), other values through moderngl's ``.value``.
+
+    A name the program's compiled stages declare but the compiler dropped (unused) is skipped.
+    For a program made by :func:`program`, a name they do not declare at all raises
+    :class:`UnknownUniformError` (a ``KeyError``) naming the program file and close matches.
+    """
+    info = program_info(prog)
     for key, val in values.items():
-        if key in prog:
-            member = prog[key]
-            if isinstance(val, np.ndarray):
-                member.write(np.ascontiguousarray(val, dtype="f4" if val.dtype.kind == "f" else "i4").tobytes())
-            else:
-                member.value = val
+        if key not in prog:
+            if info is not None and key not in info.uniforms:
+                close = difflib.get_close_matches(key, sorted(info.uniforms), n=3)
+                hint = f"; did you mean {' or '.join(close)}?" if close else ""
+                raise UnknownUniformError(f"{info.label()} declares no uniform {key!r}{hint}")
+            continue
+        member = prog[key]
+        if isinstance(val, np.ndarray):
+            member.write(np.ascontiguousarray(val, dtype="f4" if val.dtype.kind == "f" else "i4").tobytes())
+        else:
+            member.value = val
 
 
 # --------------------------------------------------------------------------- render targets

@@ -33,10 +33,13 @@ class ShadingPass:
         self.out_tex = ctx.texture((frame.width, frame.height), 4, dtype="f4")
         self.out_fbo = gl.framebuffer([self.out_tex])
         sh = frame.scene.shading
-        #: The program is shared (compiled once per process): its uniforms are set on every shade().
-        self.uniforms = {"u_position": 0, "u_normal": 1, "u_ids": 2, "u_materials": 3, "u_visibility": 4,
-                         "u_eye": tuple(map(float, frame.camera.eye)), "u_density": float(sh.density),
-                         "u_shadow_color": tuple(map(float, sh.shadow_color))}
+        # Set again by every shade(): the program is gl.program's shared one, and another ShadingPass
+        # made since (another frame) may have set its own values.
+        self.uniforms = {
+            "u_position": 0, "u_normal": 1, "u_ids": 2, "u_materials": 3, "u_visibility": 4,
+            "u_eye": tuple(map(float, frame.camera.eye)), "u_density": float(sh.density),
+            "u_shadow_color": tuple(map(float, sh.shadow_color)),
+        }
 
     def shade(self, visibilities: list[np.ndarray]) -> np.ndarray:
         """Linear RGB float32 (height, width, 3), row 0 = top, from one visibility image
@@ -46,7 +49,6 @@ class ShadingPass:
             raise ValueError(f"need {len(frame.scene.lights)} visibility images, got {len(visibilities)}")
         from OpenGL import GL
 
-        gl.set_uniforms(self.prog, self.uniforms)
         self.out_fbo.use()
         ctx.viewport = (0, 0, frame.width, frame.height)
         glstate.apply(PassState(blend=("one", "one")))  # the lights add up
@@ -54,6 +56,7 @@ class ShadingPass:
         for tex, unit in ((frame.tex_position, 0), (frame.tex_normal, 1), (frame.tex_ids, 2),
                           (self.materials, 3), (self.vis_tex, 4)):
             tex.use(unit)
+        gl.set_uniforms(self.prog, self.uniforms)
         for light, vis in zip(frame.scene.lights, visibilities):
             self.vis_tex.write(np.ascontiguousarray(vis[::-1], dtype=np.float32).tobytes())
             gl.set_uniforms(self.prog, light.uniforms())
@@ -62,7 +65,7 @@ class ShadingPass:
         return gl.read_texture(self.out_tex, 4)[..., :3]
 
     def release(self) -> None:
-        """Free GL objects."""
+        """Free GL objects (gl.program's cache keeps the program)."""
         gl.park()
         for obj in (self.quad, self.materials, self.vis_tex, self.out_fbo, self.out_tex):
             obj.release()

@@ -35,7 +35,7 @@ def glsl_eval(ctx, light, points):
     gl.park()  # EGL standalone contexts have no default framebuffer
     vao.transform(out, vertices=len(points))
     res = np.frombuffer(out.read(), "f4").reshape(-1, 4)
-    for obj in (vao, vbo, out, prog):
+    for obj in (vao, vbo, out):  # prog: gl.program's cache keeps it
         obj.release()
     return res[:, 0], res[:, 1:]
 

@@ -13,6 +13,7 @@ from shadowlab import report, timing
 from shadowlab.scene.area_lights import RectLight
 from shadowlab.scene.lights import PointLight
 from shadowlab.metrics import PENUMBRA_HIGH, PENUMBRA_LOW, compare, format_table, soft_regions
+from shadowlab.frame import LightSlot
 from shadowlab.pipeline import Evaluator, Measurement
 from shadowlab.techniques import from_spec
 
@@ -123,13 +124,16 @@ def test_every_row_carries_the_truths_stderr():
     """Evaluator.row copies the truth measurement's truth_stderr_max onto a technique's row
     (0 when the truth reports none). A stand-in frame: no GL."""
     h, w = G.shape
-    frame = SimpleNamespace(scene=SimpleNamespace(name="s", lights=[SimpleNamespace(type_name="area")] * 2),
-                            width=w, height=h, evaluated=lambda li: EV)
+    lights = [SimpleNamespace(type_name="area"), SimpleNamespace(type_name="area")]
+    slots = [LightSlot(i, light, EV.reshape(-1)) for i, light in enumerate(lights)]
+    frame = SimpleNamespace(scene=SimpleNamespace(name="s", lights=lights), width=w, height=h,
+                            slot=lambda i: slots[i], as_slot=lambda x: slots[x] if isinstance(x, int) else x,
+                            evaluated_image=lambda slot: EV)
     ev = Evaluator(frame)
-    ev._contact = {0: np.zeros(G.shape, bool), 1: np.zeros(G.shape, bool)}
-    ev._overlap = {0: np.zeros(G.shape, bool), 1: np.zeros(G.shape, bool)}
+    ev._contact = {id(light): np.zeros(G.shape, bool) for light in lights}  # the caches key on the light
+    ev._overlap = {id(light): np.zeros(G.shape, bool) for light in lights}
     no_time = timing.Timing(float("nan"), float("nan"), [])
-    ev._truth[0] = Measurement(ev.truth_technique, 0, G, no_time, {"truth_stderr_max": 0.015625})
+    ev._truth[id(lights[0])] = Measurement(ev.truth_technique, 0, G, no_time, {"truth_stderr_max": 0.015625})
     ev.use_truth(1, G.astype(np.float32))  # measured elsewhere: no stats
     tech = from_spec("shadow_map")
     row0 = ev.row(Measurement(tech, 0, V, no_time, {}))

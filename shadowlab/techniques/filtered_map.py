@@ -267,9 +267,10 @@ class FilteredShadowMap(TexelMapping, Technique):
         self.depth_prog = self.program("filtered_depth.glsl", defines=VARIANT_DEFINES)
         gl.set_uniforms(self.depth_prog, {"u_near": self.near, "u_far": self.far,
                                           "u_exponent": float(self.exponent),
-                                          "u_derivative_weight": DERIVATIVE_WEIGHT})
+                                          "u_derivative_weight": DERIVATIVE_WEIGHT,
+                                          "u_moment_max": FORMAT_MAX[self.precision]})
         self._set_variant_uniforms(self.depth_prog)
-        self.blur_prog = self.program("filtered_lookup.glsl", defines={"BLUR": 1})
+        self.blur_prog = self.program("filtered_blur.glsl")
         gl.set_uniforms(self.blur_prog, {"u_moments": 0, "u_radius": self.kernel // 2})
         self.blur_quad = self.fullscreen_quad(self.blur_prog)
 
@@ -307,13 +308,13 @@ class FilteredShadowMap(TexelMapping, Technique):
 
     def _set_variant_uniforms(self, prog) -> None:
         """Set the uniforms of the moments or the lookup program that depend on the variant: its
-        id, EVSM's warp and exponents, MSM's storage transform (identity and zero for 32-bit)."""
+        id, EVSM's warp and exponents, MSM's storage transform (identity and zero for 32-bit).
+        (The moments pass's clamp u_moment_max is set with its other uniforms in setup.)"""
         quantize = self._quantized()
         values = {
             "u_variant": VARIANT_ID[self.variant],
             "u_warp": EVSM_WARP,
             "u_exponents": (float(self.positive_exponent), float(self.negative_exponent)),
-            "u_moment_max": FORMAT_MAX[self.precision],
             "u_quantize_offset": tuple(float(v) for v in (MSM_QUANTIZE_OFFSET if quantize else np.zeros(4))),
         }
         gl.set_uniforms(prog, values)

@@ -175,9 +175,9 @@ class ProjectiveShadow(Technique):
             tex.repeat_x = tex.repeat_y = False
             self.masks.append((tex, self.own(gl.framebuffer([tex]))))
 
-        self.mask_prog = self.program("projective.glsl", defines={"MASK": 1})
+        self.mask_prog = self.program("projective_mask.glsl")
         gl.set_uniforms(self.mask_prog, {"u_covered": COVERED})
-        self.lookup_prog = self.program("projective.glsl")
+        self.lookup_prog = self.program("projective_lookup.glsl")
         light_h = self.light.homogeneous()
         gl.set_uniforms(self.lookup_prog, {
             "u_position": 0, "u_ids": 1, "u_receives": 2, "u_mask": 3,

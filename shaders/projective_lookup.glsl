@@ -1,36 +1,13 @@
 // Projective shadow textures (Segal et al. 1992, "Fast shadows and lighting effects using
 // texture mapping"; Nguyen 1999, "Casting shadows on volumes"; Akenine-Möller et al., Real-Time
-// Rendering 4th ed. §7.2), two programs:
-// with MASK defined, one caster drawn alone from the light into its shadow image (a binary
-// mask: u_covered where the caster covers a texel, 0 elsewhere); otherwise the lookup over the
-// G-buffer, which projects that image onto the receivers. The lookup writes 1 − mask(P) where P
+// Rendering 4th ed. §7.2), the lookup program: over the G-buffer, it projects one caster's
+// shadow image (projective_mask.glsl) onto the receivers. It writes 1 − mask(P) where P
 // takes this caster's image and 1 elsewhere; the pass blends it multiplicatively into the
 // visibility target (dst = dst · src), one pass per caster.
-
-#ifdef MASK
-uniform mat4 u_light_view_proj;          // projection · view of the caster's fitted light view
-uniform float u_covered;                 // the mask's value where the caster covers a texel
-
-#ifdef VERTEX_SHADER
-in vec3 in_pos;
-void main() {
-    gl_Position = u_light_view_proj * vec4(in_pos, 1.0);
-}
-#endif
-
-#ifdef FRAGMENT_SHADER
-out float out_mask;
-void main() {
-    out_mask = u_covered;
-}
-#endif
-
-#else
 #include "fullscreen.glsl"
 
 #ifdef FRAGMENT_SHADER
-uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
-uniform isampler2D u_ids;                // G-buffer (object id, triangle id); -1 where uncovered
+#include "gbuffer_fetch.glsl"
 uniform sampler2D u_receives;            // texel (i, 0): 1 where object i may take caster images
 uniform sampler2D u_mask;                // this caster's shadow image (nearest or bilinear)
 uniform mat4 u_light_matrix;             // bias · projection · view: world → projective (s, t, r, q)
@@ -66,13 +43,12 @@ bool segment_meets_box(vec3 P, vec3 d) {
 
 void main() {
     out_visibility = u_lit;
-    ivec2 pixel = ivec2(gl_FragCoord.xy);
-    vec4 p4 = texelFetch(u_position, pixel, 0);
-    int id = texelFetch(u_ids, pixel, 0).r;
-    if (p4.w == 0.0 || id < 0) return;                            // nothing visible here
+    vec3 P;
+    bool covered = gbuffer_position(P);
+    int id = gbuffer_ids().x;
+    if (!covered || id < 0) return;                               // nothing visible here
     if (id == u_caster) return;                                   // no self-shadowing (by construction)
     if (texelFetch(u_receives, ivec2(id, 0), 0).r == 0.0) return; // not a receiver of caster images
-    vec3 P = p4.xyz;
     vec4 s = u_light_matrix * vec4(P, 1.0);
     if (u_clip == 1) {
         if (s.w <= 0.0) return;                                   // behind the light's centre of projection
@@ -85,5 +61,4 @@ void main() {
     // explicit level: implicit derivatives are undefined after the non-uniform returns above
     out_visibility = u_lit - textureLod(u_mask, st, BASE_LEVEL).r;
 }
-#endif
 #endif

@@ -83,6 +83,8 @@ def technique_listing() -> str:
     lines = []
     for name, cls in REGISTRY.items():
         lines.append(f"{name}: {cls.summary}")
+        sampled = "; area lights as the average of light_samples point lights" if cls.LIGHT_SAMPLED else ""
+        lines.append(f"    lights: {', '.join(sorted(cls.LIGHTS))}{sampled}")
         for key, p in cls.PARAMS.items():
             extra = f" (one of {', '.join(map(str, p.choices))})" if p.choices else ""
             lines.append(f"    {key}={format_value(p.default)}  {p.doc}{extra}")

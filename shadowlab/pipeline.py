@@ -3,7 +3,11 @@
 Everything that measures a technique goes through here — the ``shadowlab compare`` run, the
 experiments and the tests — so a figure means the same wherever it was taken:
 
-- :func:`measure`: one technique on one light of a frame (the only place a technique is timed);
+- :func:`check_lights`: before anything renders, every technique against the lights it will meet
+  (``Technique.LIGHTS``);
+- :func:`measure`: one technique on one light slot of a frame (the only place a technique is
+  timed), and :func:`measure_sampled`, the light-sampling loop it runs for a light-sampled
+  technique on an area light (stand-in slots, one combined measurement);
 - :class:`Evaluator`: judges visibility images of one frame against its ground truth (measured
   once per light) and turns a :class:`Measurement` into a metrics.csv row;
 - :func:`compare_frame`: the ground truth and N configurations on every light of a frame;
@@ -79,8 +83,8 @@ def measure(tech: Technique, frame: Frame, light: LightSlot | int, repeat: int =
     ``light_samples`` hard measurements, one per point of the light, each on a stand-in slot
     (:func:`measure_sampled`: time, setup and stats are the frame's N renders'); on any other
     light it is measured once, its stats get ``light_samples`` = 1 and a ``light_samples`` > 1
-    gets a note saying it was ignored. Techniques with ``texel_coordinates`` get ``footprint``
-    and the ``texel_footprint_*`` columns (light-sampled: the first sample's)."""
+    gets a note saying it was ignored. Techniques with a texel mapping (the map family) get
+    ``footprint`` and the ``texel_footprint_*`` columns (light-sampled: the first sample's)."""
     slot = frame.as_slot(light)
     if light_sampling.is_sampled(tech, slot.light):
         return measure_sampled(tech, frame, slot, repeat, warmup, on_step, release, pass_timing)

@@ -71,3 +71,47 @@ def test_comparison_rows_follow_the_table_and_judge_against_the_truth(lab):
         assert row["error_rate"] == compare(m.visibility, truth, frame.evaluated(li))["error_rate"]
     assert (df.loc[df["reference"], "error_rate"] == 0).all()
     gl.check_errors()
+
+
+def test_a_setup_that_fails_half_way_is_released(lab, registry_snapshot):
+    """GL objects a technique registered before its setup failed are freed by the pipeline (the
+    textures deleted, the framebuffers gone), and the technique can be set up again."""
+    from OpenGL import GL
+
+    from shadowlab.techniques.shadow_map import ShadowMap
+
+    made = []
+
+    class Failing(ShadowMap):
+        name = "failing_shadow_map_test"
+
+        def setup(self, frame, slot):
+            super().setup(frame, slot)
+            made.extend(self._owned)
+            raise RuntimeError("boom after the atlas was made")
+
+    frame = lab.frame("box_on_plane", (64, 48))
+    tech = from_spec("failing_shadow_map_test")
+    with pytest.raises(RuntimeError, match="boom"):
+        measure(tech, frame, 0, repeat=1, warmup=0)
+    depth = [o for o in made if isinstance(o, gl.DepthTexture)]
+    assert depth and not any(GL.glIsTexture(o.glo) for o in depth)
+    assert tech._owned == [] and len(made) >= 4
+    m = measure(from_spec("shadow_map"), frame, 0, repeat=1, warmup=0)
+    assert m.stats["faces"] == 1
+
+
+def test_a_program_held_by_a_live_technique_is_not_shared(lab):
+    """Programs are compiled once and shared; a second technique set up on the same program
+    while the first still holds it is an error, not a render with the first one's uniforms."""
+    frame = lab.frame("box_on_plane", (64, 48))
+    first, second = from_spec("shadow_map"), from_spec("shadow_map:bias=0.01")
+    first.prepare(frame, 0)
+    try:
+        with pytest.raises(RuntimeError, match="held by shadow_map"):
+            second.prepare(frame, 0)
+        second.release()
+    finally:
+        first.release()
+    second.prepare(frame, 0)  # free again once the first is released
+    second.release()

@@ -58,7 +58,10 @@ def test_shipped_suites_load_and_cover_every_family():
         return {spec.split(":")[0] for specs in suite.configurations.values() for spec in specs}
 
     hard = {name for name, cls in REGISTRY.items() if cls.LIGHTS != {"area"}} - {"raytrace"}
-    assert families(load_suite("quick")) == hard  # the headline covers every hard-shadow family
+    # the headline holds hard-shadow families, the four classic ones at least; every technique
+    # is measured by some shipped suite (a new one joins a suite with one line in its file)
+    quick = families(load_suite("quick"))
+    assert quick <= hard and {"shadow_map", "shadow_volume", "planar", "shadow_polygons"} <= quick
     assert set().union(*(families(load_suite(n)) for n in suites)) == set(REGISTRY) - {"raytrace"}
 
 

@@ -13,7 +13,8 @@ What a technique declares instead of the core guessing (class attributes):
 
 - ``name``, ``summary``, ``PARAMS``, ``PASSES`` (the passes :meth:`render` names, in order);
 - ``LIGHTS``: the light types it renders for (:data:`ALL_LIGHTS` by default); checked once, when
-  a compare, study or animation is planned (:func:`check_lights`), before any rendering;
+  a compare, study or animation is planned (:func:`shadowlab.pipeline.check_lights`), before any
+  rendering;
 - ``LIGHT_SAMPLED``: a hard technique the pipeline may average over points of an area light
   (Heckbert & Herf 1997); it then gets the shared parameter ``light_samples``
   (:data:`LIGHT_SAMPLES`) and sees only point lights, one per sample;
@@ -24,14 +25,16 @@ What a technique declares instead of the core guessing (class attributes):
 - ``cpu`` (work on the CPU: no GL finish around it) and ``MODIFIES_FRAME``.
 
 A technique registers itself by subclassing :class:`Technique` with its own ``name`` in a
-module of :mod:`shadowlab.techniques` (modules there are discovered): adding one touches no
-other file.
+module of :mod:`shadowlab.techniques` (modules there are discovered): no list or table in the
+core names it (docs/adding-a-technique.md says what else a new one brings: its shader, its
+test file, a line in a suite).
 
 Inputs and outputs (the stage contract of DESIGN §2): a technique reads the frame (G-buffer
 textures, vertex buffers, exact points) and its :class:`~shadowlab.frame.LightSlot` (the light,
 its index, its evaluated mask) and never ``frame.scene.lights``; it writes only its own GL
 objects, registered with :meth:`Technique.own` (released by :meth:`release`), and its
-visibility image. The one shared resource it may overwrite is the G-buffer's depth-stencil
+visibility image. Its programs come from :meth:`Technique.program`: compiled once per process
+and shared, so it sets their uniforms in :meth:`setup` and holds them until released. The one shared resource it may overwrite is the G-buffer's depth-stencil
 attachment, and only if it says so in ``MODIFIES_FRAME`` (see
 :meth:`shadowlab.frame.Frame.depth_stencil_for`). Its notes (fallbacks, skipped objects) go to
 :attr:`Technique.notes`, which the run reports.

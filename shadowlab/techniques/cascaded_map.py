@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import gl
 from ..geometry import transforms as tf
 from ..geometry.bounds import box_corners
 from ..geometry.frusta import MIN_EXTENT, PAD, LightView

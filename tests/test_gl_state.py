@@ -107,19 +107,19 @@ def test_frame_and_shading_do_not_depend_on_inherited_state(lab, ctx):
     """The G-buffer pass and the shared shading pass set their own state too: a frame built, and
     an image shaded, after the state was polluted equal the clean ones bit for bit."""
     from shadowlab.frame import Frame
-    from shadowlab.shading import Shader
+    from shadowlab.shading import ShadingPass
 
     clean = lab.frame("multi_light", SIZE)
     vis = [lab.truth("multi_light", SIZE, li) for li in range(len(clean.scene.lights))]
     reset_to_gl_defaults()
-    shader = Shader(clean)
+    shader = ShadingPass(clean)
     image = shader.shade(vis)
     shader.release()
     samplers = [pollute(ctx)]
     try:
         frame = Frame(clean.scene, *SIZE)
         samplers.append(pollute(ctx))
-        shader = Shader(clean)
+        shader = ShadingPass(clean)
         samplers.append(pollute(ctx))
         polluted_image = shader.shade(vis)
         shader.release()

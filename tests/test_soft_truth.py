@@ -169,6 +169,7 @@ SPHERE_SCENE = ([FLOOR, box("slab", (2.0, 0.2, 2.0), (0.0, 1.5, 0.0))],
                 {"type": "area", "shape": "sphere", "position": [0.0, 4.0, 0.0], "radius": 0.3})
 
 
+@pytest.mark.slow  # a 4096-sample truth
 def test_sphere_light_umbra_lit_and_convergence():
     """A sphere (radius 0.3, centre y = 4) over a 2 × 0.2 × 2 slab (y 1.4–1.6): any segment from a
     floor point with max(|x|, |z|) < 1.2 to the sphere crosses y = 1.4 within
@@ -330,6 +331,7 @@ def _cap_truth(monkeypatch=None, sampler=None, **params) -> float:
         frame.release()
 
 
+@pytest.mark.slow  # 4096-sample truths (four)
 def test_sphere_light_cap_closed_form(monkeypatch):
     """The sampled truth of a sphere light, at the floor point P under its centre, against the
     closed form of the visible cap fraction (soft_oracle.sphere_cap_visibility; r = 1, d = 3,

@@ -188,7 +188,8 @@ EQUIVALENCE_SCENES = ["box_on_plane", "multi_light", "sv_many_casters", "sm_poin
                       "pp_table_edge", "pp_light_plane", "spot_scene", "sun_scene", "soft_below_plane", "rm_bunny"]
 
 
-@pytest.mark.parametrize("name", EQUIVALENCE_SCENES)
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n == "sv_many_casters" else n
+                                  for n in EQUIVALENCE_SCENES])  # slow: the O(casters × triangles) reference
 def test_batched_search_matches_per_caster_search(lab, name):
     """The batched search (one Embree scene per receiving object, culled by bounding boxes) finds
     bit for bit the blobs of the per-caster search it replaced, on every light."""

@@ -10,7 +10,9 @@ from shadowlab.metrics import COLUMNS, CONTRACT_COLUMNS, compare
 from shadowlab.pipeline import compare_frame, measure
 from shadowlab.techniques import REGISTRY, from_spec
 
-SIZE = (160, 120)
+from conftest import SMALL
+
+SIZE = SMALL
 
 
 def gbuffer_bytes(frame):

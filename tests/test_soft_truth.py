@@ -35,14 +35,14 @@ from shadowlab.frame import Frame
 from shadowlab.techniques.base import TechniqueError
 from shadowlab.techniques.raytrace import RayTraced
 
-from conftest import floor_points, make_scene
+from conftest import SMALL, floor_points, make_scene
 from soft_oracle import (exact_visibility, scene_triangles, sphere_cap_visibility,
                          sphere_silhouette_disc_visibility)
 
 N = 1024
 BOUND = 0.5 / np.sqrt(N)
 N_SELECT = 256  # the selector of the penumbra pixels: not the estimate under test
-SIZE = (160, 120)
+SIZE = SMALL
 FLOOR = {"name": "floor", "mesh": "plane", "size": [10.0, 10.0]}
 UP = np.array([0.0, 1.0, 0.0])
 

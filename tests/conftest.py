@@ -79,21 +79,48 @@ def ctx():
     return gl.context()
 
 
+#: The two standard image sizes of the behaviour tests: tests that use the same scene at the same
+#: size share its frame and truth through ``lab`` (a test keeps another size only where its
+#: thresholds were measured there and do not hold at these).
+SMALL = (160, 120)
+MEDIUM = (320, 240)
+
+#: The ground truth of each test scene that needs other than the default ``raytrace`` (hard
+#: lights: one exact ray per pixel; area lights: 1024 stratified samples, bound 0.5/√N = 0.0156).
+#: Fewer samples only where every test of the scene states its tolerance so that it holds with
+#: this truth's bound (the tests say which, and what was measured with it).
+TRUTHS = {
+    # test_pcss (widths, visibility_mae; soft_overlap also the tilted-map bounds, which were
+    # measured against 256 samples) and test_projective (area light, within 0.005 of
+    # shadow_map:light_samples=4), test_texel_footprint (columns only): bound 0.5/√256 = 0.031
+    "soft_contact_hardening": "raytrace:samples=256",
+    "soft_overlap": "raytrace:samples=256",
+}
+
+
 class Lab:
     """Frames and ground truths shared by the whole session: one frame per (scene, size), its
-    truth measured once per light. Scenes are shipped names or Scene objects (kept by identity).
-    Frames are read-only to tests and techniques alike (the stage contract)."""
+    truth (``TRUTHS``, else the default ``raytrace``) measured once per light. Scenes are
+    shipped names or Scene objects (kept by identity). Frames are read-only to tests and
+    techniques alike (the stage contract)."""
 
     def __init__(self):
+        self._frames: dict = {}
         self._evaluators: dict = {}
 
-    def evaluator(self, scene: str | Scene, size: tuple[int, int]) -> Evaluator:
-        """The evaluator (frame + truth per light) of a scene at a size."""
-        key = (scene if isinstance(scene, str) else id(scene), tuple(size))
+    def evaluator(self, scene: str | Scene, size: tuple[int, int], truth: str | None = None) -> Evaluator:
+        """The evaluator (frame + truth per light) of a scene at a size; ``truth``: a raytrace spec
+        other than the scene's (the frame is still the shared one)."""
+        name = scene if isinstance(scene, str) else id(scene)
+        truth = truth or (TRUTHS.get(scene, "raytrace") if isinstance(scene, str) else "raytrace")
+        key = (name, tuple(size), truth)
         if key not in self._evaluators:
-            s = load_scene(scene) if isinstance(scene, str) else scene
-            self._evaluators[key] = (s, Evaluator(Frame(s, *size)))  # the scene is kept alive with its key
-        return self._evaluators[key][1]
+            fkey = (name, tuple(size))
+            if fkey not in self._frames:
+                s = load_scene(scene) if isinstance(scene, str) else scene
+                self._frames[fkey] = (s, Frame(s, *size))  # the scene is kept alive with its key
+            self._evaluators[key] = Evaluator(self._frames[fkey][1], truth=from_spec(truth))
+        return self._evaluators[key]
 
     def frame(self, scene, size) -> Frame:
         """The shared frame of a scene at a size."""

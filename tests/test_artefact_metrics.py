@@ -7,12 +7,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import make_scene
+from conftest import MEDIUM, make_scene
 from shadowlab import metrics
 from shadowlab.frame import Frame
 from shadowlab.occluder_layers import occluder_layers
 
-SIZE = (320, 240)
+SIZE = MEDIUM
 
 
 def test_light_bleeding_definition():

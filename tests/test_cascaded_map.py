@@ -13,7 +13,9 @@ from shadowlab.techniques import TechniqueError, from_spec
 from shadowlab.techniques.cascaded_map import (fit_frustum_cascades, practical_splits, slice_corners,
                                                slice_sphere)
 
-SIZE = (320, 240)
+from conftest import MEDIUM
+
+SIZE = MEDIUM
 
 
 @pytest.mark.parametrize("lam,expected", [
@@ -69,7 +71,7 @@ def test_cascades_beat_one_big_map_on_the_long_view(lab):
     default) and 0.531 (slope, bias 0.0005); texel_footprint_p95 9.13 against 11.51 (for the
     record). Asserted: the cascades' boundary error below half of either map's."""
     specs = ["cascaded_map", "shadow_map:resolution=2048", "shadow_map:resolution=2048,variant=slope,bias=0.0005"]
-    rows = lab.rows("pa_long_view", specs, (640, 480))
+    rows = lab.rows("pa_long_view", specs, (640, 480))  # its bound fails at MEDIUM (one big map: 0.078 vs 0.5 × 0.131)
     cascades, constant, slope = rows["boundary_error_px"]
     assert cascades < 0.5 * min(constant, slope), (cascades, constant, slope)
     assert (rows["memory_bytes"].iloc[0] == rows["memory_bytes"].iloc[1])  # the same texels: 4 x 1024² = 2048²

@@ -136,6 +136,7 @@ def test_failed_run_leaves_earlier_results(tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
+@pytest.mark.slow  # three `python -m shadowlab` subprocesses (a fresh interpreter and GL context each)
 def test_listing_and_python_m(tmp_path):
     env = dict(os.environ)
     res = subprocess.run([sys.executable, "-m", "shadowlab", "scenes"], capture_output=True, text=True, env=env)

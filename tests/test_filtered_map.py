@@ -14,7 +14,9 @@ from shadowlab.techniques.filtered_map import (MAX_EXPONENT, MSM_DEQUANTIZE, MSM
                                                max_evsm_exponent, max_evsm_negative_exponent, msm_dequantize,
                                                msm_quantize)
 
-SIZE = (320, 240)
+from conftest import MEDIUM
+
+SIZE = MEDIUM
 
 #: (scene, variant) → (error_rate bound, visibility_mae bound) against raytrace at 320x240, defaults
 #: (resolution 1024, kernel 5). Measured error_rate / visibility_mae:

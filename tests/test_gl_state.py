@@ -11,7 +11,9 @@ from shadowlab import gl, glstate
 from shadowlab.pipeline import measure, measure_configs
 from shadowlab.techniques import REGISTRY, from_spec
 
-SIZE = (160, 120)
+from conftest import SMALL
+
+SIZE = SMALL
 #: Configurations that between them use every GL feature the techniques rely on.
 SPECS = ["raytrace:offset_scale=1e-05", "shadow_map", "shadow_map:variant=second_depth",
          "shadow_map:variant=midpoint", "shadow_map:variant=slope,hardware_offset=true",

@@ -21,7 +21,9 @@ from shadowlab.techniques.base import FIRST, MAX, SUM
 from shadowlab.techniques.raytrace import RayTraced
 from shadowlab.timing import Timing
 
-SIZE = (160, 120)
+from conftest import SMALL
+
+SIZE = SMALL
 CENTRE = np.array([-1.2, 3.0, -1.2])
 U, V = np.array([1.6, 0.0, 0.0]), np.array([0.0, 0.0, 1.2])  # u × v = (0, -1.92, 0): emits down
 SAMPLED = [name for name, cls in REGISTRY.items() if cls.LIGHT_SAMPLED]

@@ -12,7 +12,9 @@ from shadowlab.geometry.bounds import box_corners
 from shadowlab.scene import parse_scene
 from shadowlab.techniques import TechniqueError, from_spec
 
-SIZE = (320, 240)
+from conftest import MEDIUM
+
+SIZE = MEDIUM
 
 
 def fitted(lab, scene, spec):

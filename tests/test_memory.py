@@ -8,6 +8,8 @@ import numpy as np
 
 from shadowlab import memory
 
+from conftest import SMALL
+
 
 def test_peak_rises_with_touched_memory_and_resets():
     memory.reset_peak()
@@ -24,6 +26,6 @@ def test_peak_rises_with_touched_memory_and_resets():
 
 
 def test_a_measurement_reports_its_setup_and_peak(lab):
-    m = lab.measure("box_on_plane", "shadow_polygons", (160, 120))
+    m = lab.measure("box_on_plane", "shadow_polygons", SMALL)
     assert m.setup_ms >= m.stats["preprocess_ms"] > 0  # the preprocessing is part of the set-up
     assert m.peak_rss_bytes >= 50 * 2**20  # at least the interpreter, numpy and the GL driver

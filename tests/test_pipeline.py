@@ -10,9 +10,9 @@ from shadowlab.metrics import COLUMNS, CONTRACT_COLUMNS, compare
 from shadowlab.pipeline import compare_frame, measure
 from shadowlab.techniques import REGISTRY, from_spec
 
-from conftest import scene_for
+from conftest import SMALL, scene_for
 
-SIZE = (160, 120)
+SIZE = SMALL
 
 
 def gbuffer_bytes(frame):
@@ -90,7 +90,7 @@ def test_a_setup_that_fails_half_way_is_released(lab, registry_snapshot):
             made.extend(self._owned)
             raise RuntimeError("boom after the atlas was made")
 
-    frame = lab.frame("box_on_plane", (64, 48))
+    frame = lab.frame("box_on_plane", SMALL)
     tech = from_spec("failing_shadow_map_test")
     with pytest.raises(RuntimeError, match="boom"):
         measure(tech, frame, 0, repeat=1, warmup=0)
@@ -104,7 +104,7 @@ def test_a_setup_that_fails_half_way_is_released(lab, registry_snapshot):
 def test_a_program_held_by_a_live_technique_is_not_shared(lab):
     """Programs are compiled once and shared; a second technique set up on the same program
     while the first still holds it is an error, not a render with the first one's uniforms."""
-    frame = lab.frame("box_on_plane", (64, 48))
+    frame = lab.frame("box_on_plane", SMALL)
     first, second = from_spec("shadow_map"), from_spec("shadow_map:bias=0.01")
     first.prepare(frame, 0)
     try:

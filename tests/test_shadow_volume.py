@@ -193,6 +193,7 @@ def test_occlusion_pyramid_test():
     assert volumes_may_reach_near_plane(boxes, quad, slanted, 10.0).tolist() == [True, False]
 
 
+@pytest.mark.slow  # a sweep: every shipped scene and light, twice per variant (the hard cases: test_auto_gives_the_zfail_mask)
 @pytest.mark.parametrize("variant", ["", ",far=clamp", ",silhouette=gpu", ",silhouette=gpu,far=clamp"])
 def test_auto_gives_the_zfail_mask_on_every_shipped_scene_and_light(variant):
     """The issue's demand, on every shipped scene (real meshes included) and every light: mode=auto

@@ -25,7 +25,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-SIZE = (160, 120)
+from conftest import SMALL
+
+SIZE = SMALL
 SCENE = "soft_banding"
 COUNTS = (1, 5, 64)
 

@@ -111,6 +111,7 @@ def one_worker(tmp_path_factory):
     return path, outcome
 
 
+@pytest.mark.slow  # a study: spawned worker processes
 def test_study_writes_the_contract(one_worker):
     _, outcome = one_worker
     out, res = outcome.out, outcome.results
@@ -136,12 +137,14 @@ def test_study_writes_the_contract(one_worker):
     assert len(wrong) and all((out / p).is_file() for p in wrong["worst_crop_image"])
 
 
+@pytest.mark.slow  # a study: spawned worker processes
 def test_two_workers_give_the_same_metrics(one_worker, tmp_path):
     path, ref = one_worker
     two = run_study(path, out=tmp_path / "two", workers=2, log=lambda _: None)
     pd.testing.assert_frame_equal(metrics_of(two.results), metrics_of(ref.results))
 
 
+@pytest.mark.slow  # a study: spawned worker processes
 def test_repeated_study_runs_nothing_and_changes_rerun_only_what_changed(one_worker, tmp_path):
     _, ref = one_worker
     path = write_suite(tmp_path)  # a copy of its own: this test edits the suite
@@ -168,6 +171,7 @@ def test_repeated_study_runs_nothing_and_changes_rerun_only_what_changed(one_wor
     pd.testing.assert_frame_equal(metrics_of(healed.results), metrics_of(more.results))
 
 
+@pytest.mark.slow  # a study: spawned worker processes
 def test_an_edited_scene_reruns_that_scene_only(tmp_path):
     scene = tmp_path / "lit_box.toml"
     box = (Path(__file__).parent.parent / "shadowlab/scenes/box_on_plane.toml").read_text()
@@ -206,6 +210,7 @@ class _Interrupt(Progress):
             raise KeyboardInterrupt
 
 
+@pytest.mark.slow  # a study: spawned worker processes
 def test_interrupted_study_resumes_from_a_consistent_cache(one_worker, tmp_path):
     path, ref = one_worker
     out = tmp_path / "out"
@@ -218,6 +223,7 @@ def test_interrupted_study_resumes_from_a_consistent_cache(one_worker, tmp_path)
     pd.testing.assert_frame_equal(metrics_of(resumed.results), metrics_of(ref.results))
 
 
+@pytest.mark.slow  # a study: spawned worker processes
 def test_a_failing_run_is_recorded_and_the_others_go_on(tmp_path, capsys):
     broken = tmp_path / "broken_mesh.toml"
     broken.write_text((Path(__file__).parent.parent / "shadowlab/scenes/box_on_plane.toml").read_text()
@@ -235,6 +241,7 @@ def test_a_failing_run_is_recorded_and_the_others_go_on(tmp_path, capsys):
     assert "FAILED" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # a Dask LocalCluster (spawned processes)
 def test_dask_local_cluster_gives_the_local_results(one_worker, tmp_path):
     distributed = pytest.importorskip("distributed")
     path, ref = one_worker
@@ -247,6 +254,7 @@ def test_dask_local_cluster_gives_the_local_results(one_worker, tmp_path):
 
 # ----------------------------------------------------------------------------- baseline check
 
+@pytest.mark.slow  # uses the one_worker study (spawned worker processes)
 def test_check_holds_the_baseline_and_catches_regressions(one_worker, tmp_path, capsys):
     _, outcome = one_worker
     base = tmp_path / "base.csv"
@@ -279,6 +287,7 @@ def test_check_holds_the_baseline_and_catches_regressions(one_worker, tmp_path, 
     assert chk.check(outcome.results, nudged).ok
 
 
+@pytest.mark.slow  # uses the one_worker study (spawned worker processes)
 def test_check_rejects_what_is_not_a_baseline(one_worker, tmp_path):
     _, outcome = one_worker
     bogus = tmp_path / "bogus.csv"

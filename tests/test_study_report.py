@@ -222,6 +222,7 @@ def test_pareto_figure_content():
     assert any("no wrong pixel" in s for s in labels)
 
 
+@pytest.mark.slow  # draws a 30-panel figure to PNG (~8 s of matplotlib)
 def test_pareto_plot_one_and_many_scenes(tmp_path):
     import matplotlib.image as mpimg
 

@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from conftest import floor_points
+from conftest import MEDIUM, SMALL, floor_points
 from shadowlab.pipeline import measure
 from shadowlab.scene import parse_scene
 from shadowlab.techniques import TechniqueError, from_spec
@@ -56,7 +56,7 @@ def test_straight_down_is_texel_over_pixel(lab):
     size over the pixel's world size (height · 2 tan(fov/2) / image height) — measured to agree
     to 2.5e-9 relative (m is stored as float32); bound 1e-3."""
     scene = floor_scene((0.0, 6.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, -1.0))
-    size = (320, 240)
+    size = MEDIUM
     m, face, _ = measured_with_map(lab, scene, "shadow_map:resolution=512", size)
     frame = lab.frame(scene, size)
     pixel = 6.0 * 2.0 * np.tan(np.radians(50.0) / 2.0) / size[1]
@@ -97,7 +97,7 @@ def test_tilted_camera_near_and_far(lab):
 def test_doubling_the_resolution_halves_m(lab, scene):
     """A fitted map at twice the resolution has texels half the size: p50 halves (measured
     ratio 2.0000 on both scenes at 320x240; bound 2 %)."""
-    df = lab.rows(scene, ["shadow_map:resolution=1024", "shadow_map:resolution=2048"], (320, 240))
+    df = lab.rows(scene, ["shadow_map:resolution=1024", "shadow_map:resolution=2048"], MEDIUM)
     coarse, fine = df["texel_footprint_p50"]
     assert coarse / fine == pytest.approx(2.0, rel=0.02)
     assert (df["texel_footprint_p50"] <= df["texel_footprint_p95"]).all()
@@ -107,7 +107,7 @@ def test_doubling_the_resolution_halves_m(lab, scene):
 def test_cube_map_point_light_is_finite_everywhere(lab):
     """A point light's cube map (sm_point_cube): m finite and positive on every evaluated pixel,
     (measured 0.091 to 298 px), and the pixels use all six faces (measured 4152 to 19504 pixels each)."""
-    size = (320, 240)
+    size = MEDIUM
     tech = from_spec("shadow_map:projection=cube,resolution=512")
     frame = lab.frame("sm_point_cube", size)
     m = measure(tech, frame, 0, repeat=1, warmup=0, release=False)
@@ -138,7 +138,7 @@ def test_cube_face_index_follows_the_major_axis():
 def test_columns_for_map_techniques_only(lab, scene, specs):
     """texel_footprint_p50/p95/max on every map configuration (finite, positive), NaN on the
     others (shadow volumes have no texels)."""
-    df = lab.rows(scene, specs, (160, 120))
+    df = lab.rows(scene, specs, MEDIUM)
     cols = ["texel_footprint_p50", "texel_footprint_p95", "texel_footprint_max"]
     for spec in specs:
         values = df.loc[spec, cols].to_numpy(dtype=float)
@@ -152,7 +152,7 @@ def test_no_map_no_footprint(lab):
     """A technique without texel coordinates gets a clear TechniqueError."""
     tech = from_spec("shadow_volume")
     with pytest.raises(TechniqueError, match="no shadow map"):
-        footprint_image(lab.frame("box_on_plane", (160, 120)), 0, tech)
+        footprint_image(lab.frame("box_on_plane", SMALL), 0, tech)
 
 
 def test_edge_on_neighbour_uses_the_other_side(lab):

@@ -1,0 +1,91 @@
+"""The documentation cannot go stale unnoticed: the README's generated tables match the code,
+every relative link in README.md and docs/ resolves, every shipped scene has its entry in the
+hard-case catalogue and every metrics column its definition. No GL."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from shadowlab import docs_tables, metrics
+from shadowlab.temporal import TEMPORAL_COLUMNS
+
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+DOCS = ROOT / "docs"
+PAGES = [README, *sorted(DOCS.glob("*.md"))]
+
+
+@pytest.mark.parametrize("table", docs_tables.TABLES)
+def test_readme_tables_are_generated_from_the_code(table):
+    diffs = docs_tables.differences(README)
+    assert table not in diffs, (
+        f"README.md's {table} differs from the code:\n{diffs[table]}\n\n"
+        f"fix: {docs_tables.FIX_COMMAND}   (e.g. .venv/bin/python -m shadowlab.docs_tables --write)")
+
+
+def test_tables_round_trip_through_the_markers():
+    text = "intro\n<!-- layout-table:begin -->\nold\n<!-- layout-table:end -->\nrest\n"
+    table = "| module | holds |\n|---|---|\n| `a.py` | A. |"
+    new = docs_tables.replace(text, "layout-table", table)
+    assert docs_tables.extract(new, "layout-table") == table
+    assert new.startswith("intro\n") and new.endswith("\nrest\n")
+    with pytest.raises(ValueError):
+        docs_tables.replace("no markers", "technique-table", table)
+
+
+def test_summaries_are_one_sentence_without_private_references():
+    doc = ("Shared shading: the extended Blinn model of DESIGN §8 over the G-buffer.\n\n"
+           "More text.")
+    assert docs_tables.first_sentence(doc) == "Shared shading: the extended Blinn model over the G-buffer."
+    assert docs_tables.first_sentence("Suites (DESIGN §12): which scenes. And more.") == "Suites: which scenes."
+    assert docs_tables.first_sentence(None) == ""
+    assert docs_tables.first_sentence("Blob shadows: an ellipse under each caster (Akenine-M\u00f6ller et al. " + "x " * 150 + ").") == "Blob shadows: an ellipse under each caster."
+
+
+def _links(page: Path):
+    text = re.sub(r"```.*?```", "", page.read_text(encoding="utf-8"), flags=re.S)  # not inside code blocks
+    for target in re.findall(r"\]\(([^)\s]+)\)", text):
+        if not re.match(r"[a-z]+:", target):
+            yield target
+
+
+def _anchors(page: Path) -> set[str]:
+    """GitHub's anchors of a markdown page's headings."""
+    text = re.sub(r"```.*?```", "", page.read_text(encoding="utf-8"), flags=re.S)
+    return {re.sub(r"[^\w\- ]", "", h.strip().lower()).replace(" ", "-")
+            for h in re.findall(r"^#+ (.*)$", text, re.M)}
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_relative_links_resolve(page):
+    broken = []
+    for target in _links(page):
+        path, _, anchor = target.partition("#")
+        file = page.parent / path if path else page
+        if not file.exists() or (anchor and file.suffix == ".md" and anchor not in _anchors(file)):
+            broken.append(target)
+    assert not broken, f"{page.relative_to(ROOT)} has links to files or headings that do not exist: {broken}"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_references_outside_the_repository(page):
+    text = page.read_text(encoding="utf-8")
+    assert "DESIGN.md" not in text and "DESIGN §" not in text and "shared folder" not in text, (
+        f"{page.relative_to(ROOT)} refers to the project's shared design, which a clone does not have: link docs/")
+
+
+def test_every_shipped_scene_is_in_the_hard_case_catalogue():
+    text = (DOCS / "hard-cases.md").read_text(encoding="utf-8")
+    headings = set(re.findall(r"^### `([a-z0-9_]+)`", text, re.M))
+    shipped = {p.stem for p in (ROOT / "shadowlab" / "scenes").glob("*.toml")}
+    assert shipped <= headings, f"docs/hard-cases.md has no entry for {sorted(shipped - headings)}"
+    assert headings <= shipped, f"docs/hard-cases.md describes scenes that are not shipped: {sorted(headings - shipped)}"
+
+
+def test_every_metric_column_is_defined_in_the_metrics_page():
+    text = (DOCS / "metrics.md").read_text(encoding="utf-8")
+    names = [c.name for c in metrics.COLUMNS] + list(TEMPORAL_COLUMNS)
+    missing = [n for n in names if f"`{n}`" not in text]
+    assert not missing, f"docs/metrics.md does not define {missing}"

@@ -1,0 +1,233 @@
+"""README tables generated from the code, so that they cannot go stale: the technique table (from
+the registry) and the code-layout table (from the modules' docstrings).
+
+The README holds each table between marker comments (``<!-- technique-table:begin -->`` …
+``<!-- technique-table:end -->``, the same for ``layout-table``); ``tests/test_docs.py``
+regenerates them and fails, showing the difference, when the README's copy differs.
+
+    python -m shadowlab.docs_tables            # print both tables
+    python -m shadowlab.docs_tables --write    # rewrite them in README.md (in a source checkout)
+"""
+from __future__ import annotations
+
+import argparse
+import ast
+import difflib
+import pkgutil
+import re
+import sys
+from pathlib import Path
+
+#: The tables the README holds, by marker name.
+TABLES = ("technique-table", "layout-table")
+#: The README of a source checkout (the package's parent folder).
+README = Path(__file__).resolve().parent.parent / "README.md"
+#: The command that brings the README's tables up to date (shown when they differ).
+FIX_COMMAND = "python -m shadowlab.docs_tables --write"
+#: A layout-table summary longer than this is shortened (:func:`_shorten`).
+MAX_SUMMARY = 200
+
+
+# --------------------------------------------------------------------------- text helpers
+
+def _cell(text: str) -> str:
+    """``text`` made safe for one markdown table cell: one line, pipes escaped."""
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def _markdown(text: str) -> str:
+    """Sphinx/reST inline markup as markdown: ``:mod:`x```, ``:mod:`.x``` and ````x```` → ```x```."""
+    text = re.sub(r":[a-z]+:`~?\.?([^`]+)`", r"`\1`", text)
+    return text.replace("``", "`")
+
+
+def _without_private_references(text: str) -> str:
+    """Drop references to documents a clone of the repository does not have (the project's
+    shared DESIGN.md and HARD_CASES.md): ``(DESIGN §4)``, ``(DESIGN §11: ...)``, ``, DESIGN §12``,
+    ``of DESIGN §8``, ``(HARD_CASES, issue 13)``; any other ``DESIGN §6`` becomes "the design"."""
+    ref = r"(?:DESIGN\s*§[\d§,–\- ]*\d|HARD_CASES(?:\.md)?)"
+    text = re.sub(rf"\s*\(\s*(?:the contract of\s+)?{ref}(?:\s*[,;]\s*{ref})*(?:\s*:[^()]*)?\s*\)", "", text)
+    text = re.sub(rf"\s*[,;]\s*{ref}", "", text)
+    text = re.sub(rf"\(\s*{ref}\s*[,;]\s*", "(", text)
+    text = re.sub(rf"\s+(?:of|in|from)\s+{ref}", "", text)
+    text = re.sub(rf"the\s+{ref}\s+contract", "the contract", text)
+    return re.sub(ref, "the design", text)
+
+
+def _shorten(sentence: str) -> str:
+    """A summary longer than :data:`MAX_SUMMARY` without its parentheses (citations, asides);
+    if still too long, cut before its first dash or colon, or else at a word boundary."""
+    if len(sentence) <= MAX_SUMMARY:
+        return sentence
+    while True:
+        bare = re.sub(r"\s*\([^()]*\)", "", sentence)
+        if bare == sentence:
+            break
+        sentence = bare
+    if len(sentence) <= MAX_SUMMARY:
+        return sentence
+    for sep in (" — ", ": "):
+        head = sentence.split(sep, 1)[0]
+        if 30 <= len(head) <= MAX_SUMMARY:
+            return head.rstrip(",;:") + "."
+    return sentence[:MAX_SUMMARY].rsplit(" ", 1)[0].rstrip(",;:") + " …"
+
+
+def first_sentence(doc: str | None) -> str:
+    """The summary of a docstring: its first sentence (of its first paragraph), as one line of
+    markdown, without references to the project's private documents; "" for no docstring."""
+    if not doc:
+        return ""
+    paragraph = " ".join(doc.strip().split("\n\n", 1)[0].split())
+    # a sentence ends at ". " before a capital letter or a markup character (not at "e.g. ",
+    # "et al. ", an initial "D. B. ")
+    m = re.search(r"(?<=[a-z0-9)\]`*])[.!?](?=\s+[A-Z`*(])", paragraph)
+    sentence = paragraph[: m.end()] if m else paragraph
+    return _shorten(_markdown(_without_private_references(sentence)).strip())
+
+
+# --------------------------------------------------------------------------- technique table
+
+def _lights_cell(cls) -> str:
+    """A technique's ``LIGHTS`` as a table cell: "all" when it renders every light type a scene
+    can hold ("all (area: sampled)" for a light-sampled technique, which renders an area light
+    as the average of point lights on it), else the type names."""
+    from .techniques.base import ALL_LIGHTS
+
+    if cls.LIGHTS >= ALL_LIGHTS:
+        return "all" + (" (area: sampled)" if cls.LIGHT_SAMPLED else "")
+    return ", ".join(sorted(cls.LIGHTS))
+
+
+def technique_table(registry=None) -> str:
+    """The markdown table of every registered technique, in registry order: name, summary, named
+    passes in drawing order and the light types it renders for (all declared by the technique)."""
+    if registry is None:
+        from .techniques import REGISTRY as registry
+    lines = ["| technique | what | passes (drawing order) | lights |", "|---|---|---|---|"]
+    for name, cls in registry.items():
+        cells = [f"`{name}`", _cell(cls.summary), _cell(", ".join(f"`{p}`" for p in cls.PASSES)),
+                 _cell(_lights_cell(cls))]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- layout table
+
+def _module_doc(path: Path) -> str | None:
+    """The docstring of the Python file ``path``, read without importing it."""
+    try:
+        return ast.get_docstring(ast.parse(path.read_text(encoding="utf-8")))
+    except (OSError, SyntaxError, UnicodeDecodeError):
+        return None
+
+
+def _data_files(folder: Path) -> str:
+    """What a package without a docstring holds besides Python: ``*.toml``, ``*.glsl`` …"""
+    kinds = sorted({"*" + p.suffix for p in folder.iterdir() if p.is_file() and p.suffix and p.suffix != ".py"})
+    return f"package data: {', '.join(f'`{k}`' for k in kinds)}" if kinds else ""
+
+
+def walk_modules(folder: Path | None = None, prefix: str = "") -> list[tuple[str, bool, Path]]:
+    """Every public module and sub-package under ``folder`` (default: this package), depth
+    first, each package before its modules, sorted by name within a package: (relative name
+    such as ``study/cache.py`` or ``study/``, is-package, path of its source file). Modules and
+    packages whose name starts with ``_`` are private and left out."""
+    folder = folder or Path(__file__).resolve().parent
+    out = []
+    for info in sorted(pkgutil.iter_modules([str(folder)]), key=lambda i: i.name):
+        if info.name.startswith("_"):
+            continue
+        if info.ispkg:
+            sub = folder / info.name
+            out.append((f"{prefix}{info.name}/", True, sub / "__init__.py"))
+            out.extend(walk_modules(sub, f"{prefix}{info.name}/"))
+        else:
+            out.append((f"{prefix}{info.name}.py", False, folder / f"{info.name}.py"))
+    return out
+
+
+def layout_table(folder: Path | None = None) -> str:
+    """The markdown table of the package's modules and sub-packages (paths relative to
+    ``shadowlab/``), each with the first sentence of its docstring."""
+    lines = ["| module | holds |", "|---|---|"]
+    for name, ispkg, path in walk_modules(folder):
+        summary = first_sentence(_module_doc(path))
+        if not summary and ispkg:
+            summary = _data_files(path.parent)
+        lines.append(f"| `{name}` | {_cell(summary) or '—'} |")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- the README's copies
+
+def generated() -> dict[str, str]:
+    """Each README table, freshly generated, by marker name."""
+    return {"technique-table": technique_table(), "layout-table": layout_table()}
+
+
+def _markers(name: str) -> tuple[str, str]:
+    return f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
+
+
+def extract(text: str, name: str) -> str | None:
+    """The table between ``name``'s markers in ``text`` (stripped), or None without markers."""
+    begin, end = _markers(name)
+    m = re.search(re.escape(begin) + r"\n?(.*?)\n?" + re.escape(end), text, re.S)
+    return m.group(1).strip() if m else None
+
+
+def replace(text: str, name: str, table: str) -> str:
+    """``text`` with the table between ``name``'s markers replaced by ``table`` (ValueError if
+    the markers are missing)."""
+    begin, end = _markers(name)
+    pattern = re.compile(re.escape(begin) + r".*?" + re.escape(end), re.S)
+    if not pattern.search(text):
+        raise ValueError(f"no {begin} … {end} markers")
+    return pattern.sub(lambda _: f"{begin}\n{table}\n{end}", text, count=1)
+
+
+def differences(readme: Path = README) -> dict[str, str]:
+    """Per table whose README copy differs from the generated one, a unified diff (README →
+    generated); a table whose markers are missing is reported too. Empty when up to date."""
+    text = readme.read_text(encoding="utf-8")
+    out = {}
+    for name, table in generated().items():
+        current = extract(text, name)
+        if current is None:
+            out[name] = f"README has no <!-- {name}:begin --> … <!-- {name}:end --> markers"
+        elif current != table.strip():
+            out[name] = "\n".join(difflib.unified_diff(current.splitlines(), table.splitlines(),
+                                                       f"README.md ({name})", "generated", lineterm=""))
+    return out
+
+
+def write(readme: Path = README) -> bool:
+    """Rewrite the README's tables from the code; True when something changed."""
+    text = readme.read_text(encoding="utf-8")
+    new = text
+    for name, table in generated().items():
+        new = replace(new, name, table)
+    if new != text:
+        readme.write_text(new, encoding="utf-8")
+    return new != text
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print the tables, or (``--write``) update them in the README."""
+    p = argparse.ArgumentParser(prog="python -m shadowlab.docs_tables", description=__doc__.split("\n\n")[0])
+    p.add_argument("--write", action="store_true", help="rewrite the tables between the README's markers")
+    p.add_argument("--readme", type=Path, default=README, help=f"the README to write (default {README})")
+    args = p.parse_args(argv)
+    if args.write:
+        changed = write(args.readme)
+        print(f"{args.readme}: {'tables updated' if changed else 'tables already up to date'}")
+        return 0
+    for name, table in generated().items():
+        begin, end = _markers(name)
+        print(f"{begin}\n{table}\n{end}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -83,6 +83,7 @@ def test_batch_fragments_on_the_hard_configurations():
     assert out.count[3] > 0 and out.count[-1] == 4
 
 
+@pytest.mark.slow  # a long property sweep: 2000 random pairs per light through the scalar Python clipper
 @pytest.mark.parametrize("light", [np.array([0.3, 5.0, 0.2, 1.0]), np.array([0.2, 1.0, -0.1, 0.0])])
 def test_batch_fragments_on_random_triangles(light):
     """Two thousand random receiver/caster triangle pairs around a point and a directional

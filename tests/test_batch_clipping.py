@@ -117,7 +117,9 @@ def vertex_test_pairs(rec, cas, light_h, eps):
     return np.stack([ri, ci], axis=1)
 
 
-@pytest.mark.parametrize("name", ["spot_scene", "sv_directional", "sm_far_origin", "sv_light_close"])
+# spot_scene (the most pairs through the all-pairs oracle) runs with the slow tests
+@pytest.mark.parametrize("name", [pytest.param("spot_scene", marks=pytest.mark.slow),
+                                  "sv_directional", "sm_far_origin", "sv_light_close"])
 def test_culling_keeps_exactly_the_vertex_test_pairs(name):
     """The sphere pre-tests (float32 in numpy, float64 in the compiled kernel) only drop pairs
     the vertex test drops: the pairs are the plain vertex test's, in the same caster-major
@@ -138,7 +140,8 @@ def test_culling_keeps_exactly_the_vertex_test_pairs(name):
         frame.release()
 
 
-@pytest.mark.parametrize("name", ["sv_light_close", "multi_light"])
+# sv_light_close (the scalar loop's longest scene) runs with the slow tests
+@pytest.mark.parametrize("name", [pytest.param("sv_light_close", marks=pytest.mark.slow), "multi_light"])
 def test_scene_fragments_batch_equal_scalar(name):
     """Whole shipped scenes, every light: the compiled and the batch preprocessing yield the
     scalar loop's triangles and receivers, bit for bit, on one thread or several, and report

@@ -90,9 +90,10 @@ MEDIUM = (320, 240)
 #: Fewer samples only where every test of the scene states its tolerance so that it holds with
 #: this truth's bound (the tests say which, and what was measured with it).
 TRUTHS = {
-    # test_pcss (widths, visibility_mae; soft_overlap also the tilted-map bounds, which were
-    # measured against 256 samples) and test_projective (area light, within 0.005 of
-    # shadow_map:light_samples=4), test_texel_footprint (columns only): bound 0.5/√256 = 0.031
+    # test_pcss (penumbra widths within 25 % and visibility_mae below 0.008; soft_overlap's
+    # tilted-map bounds were measured against 256 samples), test_projective (area light: within
+    # 0.005 of shadow_map:light_samples=4), test_texel_footprint (columns only) — each holds with
+    # this truth's bound 0.5/√256 = 0.031 (the tests give the values measured against it)
     "soft_contact_hardening": "raytrace:samples=256",
     "soft_overlap": "raytrace:samples=256",
 }

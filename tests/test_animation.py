@@ -259,6 +259,7 @@ def test_animate_end_to_end_writes_every_file(tmp_path, capsys):
     assert "<table" in html and "strip_shadow_volume.gif" in html and "flicker_shadow_volume.png" in html
 
 
+@pytest.mark.slow  # a sweep: every registered technique animated over three frames, with its report
 def test_still_frames_flip_nothing(tmp_path):
     """--frames on a scene without [animation]: identical frames, so flip_rate and
     temporal_error are exactly 0 for every registered technique (the renders are deterministic;

@@ -83,6 +83,7 @@ def test_batch_fragments_on_the_hard_configurations():
     assert out.count[3] > 0 and out.count[-1] == 4
 
 
+@pytest.mark.slow  # a long property sweep: 2000 random pairs per light through the scalar Python clipper
 @pytest.mark.parametrize("light", [np.array([0.3, 5.0, 0.2, 1.0]), np.array([0.2, 1.0, -0.1, 0.0])])
 def test_batch_fragments_on_random_triangles(light):
     """Two thousand random receiver/caster triangle pairs around a point and a directional
@@ -116,7 +117,9 @@ def vertex_test_pairs(rec, cas, light_h, eps):
     return np.stack([ri, ci], axis=1)
 
 
-@pytest.mark.parametrize("name", ["spot_scene", "sv_directional", "sm_far_origin", "sv_light_close"])
+# spot_scene (the most pairs through the all-pairs oracle) runs with the slow tests
+@pytest.mark.parametrize("name", [pytest.param("spot_scene", marks=pytest.mark.slow),
+                                  "sv_directional", "sm_far_origin", "sv_light_close"])
 def test_culling_keeps_exactly_the_vertex_test_pairs(name):
     """The sphere pre-tests (float32 in numpy, float64 in the compiled kernel) only drop pairs
     the vertex test drops: the pairs are the plain vertex test's, in the same caster-major
@@ -137,7 +140,8 @@ def test_culling_keeps_exactly_the_vertex_test_pairs(name):
         frame.release()
 
 
-@pytest.mark.parametrize("name", ["sv_light_close", "multi_light"])
+# sv_light_close (the scalar loop's longest scene) runs with the slow tests
+@pytest.mark.parametrize("name", [pytest.param("sv_light_close", marks=pytest.mark.slow), "multi_light"])
 def test_scene_fragments_batch_equal_scalar(name):
     """Whole shipped scenes, every light: the compiled and the batch preprocessing yield the
     scalar loop's triangles and receivers, bit for bit, on one thread or several, and report

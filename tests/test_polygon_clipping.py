@@ -9,6 +9,7 @@ and then turned to any orientation and moved, so receivers and casters are tilte
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import ConvexHull
@@ -76,6 +77,7 @@ def in_plane(points, rot, shift):
     return local[:, [0, 2]], local[:, 1]
 
 
+@pytest.mark.slow  # a long property test: 200 hypothesis examples
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(configurations())
 def test_fragment_is_the_projected_caster_clipped_to_the_receiver(config):
@@ -84,6 +86,7 @@ def test_fragment_is_the_projected_caster_clipped_to_the_receiver(config):
     assert abs(pc.area(frag) - expected) <= 1e-9 * pc.area(receiver), (pc.area(frag), expected)
 
 
+@pytest.mark.slow  # a long property test: 200 hypothesis examples
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(configurations())
 def test_fragment_and_lit_pieces_tile_the_receiver(config):

@@ -138,7 +138,7 @@ def test_cube_face_index_follows_the_major_axis():
 def test_columns_for_map_techniques_only(lab, scene, specs):
     """texel_footprint_p50/p95/max on every map configuration (finite, positive), NaN on the
     others (shadow volumes have no texels)."""
-    df = lab.rows(scene, specs, MEDIUM)
+    df = lab.rows(scene, specs, SMALL)
     cols = ["texel_footprint_p50", "texel_footprint_p95", "texel_footprint_max"]
     for spec in specs:
         values = df.loc[spec, cols].to_numpy(dtype=float)

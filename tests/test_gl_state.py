@@ -11,7 +11,7 @@ from shadowlab import gl, glstate
 from shadowlab.pipeline import measure, measure_configs
 from shadowlab.techniques import REGISTRY, from_spec
 
-from conftest import SMALL
+from conftest import SMALL, scene_for
 
 SIZE = SMALL
 #: Configurations that between them use every GL feature the techniques rely on.
@@ -93,6 +93,20 @@ def clean_and_polluted(ctx, frame, spec: str, light: int) -> tuple[np.ndarray, n
         for sampler in samplers:
             reset_to_gl_defaults(sampler)
     return clean, polluted
+
+
+#: Every other registered technique at its defaults, so a new one is covered without an entry here.
+OTHERS = [name for name in REGISTRY if not any(s.split(":")[0] == name for s in SPECS)]
+
+
+@pytest.mark.parametrize("name", OTHERS)
+def test_every_other_technique_ignores_inherited_state(lab, ctx, name):
+    """The same check for every registered technique SPECS does not name, at its defaults, on a
+    scene whose lights it renders for."""
+    frame = lab.frame(scene_for(REGISTRY[name]), SIZE)
+    for light in range(len(frame.scene.lights)):
+        clean, polluted = clean_and_polluted(ctx, frame, name, light)
+        assert np.array_equal(clean, polluted), (name, light, int(np.sum(clean != polluted)))
 
 
 @pytest.mark.parametrize("spec", SPECS)

@@ -176,7 +176,11 @@ def check_closed_form(scene, light_spec, size, offset=np.zeros(3)):
     return int(check.sum()), int(expected_shadow[check].sum()), float(far_from_edge.mean())
 
 
-@pytest.mark.parametrize("light_kind", list(LIGHTS))
+#: The inner loop keeps spot (central projection, a cone's footprint) and target_direct (parallel
+#: projection, a cylinder's footprint); point and directional, the same projections without a
+#: footprint, run with the slow tests (each case: a 640x480 frame and truth, ~1 s).
+@pytest.mark.parametrize("light_kind", [k if k in ("spot", "target_direct") else pytest.param(k, marks=pytest.mark.slow)
+                                        for k in LIGHTS])
 def test_ground_truth_equals_projected_hull(light_kind):
     scene = make_scene([FLOOR] + BOXES, [LIGHTS[light_kind]])
     checked, shadowed, clear_of_edges = check_closed_form(scene, LIGHTS[light_kind], SIZE)

@@ -47,6 +47,7 @@ def assert_batch_is_scalar(receivers, casters, light, eps):
     return out
 
 
+@pytest.mark.slow  # a long property run (60 examples)
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.lists(configurations(), min_size=1, max_size=6), st.booleans())
 def test_batch_fragments_are_the_scalar_fragments_on_convex_polygons(configs, directional):
@@ -117,9 +118,10 @@ def vertex_test_pairs(rec, cas, light_h, eps):
     return np.stack([ri, ci], axis=1)
 
 
-# spot_scene (the most pairs through the all-pairs oracle) runs with the slow tests
+# spot_scene and sv_directional (the most pairs through the all-pairs oracle) run with the slow tests
 @pytest.mark.parametrize("name", [pytest.param("spot_scene", marks=pytest.mark.slow),
-                                  "sv_directional", "sm_far_origin", "sv_light_close"])
+                                  pytest.param("sv_directional", marks=pytest.mark.slow), "sm_far_origin",
+                                  "sv_light_close"])
 def test_culling_keeps_exactly_the_vertex_test_pairs(name):
     """The sphere pre-tests (float32 in numpy, float64 in the compiled kernel) only drop pairs
     the vertex test drops: the pairs are the plain vertex test's, in the same caster-major

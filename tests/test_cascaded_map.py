@@ -65,6 +65,7 @@ def test_single_cascade_is_one_orthographic_map_over_the_view(lab):
     assert abs(cascade - single) < 0.3 * single, (cascade, single)
 
 
+@pytest.mark.slow  # two 640x480 truths of the long street (the perspective_aliasing suite measures it too)
 def test_cascades_beat_one_big_map_on_the_long_view(lab):
     """The issue's target. pa_long_view at 640x480: 4 cascades of 1024² (defaults) against one
     shadow_map of 2048². Measured boundary_error_px 0.180 against 0.712 (constant bias, the

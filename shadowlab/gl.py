@@ -345,6 +345,12 @@ def _canonical_defines(defines: dict | None) -> tuple[tuple[str, str], ...]:
     return tuple(sorted((str(k), str(v)) for k, v in (defines or {}).items()))
 
 
+def program_key(name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()) -> tuple:
+    """The cache key of :func:`program` for these arguments: (shader folder, file, canonical
+    defines, varyings) — who holds a shared program can be asked before it is handed out."""
+    return (str(shader_dir()), name, _canonical_defines(defines), tuple(varyings))
+
+
 def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()):
     """The moderngl Program of ``shaders/<name>``, compiled once per process for each
     (file, defines, varyings).
@@ -365,9 +371,8 @@ def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = 
     """
     import moderngl
 
-    canonical = _canonical_defines(defines)
-    folder = shader_dir()
-    key = (str(folder), name, canonical, tuple(varyings))
+    key = program_key(name, defines, varyings)
+    folder, canonical = Path(key[0]), key[2]
     cached = _PROGRAMS.get(key)
     if cached is not None and not isinstance(cached[0].mglo, moderngl.InvalidObject):
         prog, initial = cached

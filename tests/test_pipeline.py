@@ -104,13 +104,20 @@ def test_a_setup_that_fails_half_way_is_released(lab, registry_snapshot):
 def test_a_program_held_by_a_live_technique_is_not_shared(lab):
     """Programs are compiled once and shared; a second technique set up on the same program
     while the first still holds it is an error, not a render with the first one's uniforms."""
+    from shadowlab.techniques.maps import ATLAS_DEFINES
+
     frame = lab.frame("box_on_plane", SMALL)
+    alone = measure(from_spec("shadow_map"), frame, 0, repeat=1, warmup=0).visibility
     first, second = from_spec("shadow_map"), from_spec("shadow_map:bias=0.01")
     first.prepare(frame, 0)
     try:
         with pytest.raises(RuntimeError, match="held by shadow_map"):
             second.prepare(frame, 0)
         second.release()
+        with pytest.raises(RuntimeError, match="held by shadow_map"):  # the lookup, whose uniforms matter
+            second.program("shadow_lookup.glsl", defines=ATLAS_DEFINES)
+        first.render()  # the refused attempts left the first one's uniforms alone
+        assert np.array_equal(first.visibility(), alone)
     finally:
         first.release()
     second.prepare(frame, 0)  # free again once the first is released

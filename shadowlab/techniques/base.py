@@ -139,7 +139,8 @@ class PlotStyle:
     marker: str
 
 
-#: id(program) → the technique that holds it (:meth:`Technique.program`).
+#: A program's cache key (:func:`shadowlab.gl.program_key`) → the technique that holds it
+#: (:meth:`Technique.program`).
 _HOLDERS: dict = {}
 
 #: Every registered technique class by name, in the order their modules were imported
@@ -212,7 +213,7 @@ class Technique:
         self._params = {k: p.parse(self.name, k, params.get(k, p.default)) for k, p in self.PARAMS.items()}
         self.notes: list[str] = []
         self._owned: list = []
-        self._programs: list = []
+        self._programs: list = []  # cache keys of the programs held
         self._visibility_texture = None
 
     def __getattr__(self, key):
@@ -304,13 +305,14 @@ class Technique:
         technique until :meth:`release`. Programs are shared within a process, and a technique
         sets their uniforms in :meth:`setup`: a program another live technique holds is an error
         (RuntimeError), never a render with someone else's uniforms."""
-        prog = gl.program(name, defines, varyings)
-        holder = _HOLDERS.get(id(prog))
-        if holder is not None and holder is not self:
+        key = gl.program_key(name, defines, varyings)
+        holder = _HOLDERS.get(key)
+        if holder is not None and holder is not self:  # asked before gl.program resets its uniforms
             raise RuntimeError(f"{self.name}: program {name} {defines or ''} is held by {holder.name}, which is "
                                f"still set up; release it first (programs are shared, their uniforms are not)")
-        _HOLDERS[id(prog)] = self
-        self._programs.append(prog)
+        prog = gl.program(name, defines, varyings)
+        _HOLDERS[key] = self
+        self._programs.append(key)
         return prog
 
     def own(self, obj):
@@ -351,9 +353,9 @@ class Technique:
         be set up again; safe to call twice, and after a setup that failed half-way."""
         owned, self._owned = self._owned, []
         self._visibility_texture = None
-        for prog in self._programs:
-            if _HOLDERS.get(id(prog)) is self:
-                del _HOLDERS[id(prog)]
+        for key in self._programs:
+            if _HOLDERS.get(key) is self:
+                del _HOLDERS[key]
         self._programs = []
         if owned:
             gl.park()

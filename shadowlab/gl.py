@@ -643,8 +643,15 @@ def read_texture(tex, components: int, dtype: str = "f4") -> np.ndarray:
     return data.reshape(h, w, components)[::-1].copy()
 
 
+_FULLSCREEN_VBO = None
+
+
 def fullscreen_quad(prog):
-    """A VertexArray drawing one screen-covering triangle pair; ``prog`` needs ``in vec2 in_pos``."""
+    """A VertexArray drawing one screen-covering triangle pair; ``prog`` needs ``in vec2 in_pos``.
+    Every quad reads one vertex buffer that lives as long as the context (releasing the
+    VertexArray leaves it for the next quad)."""
+    global _FULLSCREEN_VBO
     ctx = context()
-    vbo = ctx.buffer(np.array([-1, -1, 1, -1, 1, 1, -1, -1, 1, 1, -1, 1], dtype="f4").tobytes())
-    return ctx.vertex_array(prog, [(vbo, "2f", "in_pos")])
+    if _FULLSCREEN_VBO is None:
+        _FULLSCREEN_VBO = ctx.buffer(np.array([-1, -1, 1, -1, 1, 1, -1, -1, 1, 1, -1, 1], dtype="f4").tobytes())
+    return ctx.vertex_array(prog, [(_FULLSCREEN_VBO, "2f", "in_pos")])

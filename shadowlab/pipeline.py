@@ -227,21 +227,24 @@ class Evaluator:
         self.frame = frame
         self.truth_technique = truth or RayTraced()
         self.repeat, self.warmup, self.pass_timing = repeat, warmup, pass_timing
-        self._truth: dict[int, Measurement] = {}
-        self._contact: dict[int, np.ndarray] = {}
-        self._overlap: dict[int, np.ndarray] = {}
+        # id(light) → (light, value): keyed by the light object, kept alive by the entry
+        self._truth: dict[int, tuple] = {}
+        self._contact: dict[int, tuple] = {}
+        self._overlap: dict[int, tuple] = {}
 
-    def _key(self, light: LightSlot | int) -> tuple[int, LightSlot]:
+    def _cached(self, cache: dict, light: LightSlot | int, compute: Callable[[LightSlot], object]):
+        """``cache``'s value for the slot's light, computed on first use; keyed by the light
+        object, which the entry keeps alive (so its id is never reused)."""
         slot = self.frame.as_slot(light)
-        return id(slot.light), slot
+        key = id(slot.light)
+        if key not in cache:
+            cache[key] = (slot.light, compute(slot))
+        return cache[key][1]
 
     def truth(self, light: LightSlot | int, on_step: Callable[[], None] | None = None) -> Measurement:
         """The ground truth's measurement of one light (measured on first use)."""
-        key, slot = self._key(light)
-        if key not in self._truth:
-            self._truth[key] = measure(self.truth_technique, self.frame, slot, self.repeat, self.warmup, on_step,
-                                       pass_timing=self.pass_timing)
-        return self._truth[key]
+        return self._cached(self._truth, light, lambda slot: measure(
+            self.truth_technique, self.frame, slot, self.repeat, self.warmup, on_step, pass_timing=self.pass_timing))
 
     def use_truth(self, light: LightSlot | int, visibility: np.ndarray, stats: dict | None = None) -> None:
         """Judge against a truth measured elsewhere (a study's cached truth): ``visibility``
@@ -249,27 +252,22 @@ class Evaluator:
         (its ``truth_stderr_max`` goes on every row)."""
         if visibility.shape != (self.frame.height, self.frame.width):
             raise ValueError(f"truth of shape {visibility.shape} for a {self.frame.width}x{self.frame.height} frame")
-        key, slot = self._key(light)
-        self._truth[key] = Measurement(self.truth_technique, slot.index, visibility,
-                                       timing.Timing(float("nan"), float("nan"), []), dict(stats or {}))
+        slot = self.frame.as_slot(light)
+        self._truth[id(slot.light)] = (slot.light, Measurement(
+            self.truth_technique, slot.index, visibility, timing.Timing(float("nan"), float("nan"), []),
+            dict(stats or {})))
 
     def contact_lines(self, light: LightSlot | int) -> np.ndarray:
         """Bool (height, width): evaluated receiver pixels where another object touches the
         receiver (:func:`shadowlab.metrics.contact_pixels`)."""
-        key, slot = self._key(light)
-        if key not in self._contact:
-            f = self.frame
-            self._contact[key] = metrics.contact_pixels(f.object_id, f.position, f.pixel_footprint(),
-                                                        f.evaluated_image(slot))
-        return self._contact[key]
+        f = self.frame
+        return self._cached(self._contact, light, lambda slot: metrics.contact_pixels(
+            f.object_id, f.position, f.pixel_footprint(), f.evaluated_image(slot)))
 
     def overlap(self, light: LightSlot | int) -> np.ndarray:
         """Bool (height, width): evaluated pixels whose segment to the light crosses two or more
         casters (:func:`shadowlab.occluder_layers.occluder_layers`), for the light-bleeding metric."""
-        key, slot = self._key(light)
-        if key not in self._overlap:
-            self._overlap[key] = occluder_layers(self.frame, slot) >= 2
-        return self._overlap[key]
+        return self._cached(self._overlap, light, lambda slot: occluder_layers(self.frame, slot) >= 2)
 
     def row(self, m: Measurement, reference: bool = False) -> dict:
         """The metrics.csv row of a measurement (columns: :data:`shadowlab.metrics.COLUMNS`, then

@@ -130,10 +130,12 @@ def test_every_row_carries_the_truths_stderr():
                             slot=lambda i: slots[i], as_slot=lambda x: slots[x] if isinstance(x, int) else x,
                             evaluated_image=lambda slot: EV)
     ev = Evaluator(frame)
-    ev._contact = {id(light): np.zeros(G.shape, bool) for light in lights}  # the caches key on the light
-    ev._overlap = {id(light): np.zeros(G.shape, bool) for light in lights}
+    # the caches key on the light object: id(light) → (light, value)
+    ev._contact = {id(light): (light, np.zeros(G.shape, bool)) for light in lights}
+    ev._overlap = {id(light): (light, np.zeros(G.shape, bool)) for light in lights}
     no_time = timing.Timing(float("nan"), float("nan"), [])
-    ev._truth[id(lights[0])] = Measurement(ev.truth_technique, 0, G, no_time, {"truth_stderr_max": 0.015625})
+    ev._truth[id(lights[0])] = (lights[0], Measurement(ev.truth_technique, 0, G, no_time,
+                                                       {"truth_stderr_max": 0.015625}))
     ev.use_truth(1, G.astype(np.float32))  # measured elsewhere: no stats
     tech = from_spec("shadow_map")
     row0 = ev.row(Measurement(tech, 0, V, no_time, {}))

@@ -143,8 +143,8 @@ class PlotStyle:
 #: (:meth:`Technique.program`).
 _HOLDERS: dict = {}
 
-#: Every registered technique class by name, in the order their modules were imported
-#: (:mod:`shadowlab.techniques` imports every module of the package).
+#: Every registered technique class by name; :mod:`shadowlab.techniques` imports every module of
+#: the package and then orders it: the ground truth first, then by name.
 REGISTRY: dict[str, type] = {}
 
 

@@ -108,7 +108,8 @@ class Frame:
 
     def vertex_array(self, prog):
         """A VertexArray binding the scene's buffers to whichever of ``in_pos``, ``in_normal``,
-        ``in_object`` the program uses (cached per program)."""
+        ``in_object`` the program uses (cached per program, released with the frame: programs are
+        shared for the life of the process)."""
         key = id(prog)
         if key not in self._vaos:
             content = [(buf, fmt, name) for buf, fmt, name in
@@ -116,12 +117,6 @@ class Frame:
                         (self.vbo_object, "1i", "in_object")) if name in prog]
             self._vaos[key] = (prog, self.ctx.vertex_array(prog, content))
         return self._vaos[key][1]
-
-    def forget(self, prog) -> None:
-        """Release the cached VertexArray of ``prog`` (call before releasing the program)."""
-        entry = self._vaos.pop(id(prog), None)
-        if entry is not None:
-            entry[1].release()
 
     def ranges(self, which: str = "all") -> list[DrawRange]:
         """Draw ranges of ``which`` objects ('all', 'casters', 'receivers'), adjacent runs merged."""
@@ -281,10 +276,6 @@ class Frame:
     def as_slot(self, light: "LightSlot | int") -> LightSlot:
         """``light`` if it is a slot, else the slot of the scene's light with that index."""
         return light if isinstance(light, LightSlot) else self.slot(int(light))
-
-    def slots(self) -> list[LightSlot]:
-        """The slots of every light of the scene, in order."""
-        return [self.slot(i) for i in range(len(self.scene.lights))]
 
     def stand_in(self, slot: LightSlot, light: Light) -> LightSlot:
         """A slot for ``light`` standing in for ``slot``'s light under its index (light sampling):

@@ -212,7 +212,7 @@ def _check_lights(scenes: list[SceneEntry], configurations: dict[str, list[str]]
         for spec in configurations[entry.name]:
             cls = from_spec(spec)
             for i, kind in enumerate(entry.light_types):
-                if kind not in cls.LIGHTS:
+                if not cls.supports_type(kind):
                     raise SuiteError(f"{file}: {written.get(spec, spec)} does not render for light {i} of scene "
                                      f"{entry.name} ({kind}); it {cls.light_requirement()} (limit it to other "
                                      f"scenes with a [[sweeps]] table's scenes list)")

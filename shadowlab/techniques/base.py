@@ -246,8 +246,15 @@ class Technique:
     # -- capabilities ------------------------------------------------------------
     @classmethod
     def supports(cls, light) -> bool:
-        """True when the technique renders for ``light`` (its type in ``LIGHTS``)."""
-        return light.type_name in cls.LIGHTS
+        """True when the technique renders for ``light`` (:meth:`supports_type` of its type)."""
+        return cls.supports_type(light.type_name)
+
+    @classmethod
+    def supports_type(cls, type_name: str) -> bool:
+        """True when the technique renders for lights of ``type_name`` (in ``LIGHTS``): what
+        compare, animate (:func:`shadowlab.pipeline.check_lights`) and suite planning (from
+        the scene files' light types) ask before anything renders."""
+        return type_name in cls.LIGHTS
 
     @classmethod
     def light_requirement(cls) -> str:

@@ -88,13 +88,14 @@ def fit_light_views(frame, slot, resolution: int, projection: str = "auto", near
 
 # --------------------------------------------------------------------------- the atlas
 
-def check_texture_size(size: tuple[int, int], owner: str, what: str = "map") -> None:
-    """TechniqueError naming ``owner`` when a texture of ``size`` (width, height) exceeds the
-    context's ``GL_MAX_TEXTURE_SIZE``."""
+def check_texture_size(size: tuple[int, int], owner: str, what: str = "map",
+                       remedy: str = "lower the resolution") -> None:
+    """TechniqueError naming ``owner`` (and ``remedy``) when a texture of ``size`` (width,
+    height) exceeds the context's ``GL_MAX_TEXTURE_SIZE``."""
     max_size = int(gl.context().info["GL_MAX_TEXTURE_SIZE"])
     if max(size) > max_size:
         raise TechniqueError(f"{owner}: a {size[0]}x{size[1]} {what} exceeds GL_MAX_TEXTURE_SIZE {max_size}; "
-                             f"lower the resolution")
+                             f"{remedy}")
 
 
 class Atlas:
@@ -144,13 +145,12 @@ class Atlas:
 
     def rect_array(self) -> np.ndarray:
         """Float32 (MAX_FACES, 4): each face's rect, zero-padded: the ``u_face_rect`` uniform."""
-        rects = np.zeros((MAX_FACES, 4), np.float32)
-        rects[:len(self.rects)] = self.rects
-        return rects
+        return self.padded(self.rects, np.float32)
 
-    def padded(self, values) -> np.ndarray:
-        """Per-face floats padded with zeros to :data:`MAX_FACES` (float64)."""
-        out = np.zeros(MAX_FACES)
+    def padded(self, values, dtype=np.float64) -> np.ndarray:
+        """One value (or row) per face, padded with zeros to :data:`MAX_FACES` rows."""
+        values = np.asarray(values, dtype)
+        out = np.zeros((MAX_FACES,) + values.shape[1:], dtype)
         out[:len(values)] = values
         return out
 

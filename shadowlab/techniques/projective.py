@@ -145,7 +145,8 @@ class ProjectiveShadow(Technique):
         the programs (untimed)."""
         ctx = frame.ctx
         objects = frame.scene.objects
-        check_texture_size((len(objects), 1), self.name, "receiver flag texture (one texel per object)")
+        check_texture_size((len(objects), 1), self.name, "receiver flag texture (one texel per object)",
+                           "the scene has too many objects for projective")
         check_texture_size((self.resolution, self.resolution), self.name, "shadow image")
         takes = [o.receives and (self.receivers == "others" or not o.casts) for o in objects]
         self.flags = self.own(ctx.texture((max(len(objects), 1), 1), 1,

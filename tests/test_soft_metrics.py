@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from shadowlab import report, timing
+from shadowlab import timing
+from shadowlab.output import pictures as report
 from shadowlab.scene.area_lights import RectLight
 from shadowlab.scene.lights import PointLight
 from shadowlab.metrics import PENUMBRA_HIGH, PENUMBRA_LOW, compare, format_table, soft_regions

@@ -10,7 +10,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from shadowlab.report import save_png
+from shadowlab.output.pictures import save_png
+from shadowlab.output import pareto
+from shadowlab.study import aggregate as agg
 from shadowlab.study import report as sr
 
 TRUTH = "raytrace:offset_scale=1e-06"
@@ -109,7 +111,7 @@ META = {"name": "synthetic <suite>", "description": "a made-up study & its repor
 
 
 def _cfg(results, scene, label) -> pd.Series:
-    c = sr.per_configuration(results)
+    c = agg.per_configuration(results)
     hit = c[(c["scene"] == scene) & (c["label"] == label)]
     assert len(hit) == 1
     return hit.iloc[0]
@@ -119,10 +121,10 @@ def _cfg(results, scene, label) -> pd.Series:
 
 def test_per_configuration_pools_lights():
     res = synthetic()
-    cfg = sr.per_configuration(res)
+    cfg = agg.per_configuration(res)
     # one row per (scene, label) that ran: 4 + 3 (planar failed) + 5
     assert len(cfg) == 12
-    assert list(cfg.columns) == sr.CONFIG_COLUMNS
+    assert list(cfg.columns) == agg.CONFIG_COLUMNS
     sv = _cfg(res, "sv_two_lights", "shadow_volume")
     assert sv["lights"] == 2 and sv["evaluated_pixels"] == 4000
     assert sv["time_ms"] == pytest.approx(8.0)            # 3 + 5: a frame renders both lights
@@ -155,7 +157,7 @@ def test_per_configuration_nan_time_and_csv_round_trip(tmp_path):
     res = synthetic(tmp_path)
     res.to_csv(tmp_path / "results.csv", index=False)
     back = pd.read_csv(tmp_path / "results.csv")
-    a, b = sr.per_configuration(res), sr.per_configuration(back)
+    a, b = agg.per_configuration(res), agg.per_configuration(back)
     assert a["label"].tolist() == b["label"].tolist()
     assert b["reference"].tolist() == a["reference"].tolist()
     np.testing.assert_allclose(a["error_rate"], b["error_rate"])
@@ -163,7 +165,7 @@ def test_per_configuration_nan_time_and_csv_round_trip(tmp_path):
 
 
 def test_failed_runs_one_row_per_configuration():
-    f = sr.failed_runs(synthetic())
+    f = agg.failed_runs(synthetic())
     assert f[["scene", "label"]].values.tolist() == [["sv_two_lights", "planar"]]
     assert f["error"].iloc[0] == "RuntimeError: no planar receiver <here>"
 
@@ -175,12 +177,12 @@ def test_pareto_front_hand_made():
     e = [5, 3, 4, 3, 1, 2, 1, 0.1, np.nan]
     # (3,4) dominated by (2,3); the two (2,3) tie and are both kept; (4,2) and (5,1) dominated by (4,1);
     # NaN points are never on the front
-    assert sr.pareto_front(t, e).tolist() == [True, True, False, True, True, False, False, False, False]
-    assert sr.pareto_front([7.0], [0.2]).tolist() == [True]
-    assert sr.pareto_front([], []).tolist() == []
-    assert sr.pareto_front([1, 1], [0, 0]).tolist() == [True, True]
+    assert agg.pareto_front(t, e).tolist() == [True, True, False, True, True, False, False, False, False]
+    assert agg.pareto_front([7.0], [0.2]).tolist() == [True]
+    assert agg.pareto_front([], []).tolist() == []
+    assert agg.pareto_front([1, 1], [0, 0]).tolist() == [True, True]
     with pytest.raises(ValueError):
-        sr.pareto_front([1, 2], [1])
+        agg.pareto_front([1, 2], [1])
 
 
 # ----------------------------------------------------------------------------- Pareto figure
@@ -194,7 +196,7 @@ def _gid(ax, gid):
 
 
 def test_pareto_figure_content():
-    fig = sr.pareto_figure(synthetic())
+    fig = pareto.pareto_figure(synthetic())
     panels = _panels(fig)
     assert list(panels) == ["box_on_plane", "sv_two_lights", "sm_thin"]
     box = panels["box_on_plane"]
@@ -228,11 +230,11 @@ def test_pareto_plot_one_and_many_scenes(tmp_path):
 
     one = synthetic()
     one = one[one["scene"] == "sm_thin"]
-    p1 = sr.pareto_plot(one, tmp_path / "one.png")
+    p1 = pareto.pareto_plot(one, tmp_path / "one.png")
     many = pd.concat([_row_frame(f"scene_{k:02d}", k) for k in range(30)], ignore_index=True)
-    fig = sr.pareto_figure(many)
+    fig = pareto.pareto_figure(many)
     assert len(_panels(fig)) == 30
-    p30 = sr.pareto_plot(many, tmp_path / "many.png")
+    p30 = pareto.pareto_plot(many, tmp_path / "many.png")
     h1, w1 = mpimg.imread(p1).shape[:2]
     h30, w30 = mpimg.imread(p30).shape[:2]
     assert h30 > 4 * h1   # the figure grows with the rows (8 rows of 4 panels)
@@ -249,24 +251,24 @@ def _row_frame(scene, k):
 
 def test_pareto_plot_single_configuration_and_nan_time(tmp_path):
     single = pd.DataFrame([_row("lonely", "general", 0, "shadow_volume", error=0.01, time=2.0)])
-    fig = sr.pareto_figure(single)
+    fig = pareto.pareto_figure(single)
     (front,) = _gid(_panels(fig)["lonely"], "pareto-front")
     assert 2.0 in front.get_xdata()
     untimed = pd.DataFrame([_row("untimed", "general", 0, TRUTH, time=math.nan),
                             _row("untimed", "general", 0, "shadow_map", error=0.01, time=math.nan)])
-    fig = sr.pareto_figure(untimed)
+    fig = pareto.pareto_figure(untimed)
     ax = _panels(fig)["untimed"]
     assert "no time: shadow_map" in " ".join(t.get_text() for t in ax.texts)
     assert not _gid(ax, "pareto-front")
-    assert sr.pareto_plot(untimed, tmp_path / "p.png").stat().st_size > 1000
-    assert sr.pareto_plot(pd.DataFrame(columns=["scene", "label"]), tmp_path / "empty.png").is_file()
+    assert pareto.pareto_plot(untimed, tmp_path / "p.png").stat().st_size > 1000
+    assert pareto.pareto_plot(pd.DataFrame(columns=["scene", "label"]), tmp_path / "empty.png").is_file()
 
 
 # ----------------------------------------------------------------------------- summary.md
 
 def test_summary_md(tmp_path):
     res = synthetic()
-    table = sr.summary_table(res)
+    table = agg.summary_table(res)
     sm = table[table["label"] == "shadow_map"].iloc[0]
     assert sm["median_error_rate"] == pytest.approx(0.015)   # median of 2 %, 1.5 %, 0.1 %
     assert sm["median_time_ms"] == pytest.approx(2.0)        # median of 2, 3 (1.5 + 1.5), 2
@@ -279,7 +281,7 @@ def test_summary_md(tmp_path):
     assert [s for s, _ in planar["fails"]] == ["sv_two_lights", "sm_thin"]
     assert table["technique"].tolist()[:2] == ["planar", "planar"]   # grouped by family, in the registry's order
 
-    fam = sr.family_table(res).set_index("scene_family")
+    fam = agg.family_table(res).set_index("scene_family")
     assert fam.loc["shadow maps", "best"] == "shadow_map"
     assert fam.loc["general", "best"] == "shadow_volume"
     assert fam.loc["shadow volumes", "best"] == "shadow_volume"
@@ -301,7 +303,7 @@ def test_summary_md(tmp_path):
     assert "sv_two_lights" in failed and "planar" in failed and "RuntimeError: no planar receiver <here>" in failed
     assert "sv_two_lights (failed: RuntimeError" in text
     assert "box_on_plane (2.000 %)" in text
-    assert f"{100 * sr.FAIL_ERROR_RATE:g} %" in text
+    assert f"{100 * agg.FAIL_ERROR_RATE:g} %" in text
 
 
 # ----------------------------------------------------------------------------- study.html
@@ -365,7 +367,7 @@ def test_study_html_shows_signed_maps_of_soft_configurations(tmp_path):
     res["signed_image"] = ""
     res.loc[soft, "signed_image"] = "runs/box_on_plane/images/shadow_map_signed.png"
     res.loc[gone, "signed_image"] = "runs/sm_thin/images/planar_signed.png"
-    cfg = sr.per_configuration(res)
+    cfg = agg.per_configuration(res)
     assert _cfg(cfg, "box_on_plane", "shadow_map")["signed_image"] == "runs/box_on_plane/images/shadow_map_signed.png"
     doc = Path(sr.write_study_html(tmp_path, res, META)).read_text()
     srcs = re.findall(r'<img[^>]* src="([^"]+)"', doc)

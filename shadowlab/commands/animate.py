@@ -13,7 +13,7 @@ end, so a failed run leaves earlier results untouched — as :mod:`shadowlab.com
 (per configuration and light: mean error rate, flip rate mean/p95/max, temporal error
 mean/max), ``flicker_<name>.png`` (per technique, first light: per pixel, how many frame pairs
 flipped where the truth did not), ``strip_<name>.gif`` (per technique, first light: truth |
-technique | error map, one GIF frame per animation frame), ``report.html`` and
+technique | error map, one GIF frame per animation frame), ``pictures.html`` and
 ``animation.json`` (provenance, :mod:`shadowlab.provenance`).
 
 The GIFs are written with Pillow's GIF writer: Pillow is already installed (matplotlib depends
@@ -32,7 +32,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .. import gl, metrics, provenance, report, temporal, timing
+from ..output import pictures
+from .. import gl, metrics, provenance, temporal, timing
 from ..scene.animation import frame_times, scene_at
 from ..frame import Frame
 from ..pipeline import Evaluator, StepCallback, build_techniques, check_lights, measure, pass_order
@@ -86,9 +87,9 @@ def _uint8(rgb: np.ndarray) -> np.ndarray:
 def _strip_picture(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, covered: np.ndarray) -> np.ndarray:
     """truth's visibility | the technique's | its error map (over the truth's visibility), uint8
     (H, 3W + 2·gap, 3), row 0 = top."""
-    truth_pic = report.visibility_picture(truth, evaluated, covered)
-    vis_pic = report.visibility_picture(vis, evaluated, covered)
-    err_pic = report.error_picture(metrics.error_classes(vis, truth, evaluated), truth_pic.copy())
+    truth_pic = pictures.visibility_picture(truth, evaluated, covered)
+    vis_pic = pictures.visibility_picture(vis, evaluated, covered)
+    err_pic = pictures.error_picture(metrics.error_classes(vis, truth, evaluated), truth_pic.copy())
     gap = np.zeros((vis.shape[0], STRIP_GAP, 3))
     return _uint8(np.concatenate([truth_pic, gap, vis_pic, gap, err_pic], axis=1))
 
@@ -113,7 +114,7 @@ def flicker_picture(path: Path, counts: np.ndarray, covered: np.ndarray, title: 
 
     h, w = counts.shape
     data = np.ma.masked_where(~covered, counts)
-    cmap = matplotlib.colormaps[FLICKER_COLORMAP].with_extremes(bad=report.BACKGROUND)
+    cmap = matplotlib.colormaps[FLICKER_COLORMAP].with_extremes(bad=pictures.BACKGROUND)
     fig, ax = plt.subplots(figsize=(5.0, 5.0 * h / w + 0.6), dpi=110)
     im = ax.imshow(data, cmap=cmap, vmin=0, vmax=max(1, int(counts.max())), interpolation="nearest")
     ax.set_axis_off()
@@ -263,17 +264,17 @@ def _run(folder: Path, scene: Scene, techniques, n: int, size, repeat: int, warm
         **provenance.record(),
     }
     (folder / "animation.json").write_text(json.dumps(record, indent=2, default=provenance.json_default))
-    write_html(folder / "report.html", record, summary, pictures)
+    write_html(folder / "pictures.html", record, summary, pictures)
 
 
 def write_html(path: Path, record: dict, summary: pd.DataFrame, pictures: list[dict]) -> None:
-    """``report.html`` of an animate run: the run's facts, the summary table, and per technique
+    """``pictures.html`` of an animate run: the run's facts, the summary table, and per technique
     its flicker heat map and its animated error strip (file names relative to the report)."""
     table = summary.copy()
     for c in table.columns:
         if c.endswith(("_mean", "_p95", "_max")):
             table[c] = table[c].map(lambda v: "" if not np.isfinite(v) else f"{v:.5f}")
-    legend = "".join(f"{html.escape(name)}; " for name, _ in report.ERROR_COLORS.values())
+    legend = "".join(f"{html.escape(name)}; " for name, _ in pictures.ERROR_COLORS.values())
     items = "".join(
         f'<h3>{html.escape(p["title"])}</h3><p class="spec">{html.escape(p["label"])} · {p["flips_total"]} flips '
         f'beyond the truth in all, at most {p["flips_max"]} on one pixel</p><div class="row">'

@@ -2,7 +2,7 @@
 
 The measuring is :func:`shadowlab.pipeline.compare_frame`; this module checks the arguments
 and writes what DESIGN §6 promises: ``metrics.csv``, ``masks.npz``, ``run.json``, the images and
-``report.html``. Everything is written into a temporary sibling directory and moved into place
+``pictures.html``. Everything is written into a temporary sibling directory and moved into place
 at the very end, so a run that fails leaves earlier results untouched.
 """
 from __future__ import annotations
@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import gl, metrics, provenance, report, timing
+from ..output import pictures
+from .. import gl, metrics, provenance, timing
 from ..frame import Frame
 from ..pipeline import Comparison, StepCallback, build_techniques, check_lights, compare_frame
 from ..scene import Scene, load_scene
@@ -121,17 +122,17 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
     # signed difference maps V - G (first light) of the soft configurations, on one shared scale
     light0 = frame.scene.lights[0]
     diffs = {ms[0].technique.spec(): d for ms in result.results
-             if (d := report.signed_difference(light0, ms[0].visibility, gt_vis[0], ev0)) is not None}
+             if (d := pictures.signed_difference(light0, ms[0].visibility, gt_vis[0], ev0)) is not None}
     signed_map = None
     if diffs:
-        limit = report.signed_limit(diffs.values())
-        signed_map = {"limit": limit, "colormap": report.SIGNED_COLORMAP, "legend": "images/signed_legend.png",
-                      "caption": report.SIGNED_CAPTION}
-        report.signed_legend(folder / signed_map["legend"], limit)
+        limit = pictures.signed_limit(diffs.values())
+        signed_map = {"limit": limit, "colormap": pictures.SIGNED_COLORMAP, "legend": "images/signed_legend.png",
+                      "caption": pictures.SIGNED_CAPTION}
+        pictures.signed_legend(folder / signed_map["legend"], limit)
     footprint_legend = None
     if any(ms[0].footprint is not None for ms in result.results):
         footprint_legend = "images/footprint_legend.png"
-        report.footprint_legend(folder / footprint_legend)
+        pictures.footprint_legend(folder / footprint_legend)
     shading = ShadingPass(frame)
     try:
         truth = result.truth[0].technique
@@ -143,8 +144,8 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
                                         frame, [m.visibility for m in ms], gt_vis[0], signed, ms[0].footprint))
     finally:
         shading.release()
-    report.speed_error_plot(df, folder / "speed_vs_error.png")
-    passes_png = report.pass_time_plot(df, folder / "pass_times.png") if pass_timing else None
+    pictures.speed_error_plot(df, folder / "speed_vs_error.png")
+    passes_png = pictures.pass_time_plot(df, folder / "pass_times.png") if pass_timing else None
     cam = frame.camera
     run = {
         "scene": frame.scene.describe(),
@@ -173,7 +174,7 @@ def write_run(folder: Path, result: Comparison, repeat: int, warmup: int, pass_t
         **provenance.record(),
     }
     (folder / "run.json").write_text(json.dumps(run, indent=2, default=provenance.json_default))
-    report.write_html(folder / "report.html", run, df, images)
+    pictures.write_html(folder / "pictures.html", run, df, images)
 
 
 
@@ -185,21 +186,21 @@ def _write_images(folder: Path, stem: str, label: str, title: str, shading: Shad
     file names for the report."""
     covered = frame.covered
     ev0 = frame.evaluated(0)
-    shaded = report.to_display(shading.shade(vis_all), covered)
+    shaded = pictures.to_display(shading.shade(vis_all), covered)
     files = {"label": label, "title": title, "shaded": f"images/{stem}_shaded.png",
              "visibility": f"images/{stem}_visibility.png"}
-    report.save_png(folder / files["shaded"], shaded)
-    report.save_png(folder / files["visibility"], report.visibility_picture(vis_all[0], ev0, covered))
+    pictures.save_png(folder / files["shaded"], shaded)
+    pictures.save_png(folder / files["visibility"], pictures.visibility_picture(vis_all[0], ev0, covered))
     if truth0 is not None:
         files["error"] = f"images/{stem}_error.png"
         classes = metrics.error_classes(vis_all[0], truth0, ev0)
-        report.save_png(folder / files["error"], report.error_picture(classes, shaded))
+        pictures.save_png(folder / files["error"], pictures.error_picture(classes, shaded))
     if signed is not None:
         files["signed"] = f"images/{stem}_signed.png"
-        report.save_png(folder / files["signed"], report.signed_picture(signed[0], signed[1], ev0, covered))
+        pictures.save_png(folder / files["signed"], pictures.signed_picture(signed[0], signed[1], ev0, covered))
     if footprint is not None:
         files["footprint"] = f"images/{stem}_footprint.png"
-        report.save_png(folder / files["footprint"], report.footprint_picture(footprint, ev0, covered))
+        pictures.save_png(folder / files["footprint"], pictures.footprint_picture(footprint, ev0, covered))
     return files
 
 

@@ -1,6 +1,6 @@
 """One scene of a study as a run directory (the DESIGN §6 contract, like ``shadowlab compare``
 writes), assembled from cached results without GL: ``metrics.csv``, ``masks.npz``,
-``run.json``, ``images/``, ``speed_vs_error.png`` and ``report.html``.
+``run.json``, ``images/``, ``speed_vs_error.png`` and ``pictures.html``.
 
 The directory is written beside its destination and moved into place when complete; a run
 directory whose inputs (the cache keys of its results) have not changed is left as it is.
@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .. import metrics, provenance, report
+from ..output import pictures
+from .. import metrics, provenance
 from ..pipeline import pass_order
 from ..commands.compare import GROUND_TRUTH_KEY, peak_mib, move_into_place, safe_name
 
@@ -46,7 +47,7 @@ def write_run_dir(folder: Path, scene: SceneRuns, rows: pd.DataFrame, record: di
     (renderer, device, revision, timing, ...)."""
     manifest = {"keys": sorted(scene.keys)}
     try:
-        if json.loads((folder / MANIFEST).read_text()) == manifest and (folder / "report.html").is_file():
+        if json.loads((folder / MANIFEST).read_text()) == manifest and (folder / "pictures.html").is_file():
             return False
     except (OSError, json.JSONDecodeError):
         pass
@@ -78,8 +79,8 @@ def _write(folder: Path, scene: SceneRuns, df: pd.DataFrame, record: dict) -> No
         configurations.append({"label": spec, "technique": row["technique"],
                                "params": {k[len("param_"):]: v for k, v in row.items() if k.startswith("param_")}})
     np.savez_compressed(folder / "masks.npz", **masks)
-    report.speed_error_plot(df, folder / "speed_vs_error.png")
-    passes_png = report.pass_time_plot(df, folder / "pass_times.png") if record.get("pass_timing") else None
+    pictures.speed_error_plot(df, folder / "speed_vs_error.png")
+    passes_png = pictures.pass_time_plot(df, folder / "pass_times.png") if record.get("pass_timing") else None
     notes = list(truth["meta"]["notes"])
     for spec, res in scene.configs.items():
         notes.extend(f"{spec}: {n}" for n in res["meta"]["notes"])
@@ -87,15 +88,15 @@ def _write(folder: Path, scene: SceneRuns, df: pd.DataFrame, record: dict) -> No
     if any(im.get("signed") for im in images):  # the study draws every signed map on one fixed scale
         from .tasks import STUDY_SIGNED_LIMIT
 
-        signed_map = {"limit": STUDY_SIGNED_LIMIT, "colormap": report.SIGNED_COLORMAP,
-                      "legend": "images/signed_legend.png", "caption": report.SIGNED_CAPTION}
-        report.signed_legend(folder / signed_map["legend"], STUDY_SIGNED_LIMIT)
+        signed_map = {"limit": STUDY_SIGNED_LIMIT, "colormap": pictures.SIGNED_COLORMAP,
+                      "legend": "images/signed_legend.png", "caption": pictures.SIGNED_CAPTION}
+        pictures.signed_legend(folder / signed_map["legend"], STUDY_SIGNED_LIMIT)
     run = {**record, "scene": truth["meta"]["scene"], "camera": truth["meta"]["camera"], "signed_map": signed_map,
            "configurations": configurations, "pass_times_image": passes_png, "masks_light": 0,
            "peak_rss_mib": peak_mib(df), "notes": notes,
            "images": images}
     (folder / "run.json").write_text(json.dumps(run, indent=2, default=provenance.json_default))
-    report.write_html(folder / "report.html", run, df, images)
+    pictures.write_html(folder / "pictures.html", run, df, images)
 
 
 def _images(folder: Path, stem: str, label: str, title: str, files: dict) -> dict:

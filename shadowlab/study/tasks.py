@@ -124,7 +124,8 @@ def _accuracy_row(row: dict) -> dict:
 def _images(frame, visibilities, truth0):
     """PNG bytes of the shaded image, the first light's visibility and (given the truth)
     the error map and the magnified crop of its worst region, with that region's box and count."""
-    from .. import metrics, report
+    from .. import metrics
+    from ..output import pictures as report
     from ..shading import ShadingPass
 
     shading = ShadingPass(frame)

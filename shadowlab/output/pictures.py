@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .metrics import format_table
+from ..metrics import format_table
 
 BACKGROUND = np.array([0.16, 0.18, 0.22])
 NOT_EVALUATED = np.array([0.30, 0.32, 0.40])
@@ -74,7 +74,7 @@ def is_soft(light, vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) ->
     """Whether a configuration is judged as a soft shadow (and gets a signed difference map):
     the light is an area light, or the technique's or the truth's visibility (float (H, W),
     row 0 = top) is fractional (strictly between 0 and 1) on some evaluated pixel."""
-    from .scene.area_lights import AreaLight
+    from ..scene.area_lights import AreaLight
 
     if isinstance(light, AreaLight):
         return True

@@ -1,0 +1,91 @@
+"""The Jinja2 pages of every run directory (DESIGN §17): one environment with autoescaping,
+one base template (``templates/base.html``: style, heading, the timing banner, provenance
+footer) and a child template per page (compare, study, animate).
+
+Values reach the templates raw and are escaped by Jinja2; the few formatting filters
+(``pct``, ``ms``, ``num``) follow the metrics table's formats so every page reads alike.
+"""
+from __future__ import annotations
+
+import functools
+import os
+from pathlib import Path
+
+import jinja2
+
+TEMPLATES = Path(__file__).parent / "templates"
+
+#: The sentence a page opens with when its times come from a CPU rasteriser.
+SOFTWARE_BANNER = ("Times on this page were measured on a software rasteriser ({renderer}): they are CPU "
+                   "times, good for comparing techniques with each other, not for judging a GPU.")
+
+
+def _missing(value) -> bool:
+    try:
+        return value is None or value != value  # NaN is the one value unequal to itself
+    except (TypeError, ValueError):
+        return False
+
+
+def fmt_pct(rate, digits: int = 2) -> str:
+    """A rate in [0, 1] as a percentage ("0.12 %"); '' when missing."""
+    return "" if _missing(rate) else f"{100.0 * float(rate):.{digits}f} %"
+
+
+def fmt_ms(value) -> str:
+    """Milliseconds with sensible precision ("0.31", "12.4", "1250"); '' when missing."""
+    if _missing(value):
+        return ""
+    v = float(value)
+    return f"{v:.2f}" if v < 10 else f"{v:.1f}" if v < 100 else f"{v:.0f}"
+
+
+def fmt_num(value, digits: int = 3) -> str:
+    """A number to ``digits`` significant digits; '' when missing."""
+    return "" if _missing(value) else f"{float(value):.{digits}g}"
+
+
+@functools.lru_cache(maxsize=1)
+def environment() -> jinja2.Environment:
+    """The one Jinja2 environment: templates from :data:`TEMPLATES`, autoescaping on, undefined
+    names an error (a typo in a template fails loudly instead of printing nothing)."""
+    env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True,
+                             undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+    env.filters.update(pct=fmt_pct, ms=fmt_ms, num=fmt_num)
+    return env
+
+
+def timing_banner(renderer: str | None) -> str | None:
+    """:data:`SOFTWARE_BANNER` for a CPU rasteriser's GL_RENDERER string, else None."""
+    from ..gl import is_software_name
+
+    if renderer and is_software_name(renderer):
+        return SOFTWARE_BANNER.format(renderer=renderer.split("(")[0].strip())
+    return None
+
+
+def provenance_items(record: dict) -> list[tuple[str, str]]:
+    """The footer's (label, value) pairs from a run record (run.json, study.json, animation.json):
+    device, revision, date, timing method, Python and package versions where present."""
+    items = [("device", record.get("device") or record.get("renderer")), ("revision", record.get("revision")),
+             ("date", record.get("date")), ("timing", record.get("timing_method") or record.get("timing"))]
+    versions = record.get("versions")
+    if isinstance(versions, dict) and versions:
+        items.append(("versions", ", ".join(f"{k} {v}" for k, v in versions.items())))
+    machine = record.get("machine")
+    if isinstance(machine, dict) and machine.get("cpu"):
+        items.append(("CPU", machine["cpu"]))
+    return [(k, str(v)) for k, v in items if v not in (None, "")]
+
+
+def render_page(template: str, path: Path, **context) -> Path:
+    """Render ``template`` with ``context`` into ``path`` (through a temporary name, so a reader
+    never sees half a page). The base template needs ``title``, ``renderer`` and ``provenance``
+    (:func:`provenance_items`); the banner is derived from ``renderer``."""
+    path = Path(path)
+    context.setdefault("banner", timing_banner(context.get("renderer")))
+    text = environment().get_template(template).render(**context)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+    return path

@@ -1,0 +1,308 @@
+"""Study aggregation (DESIGN §12): plain pandas over ``results.csv`` rows — configurations
+pooled over a scene's lights, failed runs, Pareto fronts, per-configuration and per-family
+summaries and the verdicts that open the study page.
+
+``results.csv`` has one row per scene × light × configuration, the ground truth's rows
+included with ``reference`` True, plus the study columns ``scene_family, status, error,
+run_dir, revision, renderer`` and the image columns. Nothing here draws or writes HTML: the
+page (:mod:`shadowlab.study.report`) and the Pareto figure (:mod:`shadowlab.output.pareto`)
+read these tables.
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..metrics import COLUMN_BY_NAME
+
+#: A configuration *fails* a scene when its run failed or its error rate (pooled over the scene's
+#: lights) exceeds this fraction of the evaluated pixels: 1 %.
+FAIL_ERROR_RATE = 0.01
+
+
+#: Columns of :func:`per_configuration`, in order.
+CONFIG_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "reference", "lights",
+                  "evaluated_pixels", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
+                  "time_ms", "time_iqr_ms", "setup_ms", "wrong_pixels", "run_dir", "shaded_image", "error_image",
+                  "worst_crop_image", "worst_box", "worst_errors", "signed_image"]
+
+
+#: (rate, its pixel-count denominator column) — the rates pooled over lights by their denominators.
+_RATE_WEIGHTS = {"error_rate": "evaluated_pixels", "false_shadow_rate": "truth_lit_pixels",
+                 "false_lit_rate": "truth_shadowed_pixels"}
+
+
+_IMAGE_COLUMNS = ["run_dir", "shaded_image", "error_image", "worst_crop_image", "worst_box", "worst_errors",
+                  "signed_image"]
+
+
+def is_missing(value) -> bool:
+    if value is None:
+        return True
+    try:
+        return bool(pd.isna(value))
+    except (TypeError, ValueError):
+        return False
+
+
+def as_text(value) -> str:
+    """A cell as text: '' for None / NaN."""
+    return "" if is_missing(value) else str(value)
+
+
+def truthy(series: pd.Series) -> pd.Series:
+    """A bool column that may have been read back from CSV as text ('True'/'False') or with NaN."""
+    if series.dtype == bool:
+        return series
+    return series.map(lambda v: (not is_missing(v)) and str(v).strip().lower() in ("true", "1", "1.0", "yes"))
+
+
+def normalised(results: pd.DataFrame) -> pd.DataFrame:
+    """``results`` with ``reference`` as bool and ``status`` filled ('ok' where the column is
+    absent or empty), ``scene_family`` and ``short_label`` present."""
+    df = results.copy()
+    df["reference"] = truthy(df["reference"]) if "reference" in df.columns else False
+    if "status" not in df.columns:
+        df["status"] = "ok"
+    df["status"] = df["status"].map(lambda v: as_text(v) or "ok")
+    if "scene_family" not in df.columns:
+        df["scene_family"] = ""
+    if "short_label" not in df.columns:
+        df["short_label"] = df["label"]
+    if "error" not in df.columns:
+        df["error"] = ""
+    return df
+
+
+def numeric(df: pd.DataFrame, col: str) -> np.ndarray:
+    if col not in df.columns:
+        return np.full(len(df), np.nan)
+    return pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float)
+
+
+def pooled(rates: np.ndarray, weights: np.ndarray) -> float:
+    """The weighted mean of per-light ``rates`` by their denominators ``weights`` (= the rate of
+    the pooled counts); 0 for an empty pooled denominator (DESIGN §7); the plain mean when a
+    weight is unknown."""
+    if np.isnan(rates).all():
+        return math.nan
+    if np.isnan(weights).any():
+        return float(np.nanmean(rates))
+    total = weights.sum()
+    return float((rates * weights).sum() / total) if total > 0 else 0.0
+
+
+def scenes_in_order(df: pd.DataFrame) -> list[str]:
+    """Scene names in order of first appearance (the suite's order)."""
+    return list(dict.fromkeys(df["scene"].astype(str)))
+
+
+def family_order(names) -> list[str]:
+    """Technique families in the registry's order (unknown names, e.g. failed specs, last, sorted)."""
+    from ..techniques import REGISTRY
+
+    names = set(names)
+    return [n for n in REGISTRY if n in names] + sorted(names - set(REGISTRY))
+
+
+def fmt_pct(rate) -> str:
+    return COLUMN_BY_NAME["error_rate"].format(None if is_missing(rate) else float(rate))
+
+
+def fmt_ms(value) -> str:
+    return COLUMN_BY_NAME["time_ms_median"].format(None if is_missing(value) else float(value))
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to a temporary name beside ``path`` and rename it into place."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def per_configuration(results: pd.DataFrame) -> pd.DataFrame:
+    """One row per (scene, configuration) that ran: the ``status == "ok"`` rows of
+    ``results`` (results.csv) pooled over the scene's lights, in the order of ``results``.
+
+    Why: a frame renders every light, so a configuration's cost on a scene is the sum of its
+    per-light times, and its error is the share of wrong pixels among all the lights' evaluated
+    pixels — the two numbers the study compares configurations by.
+
+    Columns (:data:`CONFIG_COLUMNS`): ``scene, scene_family, technique, label, short_label,
+    reference`` (bool: the ground truth) copied; ``lights`` (rows pooled); ``evaluated_pixels``
+    (sum over lights); ``error_rate`` = the evaluated-pixel-weighted mean of the lights'
+    error rates (= pooled wrong / pooled evaluated); ``false_shadow_rate`` and
+    ``false_lit_rate`` weighted likewise by their own denominators, ``truth_lit_pixels`` and
+    ``truth_shadowed_pixels``, where those count columns exist (else by evaluated pixels);
+    a pooled denominator of 0 gives 0 (DESIGN §7); ``boundary_error_px`` = the mean over lights;
+    ``time_ms`` = sum of ``time_ms_median`` over lights (NaN if any light has no time);
+    ``time_iqr_ms`` = sum of ``time_ms_iqr`` (the lights were timed separately, so this is the
+    spread of a frame if their fluctuations go together — a conservative bar); ``setup_ms`` =
+    sum of the lights' set-up times (NaN where not measured);
+    ``wrong_pixels`` = error_rate × evaluated_pixels (rounded); and from the first light's row
+    (the one with images): ``run_dir, shaded_image, error_image, worst_crop_image, worst_box,
+    worst_errors, signed_image`` ('' / NaN where absent; ``signed_image``: the signed difference
+    map V − G of a soft configuration, :func:`shadowlab.report.signed_picture`).
+    """
+    if results is None or len(results) == 0:
+        return pd.DataFrame(columns=CONFIG_COLUMNS)
+    df = normalised(results)
+    df = df[df["status"] == "ok"]
+    rows = []
+    for (scene, label), g in df.groupby(["scene", "label"], sort=False):
+        g = g.sort_values("light", kind="stable") if "light" in g.columns else g
+        first = g.iloc[0]
+        ev = numeric(g, "evaluated_pixels")
+        row = {"scene": scene, "scene_family": as_text(first["scene_family"]), "technique": first["technique"],
+               "label": label, "short_label": as_text(first["short_label"]) or label,
+               "reference": bool(g["reference"].any()), "lights": len(g),
+               "evaluated_pixels": float(np.nansum(ev)) if not np.isnan(ev).all() else math.nan}
+        for rate, weight in _RATE_WEIGHTS.items():
+            w = numeric(g, weight) if weight in g.columns else ev
+            row[rate] = pooled(numeric(g, rate), w)
+        be = numeric(g, "boundary_error_px")
+        row["boundary_error_px"] = float(np.nanmean(be)) if not np.isnan(be).all() else math.nan
+        t, iqr = numeric(g, "time_ms_median"), numeric(g, "time_ms_iqr")
+        row["time_ms"] = float(t.sum())  # NaN when any light has no time
+        row["time_iqr_ms"] = float(np.nansum(iqr)) if not np.isnan(iqr).all() else math.nan
+        row["setup_ms"] = float(numeric(g, "setup_ms").sum()) if "setup_ms" in g.columns else math.nan
+        n = row["evaluated_pixels"]
+        row["wrong_pixels"] = (float(round(row["error_rate"] * n)) if not (is_missing(n) or
+                                                                            is_missing(row["error_rate"]))
+                               else math.nan)
+        for col in _IMAGE_COLUMNS:
+            row[col] = first[col] if col in g.columns else (math.nan if col == "worst_errors" else "")
+        rows.append(row)
+    return pd.DataFrame(rows, columns=CONFIG_COLUMNS)
+
+
+def failed_runs(results: pd.DataFrame) -> pd.DataFrame:
+    """One row per (scene, configuration) whose run failed (``status == "failed"``): columns
+    ``scene, scene_family, technique, label, short_label, reference, error`` (the first light's
+    message), in the order of ``results``."""
+    cols = ["scene", "scene_family", "technique", "label", "short_label", "reference", "error"]
+    if results is None or len(results) == 0:
+        return pd.DataFrame(columns=cols)
+    df = normalised(results)
+    df = df[df["status"] != "ok"]
+    out = df.drop_duplicates(["scene", "label"])[cols].copy()
+    out["error"] = out["error"].map(as_text)
+    return out.reset_index(drop=True)
+
+
+def pareto_front(time, error) -> np.ndarray:
+    """Bool mask of the points on the Pareto front of (``time``, ``error``) — both to be
+    minimised, same-length 1-D arrays: a point is on the front when no other point is at least
+    as good in both and strictly better in one. Points with exactly equal (time, error) do not
+    dominate each other, so ties are all kept. Points with a NaN coordinate are never on the
+    front and dominate nothing."""
+    t = np.asarray(time, dtype=float).ravel()
+    e = np.asarray(error, dtype=float).ravel()
+    if t.shape != e.shape:
+        raise ValueError(f"time and error differ in length: {t.shape} vs {e.shape}")
+    ok = ~(np.isnan(t) | np.isnan(e))
+    tv, evv = t[ok], e[ok]
+    # dominated[i] = any j: t_j <= t_i and e_j <= e_i and (t_j < t_i or e_j < e_i)
+    le = (tv[None, :] <= tv[:, None]) & (evv[None, :] <= evv[:, None])
+    lt = (tv[None, :] < tv[:, None]) | (evv[None, :] < evv[:, None])
+    front = np.zeros(t.shape, bool)
+    front[ok] = ~(le & lt).any(axis=1)
+    return front
+
+
+def summary_table(results: pd.DataFrame) -> pd.DataFrame:
+    """One row per non-reference configuration (``label``) across the suite, sorted by technique
+    family, then median error, then median time: ``technique, label, short_label,
+    median_error_rate, median_time_ms`` (medians over the scenes it ran on, from
+    :func:`per_configuration`), ``scenes`` (ran, ok), ``failed`` (scenes whose run failed),
+    ``wins`` (list of (scene_family, scene) where its error rate is the lowest among the
+    scene's non-reference configurations; ties count for each), ``fails`` (list of (scene,
+    reason): its run failed, or its error rate exceeds :data:`FAIL_ERROR_RATE`)."""
+    cfg = per_configuration(results)
+    conf = cfg[~cfg["reference"].astype(bool)]
+    fails = failed_runs(results)
+    fails = fails[~fails["reference"].astype(bool)]
+    wins: dict[str, list] = {}
+    for scene, g in conf.groupby("scene", sort=False):
+        best = g["error_rate"].min()
+        if pd.isna(best):
+            continue
+        for _, r in g[g["error_rate"] == best].iterrows():
+            wins.setdefault(r["label"], []).append((r["scene_family"], scene))
+    labels: dict[str, dict] = {}
+    for _, r in pd.concat([conf[["technique", "label", "short_label"]],
+                           fails[["technique", "label", "short_label"]]]).iterrows():
+        labels.setdefault(r["label"], {"technique": r["technique"], "short_label": r["short_label"]})
+    rows = []
+    for label, info in labels.items():
+        g = conf[conf["label"] == label]
+        f = fails[fails["label"] == label]
+        bad = [(s, f"failed: {e}" if e else "failed") for s, e in zip(f["scene"], f["error"])]
+        bad += [(s, fmt_pct(e)) for s, e in zip(g["scene"], g["error_rate"]) if e > FAIL_ERROR_RATE]
+        rows.append({"technique": info["technique"], "label": label, "short_label": info["short_label"],
+                     "median_error_rate": g["error_rate"].median() if len(g) else math.nan,
+                     "median_time_ms": g["time_ms"].median() if len(g) else math.nan,
+                     "median_setup_ms": g["setup_ms"].median() if len(g) else math.nan,
+                     "scenes": len(g), "failed": len(f), "wins": wins.get(label, []), "fails": bad})
+    out = pd.DataFrame(rows, columns=["technique", "label", "short_label", "median_error_rate", "median_time_ms",
+                                      "median_setup_ms", "scenes", "failed", "wins", "fails"])
+    if len(out):
+        rank = {fam: i for i, fam in enumerate(family_order(out["technique"]))}
+        out["_fam"] = out["technique"].map(rank)
+        out = out.sort_values(["_fam", "median_error_rate", "median_time_ms", "short_label"], kind="stable",
+                              na_position="last").drop(columns="_fam").reset_index(drop=True)
+    return out
+
+
+def family_table(results: pd.DataFrame) -> pd.DataFrame:
+    """Per scene family (in suite order): ``scene_family, scenes`` (count), ``best`` (the
+    configurations with the lowest median error rate over the family's scenes; ties all listed),
+    ``best_error_rate``, ``fastest`` (lowest median time), ``fastest_time_ms``, ``fastest_ok``
+    (fastest with median error ≤ :data:`FAIL_ERROR_RATE`; '' if none) and ``fastest_ok_time_ms``.
+    Candidates: the non-reference configurations that ran on the most of the family's scenes
+    (all of them when any did), so that one lucky scene cannot win a family; ``coverage`` =
+    "ran / scenes". Names are short labels."""
+    cfg = per_configuration(results)
+    conf = cfg[~cfg["reference"].astype(bool)]
+    df = normalised(results) if len(results) else results
+    rows = []
+    if not len(df):
+        return pd.DataFrame(columns=["scene_family", "scenes", "coverage", "best", "best_error_rate", "fastest",
+                                     "fastest_time_ms", "fastest_ok", "fastest_ok_time_ms"])
+    fam_of = df.drop_duplicates("scene").set_index("scene")["scene_family"].map(as_text)
+    for fam in dict.fromkeys(fam_of):
+        scenes = list(fam_of.index[fam_of == fam])
+        g = conf[conf["scene"].isin(scenes)]
+        med = g.groupby("label", sort=False).agg(short_label=("short_label", "first"), n=("scene", "nunique"),
+                                                 err=("error_rate", "median"), time=("time_ms", "median"))
+        row = {"scene_family": fam or "(none)", "scenes": len(scenes), "coverage": "", "best": "",
+               "best_error_rate": math.nan, "fastest": "", "fastest_time_ms": math.nan, "fastest_ok": "",
+               "fastest_ok_time_ms": math.nan}
+        if len(med):
+            med = med[med["n"] == med["n"].max()]
+            row["coverage"] = f"{int(med['n'].max())}/{len(scenes)}"
+            if med["err"].notna().any():
+                best = med["err"].min()
+                row["best"] = names_text(med.loc[med["err"] == best, "short_label"])
+                row["best_error_rate"] = best
+            timed = med[med["time"].notna()]
+            if len(timed):
+                fast = timed.sort_values(["time", "err"], kind="stable").iloc[0]
+                row["fastest"], row["fastest_time_ms"] = fast["short_label"], fast["time"]
+                good = timed[timed["err"] <= FAIL_ERROR_RATE].sort_values(["time", "err"], kind="stable")
+                if len(good):
+                    row["fastest_ok"], row["fastest_ok_time_ms"] = good.iloc[0]["short_label"], good.iloc[0]["time"]
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def names_text(names, keep: int = 2) -> str:
+    """Up to ``keep`` names, then "(+N tied)"."""
+    names = list(dict.fromkeys(names))
+    more = len(names) - keep
+    return ", ".join(names[:keep]) + (f" (+{more} tied)" if more > 0 else "")

@@ -111,3 +111,7 @@ class TableReader:
         unknown = sorted(set(self.table) - self.used)
         if unknown:
             raise self.error(unknown[0], f"unknown key (known here: {', '.join(sorted(self.used))})")
+
+
+class RunError(ValueError):
+    """Bad run arguments (size, repeat, duplicate configurations, output location)."""

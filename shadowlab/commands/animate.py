@@ -37,7 +37,9 @@ from .. import gl, metrics, provenance, temporal, timing
 from ..scene.animation import frame_times, scene_at
 from ..frame import Frame
 from ..pipeline import Evaluator, StepCallback, build_techniques, check_lights, measure, pass_order
-from .compare import RunError, check_size, move_into_place, safe_name, staging_dir
+from ..output.rundir import move_into_place, safe_name, staging_dir
+from ..validation import RunError
+from .compare import check_size
 from ..scene import Scene, load_scene
 
 #: Display time of one GIF frame, milliseconds.

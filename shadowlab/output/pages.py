@@ -69,6 +69,8 @@ def provenance_items(record: dict) -> list[tuple[str, str]]:
     device, revision, date, timing method, Python and package versions where present."""
     items = [("device", record.get("device") or record.get("renderer")), ("revision", record.get("revision")),
              ("date", record.get("date")), ("timing", record.get("timing_method") or record.get("timing"))]
+    if record.get("repeat") is not None:
+        items.append(("repeats", f"{record['repeat']} timed after {record.get('warmup', 0)} warm-up"))
     versions = record.get("versions")
     if isinstance(versions, dict) and versions:
         items.append(("versions", ", ".join(f"{k} {v}" for k, v in versions.items())))

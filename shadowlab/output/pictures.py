@@ -1,6 +1,6 @@
-"""Pictures and the HTML report of a comparison run.
+"""The pictures of a run (PNG, row 0 = top) and the two plots of a comparison page.
 
-Images are written beside ``report.html`` (PNG, row 0 = top). Colours of the error map:
+Colours of the error map:
 correct lit and correct shadow in greys, false shadow in orange, false lit in blue, pixels
 that are not evaluated dimmed from the shaded image. Soft configurations (an area light, or
 fractional visibility) also get a signed difference map V − G on a diverging colour map
@@ -10,13 +10,11 @@ get their texel-footprint map (Lloyd et al.'s m, log colour scale, :func:`footpr
 """
 from __future__ import annotations
 
-import html
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..metrics import format_table
 
 BACKGROUND = np.array([0.16, 0.18, 0.22])
 NOT_EVALUATED = np.array([0.30, 0.32, 0.40])
@@ -272,64 +270,22 @@ def pass_time_plot(df: pd.DataFrame, path: Path) -> str | None:
     return Path(path).name
 
 
-def write_html(path: Path, run: dict, df: pd.DataFrame, images: list[dict]) -> None:
-    """Write ``report.html``: run facts, the metrics table, the speed/error plot and an image grid
-    (shaded | visibility | error map | signed map per configuration). ``images`` holds dicts with
-    ``label`` (the full spec), ``title`` (a short heading), ``shaded``, ``visibility`` and
-    optionally ``error``, ``signed`` and ``footprint`` (file names relative to the report);
-    ``run['signed_map']`` (``limit``, ``colormap``, ``legend``: the colour bar's file), when
-    present, adds the signed map's colour bar and caption; ``run['footprint_legend']`` the
-    texel-footprint map's."""
-    table = format_table(df, "report")
-    legend = "".join(f'<span class="sw" style="background:rgb({",".join(str(int(255 * v)) for v in col)})"></span>'
-                     f"{html.escape(name)} &nbsp; " for name, col in ERROR_COLORS.values())
-    rows = []
-    for im in images:
-        cells = [f'<figure><img src="{im[k]}" alt="{k}"><figcaption>{k}</figcaption></figure>'
-                 for k in ("shaded", "visibility", "error", "signed", "footprint") if im.get(k)]
-        title = im.get("title", im["label"])
-        rows.append(f'<h3>{html.escape(title)}</h3><p class="spec">{html.escape(im["label"])}</p>'
-                    f'<div class="row">{"".join(cells)}</div>')
-    notes = "".join(f"<li>{html.escape(n)}</li>" for n in run.get("notes", []))
-    columns = 3 + sum(any(im.get(k) for im in images) for k in ("signed", "footprint"))
-    signed = run.get("signed_map")
-    signed_html = ""
-    if signed:
-        signed_html = (f'<p class="signed"><img src="{html.escape(signed["legend"])}" alt="signed map colour bar"><br>'
-                       f'Signed map: {html.escape(SIGNED_CAPTION)}; colour map {html.escape(signed["colormap"])}, '
-                       f'limits ±{signed["limit"]:.2f}.</p>')
-    if run.get("footprint_legend"):
-        signed_html += (f'<p class="signed"><img src="{html.escape(run["footprint_legend"])}" '
-                        f'alt="texel footprint colour bar"><br>Footprint map: {html.escape(FOOTPRINT_CAPTION)}; '
-                        f'colour map {FOOTPRINT_COLORMAP}.</p>')
-    doc = f"""<!doctype html>
-<html><head><meta charset="utf-8"><title>shadowlab — {html.escape(run['scene']['name'])}</title>
-<style>
-body {{ font-family: system-ui, sans-serif; margin: 1.5em; color: #222; }}
-table {{ border-collapse: collapse; font-size: 0.85em; }}
-td, th {{ border: 1px solid #ccc; padding: 0.25em 0.5em; text-align: right; }}
-.row {{ display: flex; gap: 0.6em; flex-wrap: wrap; }}
-figure {{ margin: 0; }} .row img {{ width: calc((100vw - 6em) / {columns}); max-width: 640px; border: 1px solid #999; }}
-.spec {{ font-family: monospace; font-size: 0.75em; color: #555; word-break: break-all; margin: -0.6em 0 0.5em 0; }}
-.scroll {{ overflow-x: auto; }}
-figcaption {{ font-size: 0.8em; color: #555; }}
-.sw {{ display: inline-block; width: 1em; height: 1em; vertical-align: middle; margin-right: 0.3em; border: 1px solid #666; }}
-</style></head><body>
-<h1>shadowlab: {html.escape(run['scene']['name'])}</h1>
-<p>{run['size'][0]}×{run['size'][1]} pixels · device: {html.escape(run.get('device', run['renderer']))} · {html.escape(run['date'])}
-· revision {html.escape(run.get('revision', ''))}<br>
-timing: {html.escape(run['timing_method'])}, {run['repeat']} repeats after {run['warmup']} warm-up<br>
-masks, metrics and error maps are for the first light; metrics.csv has every light.</p>
-{f'<h2>Notes</h2><ul>{notes}</ul>' if notes else ''}
-<h2>Metrics</h2>
-<div class="scroll">{table.to_html(index=False, escape=True)}</div>
-<p><img src="speed_vs_error.png" alt="speed vs error plot">
-{f'<img src="{run["pass_times_image"]}" alt="time per pass">' if run.get("pass_times_image") else ''}</p>
-{f'<p>pass timing: {html.escape(run["pass_timing"])}</p>' if run.get("pass_timing") else ''}
-<h2>Images</h2>
-<p>Error map legend: {legend} dimmed: not evaluated (not a receiver, facing away from the light, or outside its footprint)</p>
-{signed_html}
-{''.join(rows)}
-</body></html>
-"""
-    path.write_text(doc)
+def config_pictures(shaded: np.ndarray, vis0: np.ndarray, truth0: np.ndarray | None, evaluated: np.ndarray,
+                    covered: np.ndarray, signed: tuple[np.ndarray, float] | None = None,
+                    footprint: np.ndarray | None = None) -> dict[str, bytes]:
+    """A configuration's pictures as PNG bytes, keyed by kind: ``shaded`` (``shaded``: the shaded
+    image, sRGB-encoded RGB (H, W, 3), :func:`to_display`), ``visibility`` (the first light's,
+    ``vis0``); against ``truth0`` (None for the truth itself) the ``error`` map; with ``signed`` =
+    (V − G, limit) the ``signed`` map; with ``footprint`` (texel footprint m) the ``footprint``
+    map. All float (H, W) arrays row 0 = top; ``evaluated`` = the first light's evaluated pixels.
+    What ``compare`` and a study's workers both draw, so their run directories are alike."""
+    out = {"shaded": encode_png(shaded), "visibility": encode_png(visibility_picture(vis0, evaluated, covered))}
+    if truth0 is not None:
+        from ..metrics import error_classes
+
+        out["error"] = encode_png(error_picture(error_classes(vis0, truth0, evaluated), shaded))
+    if signed is not None:
+        out["signed"] = encode_png(signed_picture(signed[0], signed[1], evaluated, covered))
+    if footprint is not None:
+        out["footprint"] = encode_png(footprint_picture(footprint, evaluated, covered))
+    return out

@@ -128,6 +128,9 @@ class Scene:
     path: Path | None = None
     #: The ``[animation]`` table (:class:`shadowlab.scene.animation.Animation`); None for a still scene.
     animation: object | None = None
+    #: The metrics column this scene exists to show (``metric`` key: e.g. ``contact_gap_px`` for a
+    #: contact hard case); None for a plain scene. Study pages show it beside the error.
+    metric: str | None = None
 
     def bounds(self) -> np.ndarray:
         """Axis-aligned bounds of every object, (2, 3)."""
@@ -161,6 +164,7 @@ class Scene:
         return {
             "name": self.name,
             "path": str(self.path) if self.path else None,
+            "metric": self.metric,
             "lights": [l.describe() for l in self.lights],
             "objects": [{"name": o.name, "source": o.source, "triangles": int(len(o.faces)),
                          "casts": o.casts, "receives": o.receives} for o in self.objects],

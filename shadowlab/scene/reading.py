@@ -190,6 +190,7 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
     """Build a Scene from a parsed TOML dict; ``base`` is the folder mesh paths are relative to."""
     rd = TableReader(data, "", file)
     name = rd.string("name", default=Path(file).stem)
+    metric = _scene_metric(rd)
     camera = _parse_camera(rd.raw("camera"), file)
     light_tables = rd.table_list("lights")
     if not light_tables:
@@ -206,7 +207,25 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
     anim_table = rd.raw("animation", None)
     animation = None if anim_table is None else parse_animation(anim_table, file, lights)
     rd.finish()
-    return Scene(name, camera, lights, objects, shading, Path(file) if file != "<scene>" else None, animation)
+    return Scene(name, camera, lights, objects, shading, Path(file) if file != "<scene>" else None, animation,
+                 metric)
+
+
+def _scene_metric(rd: TableReader) -> str | None:
+    """The optional ``metric`` key: the name of a metrics column (DESIGN §7), checked here so a
+    misspelt one stops the run with a suggestion."""
+    import difflib
+
+    from ..metrics import COLUMN_BY_NAME, METRIC_COLUMNS
+    from ..texel_footprint import COLUMNS as FOOTPRINT_COLUMNS
+
+    metric = rd.string("metric", default=None) if "metric" in rd.table else None
+    names = [c.name for c in METRIC_COLUMNS] + [c for c in FOOTPRINT_COLUMNS if c in COLUMN_BY_NAME]
+    if metric is not None and metric not in names:
+        close = difflib.get_close_matches(metric, names, n=1)
+        hint = f"; did you mean '{close[0]}'?" if close else f" (one of {', '.join(names)})"
+        raise rd.error("metric", f"{metric!r} is not a metric column{hint}")
+    return metric
 
 
 def builtin_scene_dir() -> Path:

@@ -24,11 +24,21 @@ from ..metrics import COLUMN_BY_NAME
 FAIL_ERROR_RATE = 0.01
 
 
+#: Soft scenes (an area light: visibility is fractional) are judged on the visibility error
+#: mean |V − G| (``visibility_mae``); a configuration fails one when it exceeds this: 0.02.
+FAIL_VISIBILITY_MAE = 0.02
+#: Errors this close to a row's best count as tied with it (a few pixels of difference say nothing
+#: about a technique): 0.01 % of the evaluated pixels for error_rate, 0.001 for visibility_mae.
+TIE_TOLERANCE = {"error_rate": 1e-4, "visibility_mae": 1e-3}
+#: The scene family whose scenes are judged on visibility error (:func:`judged_metric`).
+SOFT_FAMILY = "soft shadows"
+
 #: Columns of :func:`per_configuration`, in order.
 CONFIG_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "reference", "lights",
                   "evaluated_pixels", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
-                  "time_ms", "time_iqr_ms", "setup_ms", "wrong_pixels", "run_dir", "shaded_image", "error_image",
-                  "worst_crop_image", "worst_box", "worst_errors", "signed_image"]
+                  "visibility_mae", "time_ms", "time_iqr_ms", "setup_ms", "preprocess_ms", "moving_ms",
+                  "scene_metric", "scene_metric_value", "wrong_pixels", "run_dir", "shaded_image", "error_image",
+                  "signed_image", "footprint_image"]
 
 
 #: (rate, its pixel-count denominator column) — the rates pooled over lights by their denominators.
@@ -36,8 +46,7 @@ _RATE_WEIGHTS = {"error_rate": "evaluated_pixels", "false_shadow_rate": "truth_l
                  "false_lit_rate": "truth_shadowed_pixels"}
 
 
-_IMAGE_COLUMNS = ["run_dir", "shaded_image", "error_image", "worst_crop_image", "worst_box", "worst_errors",
-                  "signed_image"]
+_IMAGE_COLUMNS = ["run_dir", "shaded_image", "error_image", "signed_image", "footprint_image"]
 
 
 def is_missing(value) -> bool:
@@ -125,7 +134,7 @@ def write_text_atomic(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
-def per_configuration(results: pd.DataFrame) -> pd.DataFrame:
+def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) -> pd.DataFrame:
     """One row per (scene, configuration) that ran: the ``status == "ok"`` rows of
     ``results`` (results.csv) pooled over the scene's lights, in the order of ``results``.
 
@@ -144,9 +153,15 @@ def per_configuration(results: pd.DataFrame) -> pd.DataFrame:
     ``time_iqr_ms`` = sum of ``time_ms_iqr`` (the lights were timed separately, so this is the
     spread of a frame if their fluctuations go together — a conservative bar); ``setup_ms`` =
     sum of the lights' set-up times (NaN where not measured);
+    ``visibility_mae`` weighted like ``error_rate``; ``preprocess_ms`` = the lights' summed
+    light-dependent preprocessing (0 where a technique has none); ``moving_ms`` = ``time_ms`` +
+    ``preprocess_ms``, a frame's cost when the light moves (the preprocessing is redone every
+    frame; GL set-up — textures, programs — is not, so ``setup_ms`` is not in it);
+    ``scene_metric`` = the column ``scene_metrics[scene]`` names (the metric the scene exists for;
+    '' when none) and ``scene_metric_value`` its mean over lights;
     ``wrong_pixels`` = error_rate × evaluated_pixels (rounded); and from the first light's row
-    (the one with images): ``run_dir, shaded_image, error_image, worst_crop_image, worst_box,
-    worst_errors, signed_image`` ('' / NaN where absent; ``signed_image``: the signed difference
+    (the one with images): ``run_dir, shaded_image, error_image, signed_image, footprint_image``
+    ('' where absent; ``signed_image``: the signed difference
     map V − G of a soft configuration, :func:`shadowlab.report.signed_picture`).
     """
     if results is None or len(results) == 0:
@@ -171,12 +186,21 @@ def per_configuration(results: pd.DataFrame) -> pd.DataFrame:
         row["time_ms"] = float(t.sum())  # NaN when any light has no time
         row["time_iqr_ms"] = float(np.nansum(iqr)) if not np.isnan(iqr).all() else math.nan
         row["setup_ms"] = float(numeric(g, "setup_ms").sum()) if "setup_ms" in g.columns else math.nan
+        vm = numeric(g, "visibility_mae")
+        row["visibility_mae"] = pooled(vm, ev) if not np.isnan(vm).all() else math.nan
+        pre = numeric(g, "preprocess_ms")
+        row["preprocess_ms"] = float(np.nansum(pre)) if not np.isnan(pre).all() else 0.0
+        row["moving_ms"] = row["time_ms"] + row["preprocess_ms"]
+        metric = (scene_metrics or {}).get(scene)
+        row["scene_metric"] = metric or ""
+        mv = numeric(g, metric) if metric else np.array([math.nan])
+        row["scene_metric_value"] = float(np.nanmean(mv)) if not np.isnan(mv).all() else math.nan
         n = row["evaluated_pixels"]
         row["wrong_pixels"] = (float(round(row["error_rate"] * n)) if not (is_missing(n) or
                                                                             is_missing(row["error_rate"]))
                                else math.nan)
         for col in _IMAGE_COLUMNS:
-            row[col] = first[col] if col in g.columns else (math.nan if col == "worst_errors" else "")
+            row[col] = first[col] if col in g.columns else ""
         rows.append(row)
     return pd.DataFrame(rows, columns=CONFIG_COLUMNS)
 
@@ -218,8 +242,9 @@ def pareto_front(time, error) -> np.ndarray:
 def summary_table(results: pd.DataFrame) -> pd.DataFrame:
     """One row per non-reference configuration (``label``) across the suite, sorted by technique
     family, then median error, then median time: ``technique, label, short_label,
-    median_error_rate, median_time_ms`` (medians over the scenes it ran on, from
-    :func:`per_configuration`), ``scenes`` (ran, ok), ``failed`` (scenes whose run failed),
+    median_error_rate, median_time_ms, median_setup_ms`` (medians over the scenes it ran on, from
+    :func:`per_configuration`), ``worst_error_rate`` (its largest: the median hides a
+    configuration that fails a few scenes), ``scenes`` (ran, ok), ``failed`` (scenes whose run failed),
     ``wins`` (list of (scene_family, scene) where its error rate is the lowest among the
     scene's non-reference configurations; ties count for each), ``fails`` (list of (scene,
     reason): its run failed, or its error rate exceeds :data:`FAIL_ERROR_RATE`)."""
@@ -248,9 +273,10 @@ def summary_table(results: pd.DataFrame) -> pd.DataFrame:
                      "median_error_rate": g["error_rate"].median() if len(g) else math.nan,
                      "median_time_ms": g["time_ms"].median() if len(g) else math.nan,
                      "median_setup_ms": g["setup_ms"].median() if len(g) else math.nan,
+                     "worst_error_rate": g["error_rate"].max() if len(g) else math.nan,
                      "scenes": len(g), "failed": len(f), "wins": wins.get(label, []), "fails": bad})
     out = pd.DataFrame(rows, columns=["technique", "label", "short_label", "median_error_rate", "median_time_ms",
-                                      "median_setup_ms", "scenes", "failed", "wins", "fails"])
+                                      "median_setup_ms", "worst_error_rate", "scenes", "failed", "wins", "fails"])
     if len(out):
         rank = {fam: i for i, fam in enumerate(family_order(out["technique"]))}
         out["_fam"] = out["technique"].map(rank)
@@ -306,3 +332,135 @@ def names_text(names, keep: int = 2) -> str:
     names = list(dict.fromkeys(names))
     more = len(names) - keep
     return ", ".join(names[:keep]) + (f" (+{more} tied)" if more > 0 else "")
+
+
+# --------------------------------------------------------------------------- verdicts
+
+def judged_metric(scene_family: str) -> str:
+    """The error a scene is judged on: ``visibility_mae`` for a soft scene (:data:`SOFT_FAMILY`:
+    fractional visibility is the answer there, a threshold at 0.5 would hide it), else the
+    thresholded ``error_rate``."""
+    return "visibility_mae" if scene_family == SOFT_FAMILY else "error_rate"
+
+
+def fail_threshold(metric: str) -> float:
+    """The value of ``metric`` (:func:`judged_metric`) above which a configuration fails."""
+    return FAIL_VISIBILITY_MAE if metric == "visibility_mae" else FAIL_ERROR_RATE
+
+
+#: Columns of :func:`verdict_table`.
+VERDICT_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "metric", "error", "time_ms",
+                   "moving_ms", "setup_ms", "scene_metric", "scene_metric_value", "configurations", "failed", "why",
+                   "best_error", "best_time", "best_moving"]
+
+
+def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None) -> pd.DataFrame:
+    """The study's headline, long form: one row per (scene, technique family) that was asked to
+    run there — the family's *best configuration* on the scene, i.e. the lowest judged error
+    (:func:`judged_metric`), ties broken by time.
+
+    Columns (:data:`VERDICT_COLUMNS`): ``metric`` (the judged column) and ``error`` (its value),
+    ``time_ms`` (static light: per-frame time), ``moving_ms`` (moving light: per-frame time plus
+    light-dependent preprocessing), ``setup_ms``; the scene's own metric and its value;
+    ``configurations`` (how many of the family's configurations ran); ``failed`` (bool: the best
+    configuration's error is above :func:`fail_threshold`, or every configuration's run failed)
+    and ``why``; ``best_error`` / ``best_time`` / ``best_moving`` (bool: the lowest error in the
+    scene's row, within :data:`TIE_TOLERANCE`; the lowest static / moving time among the row's families that do not fail)."""
+    cfg = per_configuration(results, scene_metrics)
+    conf = cfg[~cfg["reference"].astype(bool)] if len(cfg) else cfg
+    fails = failed_runs(results)
+    fails = fails[~fails["reference"].astype(bool)] if len(fails) else fails
+    rows = []
+    if results is None or not len(results):
+        return pd.DataFrame(columns=VERDICT_COLUMNS)
+    fam_of = normalised(results).drop_duplicates("scene").set_index("scene")["scene_family"].map(as_text)
+    for scene in scenes_in_order(normalised(results)):
+        metric = judged_metric(fam_of.get(scene, ""))
+        limit = fail_threshold(metric)
+        g = conf[conf["scene"] == scene]
+        f = fails[fails["scene"] == scene] if len(fails) else fails
+        techs = family_order(list(g["technique"]) + list(f["technique"] if len(f) else []))
+        for tech in techs:
+            gt = g[g["technique"] == tech].assign(_err=lambda d: d[metric])
+            ft = f[f["technique"] == tech] if len(f) else f
+            row = dict.fromkeys(VERDICT_COLUMNS, math.nan)
+            row.update(scene=scene, scene_family=fam_of.get(scene, ""), technique=tech, metric=metric,
+                       configurations=len(gt), best_error=False, best_time=False, best_moving=False)
+            scored = gt[gt["_err"].notna()].sort_values(["_err", "time_ms"], kind="stable", na_position="last")
+            if len(scored):
+                best = scored.iloc[0]
+                row.update(label=best["label"], short_label=best["short_label"], error=float(best["_err"]),
+                           time_ms=best["time_ms"], moving_ms=best["moving_ms"], setup_ms=best["setup_ms"],
+                           scene_metric=best["scene_metric"], scene_metric_value=best["scene_metric_value"])
+                row["failed"] = bool(best["_err"] > limit)
+                row["why"] = f"{metric} above {fmt_limit(metric, limit)}" if row["failed"] else ""
+            else:
+                first = ft.iloc[0] if len(ft) else None
+                row.update(label=first["label"] if first is not None else "", short_label=first["short_label"]
+                           if first is not None else "", failed=True,
+                           why=f"run failed: {first['error']}" if first is not None else "no result")
+            rows.append(row)
+    out = pd.DataFrame(rows, columns=VERDICT_COLUMNS)
+    for scene, idx in out.groupby("scene", sort=False).groups.items():
+        part = out.loc[idx]
+        if part["error"].notna().any():
+            tol = TIE_TOLERANCE[part["metric"].iloc[0]]
+            out.loc[idx, "best_error"] = part["error"] <= part["error"].min() + tol
+        ok = part[~part["failed"].astype(bool)]
+        for col, flag in (("time_ms", "best_time"), ("moving_ms", "best_moving")):
+            if ok[col].notna().any():
+                out.loc[ok.index, flag] = ok[col] == ok[col].min()
+    return out
+
+
+def fmt_limit(metric: str, limit: float) -> str:
+    """A fail threshold as the page states it ("1 %", "0.02")."""
+    return f"{100 * limit:g} %" if metric == "error_rate" else f"{limit:g}"
+
+
+def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
+    """One sentence per scene family, from :func:`verdict_table`: (family, sentence) saying who
+    is most accurate (lowest median best-configuration error over the family's scenes, among the
+    techniques that ran on most of them; every technique within :data:`TIE_TOLERANCE` of it is
+    named), who is fastest for a static and for a moving light
+    among the techniques that fail none of those scenes, and who fails where."""
+    out = []
+    if not len(verdicts):
+        return out
+    for fam, g in verdicts.groupby("scene_family", sort=False):
+        scenes = list(dict.fromkeys(g["scene"]))
+        n = len(scenes)
+        per = g.groupby("technique", sort=False).agg(
+            scenes=("scene", "nunique"), err=("error", "median"), time=("time_ms", "median"),
+            moving=("moving_ms", "median"), fails=("failed", "sum"))
+        per = per.loc[[t for t in family_order(per.index) if t in per.index]]
+        full = per[per["scenes"] == per["scenes"].max()]
+        metric = g["metric"].iloc[0]
+        show = fmt_pct if metric == "error_rate" else (lambda v: f"{v:.4f}")
+        where = f"{n} scene{'s' if n != 1 else ''}: {', '.join(scenes)}"
+        parts = []
+        scored = full[full["err"].notna()]
+        if len(scored):
+            best = scored["err"].min()
+            winners = list(scored.index[scored["err"] <= best + TIE_TOLERANCE[metric]])
+            tied = f", tied within {fmt_limit(metric, TIE_TOLERANCE[metric])}" if len(winners) > 1 else ""
+            parts.append(f"most accurate: {', '.join(winners)} (median {metric} {show(best)}{tied})")
+        sound = full[(full["fails"] == 0) & full["time"].notna()]
+        if len(sound):
+            fast, moving = sound["time"].idxmin(), sound["moving"].idxmin()
+            parts.append(f"fastest for a static light: {fast} ({fmt_ms(sound.loc[fast, 'time'])} ms per frame)")
+            if moving != fast:
+                parts.append(f"for a moving light: {moving} ({fmt_ms(sound.loc[moving, 'moving'])} ms; {fast} needs "
+                             f"{fmt_ms(sound.loc[fast, 'moving'])} ms with its per-light preprocessing)")
+            else:
+                parts.append(f"for a moving light too ({fmt_ms(sound.loc[moving, 'moving'])} ms)")
+        else:
+            parts.append("no technique passes every scene")
+        failing = per[per["fails"] > 0]
+        if len(failing):
+            parts.append("fails: " + ", ".join(f"{t} on {int(r['fails'])} of {int(r['scenes'])}"
+                                               for t, r in failing.iterrows()))
+        else:
+            parts.append("no technique fails")
+        out.append((fam or "(none)", f"{(fam or 'Other scenes').capitalize()} ({where}) — " + "; ".join(parts) + "."))
+    return out

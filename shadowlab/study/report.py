@@ -1,35 +1,32 @@
 """The study report (DESIGN §12): the comparison drawn across every scene of a suite.
 
-Three files in the study directory, all made from ``results.csv`` (one row per scene × light ×
-configuration, the ground truth's rows included with ``reference`` True, plus the study columns
-``scene_family, status, error, run_dir, revision, renderer, shaded_image, error_image,
-worst_crop_image, worst_box, worst_errors``):
+Three files in the study directory, all made from ``results.csv`` and the tables of
+:mod:`shadowlab.study.aggregate` (plain pandas; nothing there draws):
 
 - ``pareto.png`` — speed against error, one panel per scene, the Pareto front marked
-  (:func:`pareto_plot`);
-- ``summary.md`` — per configuration: median error and time across the suite, wins per
-  hard-case family, fails (:func:`write_summary_md`);
-- ``study.html`` — the above, failed runs, and per scene a strip of error maps with magnified
-  crops of each configuration's worst region (:func:`write_study_html`).
-
-A *configuration* is one ``label`` (the full spec) on one scene; its lights are pooled
-(:func:`per_configuration`): a frame renders every light, so times add up and error rates are
-pooled over every light's evaluated pixels. The run report's helpers (colours, table formats)
-are reused so that the two reports read alike.
+  (:func:`shadowlab.output.pareto.pareto_plot`);
+- ``summary.md`` — the verdicts (scenes × technique families) and one sentence per scene
+  family, then per configuration its median and worst error and time across the suite, wins
+  and fails (:func:`write_summary_md`);
+- ``study.html`` — the verdicts first, then the Pareto panels, the configurations, the failed
+  runs and per scene every configuration with the same zoom insets (:func:`write_study_html`,
+  Jinja2 template ``study.html`` on the pages' base template).
 """
 from __future__ import annotations
 
-import html
+import json
 from pathlib import Path
 from urllib.parse import quote
 
 import pandas as pd
 
-from ..metrics import format_table
-from ..output.pictures import ERROR_COLORS, SIGNED_CAPTION
+from ..metrics import COLUMN_BY_NAME
+from ..output.pages import fmt_num
 from ..output.pareto import pareto_plot
-from .aggregate import (FAIL_ERROR_RATE, as_text, failed_runs, family_table, fmt_ms, fmt_pct, is_missing, names_text,
-                        normalised, per_configuration, scenes_in_order, summary_table, write_text_atomic)
+from .aggregate import (FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, as_text, failed_runs, family_order,
+                        family_table, fmt_limit, fmt_ms, fmt_pct, is_missing, judged_metric, names_text, normalised,
+                        per_configuration, scenes_in_order, summary_table, verdict_sentences, verdict_table,
+                        write_text_atomic)
 
 
 def _md_cell(value) -> str:
@@ -176,185 +173,169 @@ def _rel(study_dir: Path, value) -> str | None:
     return quote(p.as_posix())
 
 
-def _box_text(box) -> str:
-    parts = as_text(box).split(",")
-    if len(parts) != 4:
+def _metric_text(metric: str, value) -> str:
+    """A value of metrics column ``metric`` as the tables show it."""
+    if is_missing(value) or not metric:
         return ""
-    x0, y0, x1, y1 = (p.strip() for p in parts)
-    return f"x {x0}–{x1}, y {y0}–{y1}"
+    col = COLUMN_BY_NAME.get(metric)
+    return col.format(float(value)) if col is not None else fmt_num(value)
 
 
-def _figure(study_dir: Path, r: pd.Series) -> str:
-    """One configuration of a scene's strip: its error map, caption, its worst-region crop, and —
-    for a soft configuration whose results row names one (``signed_image``) — its signed
-    difference map V − G under them."""
-    e = html.escape
-    cap = (f'<b>{e(as_text(r["short_label"]))}</b><br>error {e(fmt_pct(r["error_rate"]))}'
-           f' · {e(fmt_ms(r["time_ms"]))} ms')
-    err_img = _rel(study_dir, r["error_image"])
-    img = (f'<img class="map" src="{e(err_img)}" alt="error map of {e(as_text(r["short_label"]))}">'
-           if err_img else '<div class="missing">no error map</div>')
-    crop = _rel(study_dir, r["worst_crop_image"])
-    worst = r["worst_errors"]
-    wrong = r["wrong_pixels"]
-    if crop:
-        n = "" if is_missing(worst) else f"{int(float(worst))} wrong px"
-        box = _box_text(r["worst_box"])
-        crop_html = (f'<img class="crop" src="{e(crop)}" alt="worst region of {e(as_text(r["short_label"]))}">'
-                     f'<figcaption>worst region{(" " + e(box)) if box else ""}: {e(n)} '
-                     f'(magnified, first light)</figcaption>')
-    elif (not is_missing(worst) and float(worst) == 0) or (not is_missing(wrong) and float(wrong) == 0):
-        crop_html = '<div class="none">no wrong pixels</div>'
-    else:
-        crop_html = '<div class="missing">no crop</div>'
-    signed = _rel(study_dir, r.get("signed_image"))
-    signed_html = (f'<figure class="signed"><img class="map" src="{e(signed)}" alt="signed map of '
-                   f'{e(as_text(r["short_label"]))}"><figcaption>signed V − G (first light; blue too bright, '
-                   f'red too dark; scale in the run report)</figcaption></figure>' if signed else "")
-    return (f'<div class="cfg"><figure>{img}<figcaption>{cap}</figcaption></figure>'
-            f'<figure class="worst">{crop_html}</figure>{signed_html}</div>')
+def _error_text(metric: str, value) -> str:
+    """A judged error (:func:`~shadowlab.study.aggregate.judged_metric`) as the verdicts show it."""
+    if is_missing(value):
+        return ""
+    return _metric_text("error_rate", value) if metric == "error_rate" else f"{float(value):.4f}"
 
 
-def _summary_html(results: pd.DataFrame) -> str:
+def verdict_grid(verdicts: pd.DataFrame, scenes_meta: dict) -> dict:
+    """The verdict table as the page and summary.md draw it: ``families`` (columns, registry
+    order) and ``rows`` (one per scene, suite order: scene, family, judged metric, the scene's
+    own metric, and per family a cell dict or None where the family did not run there)."""
+    families = family_order(verdicts["technique"]) if len(verdicts) else []
+    rows = []
+    for scene, g in verdicts.groupby("scene", sort=False):
+        info = scenes_meta.get(scene, {})
+        cells = {}
+        for _, r in g.iterrows():
+            cells[r["technique"]] = {
+                "config": as_text(r["short_label"]), "error": _error_text(r["metric"], r["error"]),
+                "time": fmt_ms(r["time_ms"]), "moving": fmt_ms(r["moving_ms"]),
+                "moves_differ": not is_missing(r["moving_ms"]) and not is_missing(r["time_ms"])
+                and r["moving_ms"] > r["time_ms"] * 1.05,
+                "scene_metric": _metric_text(as_text(r["scene_metric"]), r["scene_metric_value"]),
+                "failed": bool(r["failed"]), "why": as_text(r["why"]), "best_error": bool(r["best_error"]),
+                "best_time": bool(r["best_time"]), "best_moving": bool(r["best_moving"])}
+        rows.append({"scene": scene, "family": as_text(g["scene_family"].iloc[0]), "metric": g["metric"].iloc[0],
+                     "scene_metric": info.get("metric") or "", "purpose": info.get("purpose") or "",
+                     "cells": [cells.get(f) for f in families]})
+    return {"families": families, "rows": rows}
+
+
+def _scene_table(c: pd.DataFrame, metric: str, scene_metric: str) -> dict:
+    """A scene's configurations pooled over its lights (:func:`per_configuration`) as display
+    strings: the judged error first, the scene's own metric, then times."""
+    columns = ["configuration", metric, "false shadow", "false lit", "boundary px", "visibility MAE"]
+    if scene_metric:
+        columns.append(scene_metric)
+    columns += ["ms per frame", "set-up ms", "moving-light ms"]
+    rows = []
+    for _, r in c.iterrows():
+        row = [as_text(r["short_label"]), _error_text(metric, r[metric]), _metric_text("false_shadow_rate",
+               r["false_shadow_rate"]), _metric_text("false_lit_rate", r["false_lit_rate"]),
+               _metric_text("boundary_error_px", r["boundary_error_px"]), fmt_num(r["visibility_mae"])]
+        if scene_metric:
+            row.append(_metric_text(scene_metric, r["scene_metric_value"]))
+        row += [fmt_ms(r["time_ms"]), fmt_ms(r["setup_ms"]), fmt_ms(r["moving_ms"])]
+        rows.append(row)
+    return {"columns": columns, "rows": rows}
+
+
+def _scene_section(study_dir: Path, scene: str, c: pd.DataFrame, fails: pd.DataFrame, info: dict,
+                   family: str) -> dict:
+    """Everything the page shows of one scene: its purpose, metrics table, run report link and
+    the grid of every configuration with the run directory's common insets (its run.json)."""
+    from ..output.insets import Inset
+
+    metric = judged_metric(family)
+    conf = c[~c["reference"].astype(bool)]
+    run_dirs = [d for d in map(as_text, c["run_dir"]) if d]
+    run_dir = run_dirs[0].rstrip("/") if run_dirs else ""
+    record = {}
+    if run_dir:
+        try:
+            record = json.loads((study_dir / run_dir / "run.json").read_text())
+        except (OSError, json.JSONDecodeError):
+            record = {}
+    images = record.get("images", [])
+    size = record.get("size", [1, 1])
+    insets = [Inset(tuple(i["box"]), tuple(size), i["wrong"], k + 1) for k, i in enumerate(record.get("insets", []))]
+    captions = {}
+    for _, r in c.iterrows():
+        lines = [] if r["reference"] else [f"{metric.replace('_', ' ')} {_error_text(metric, r[metric])}"]
+        lines.append(f"{fmt_ms(r['time_ms'])} ms per frame" + (f" · moving {fmt_ms(r['moving_ms'])} ms"
+                                                               if r["preprocess_ms"] else ""))
+        if info.get("metric") and not r["reference"]:
+            lines.append(f"{info['metric']} {_metric_text(info['metric'], r['scene_metric_value'])}")
+        captions[as_text(r["label"])] = lines
+    report = _rel(study_dir, f"{run_dir}/report.html") if run_dir else None
+    return {"name": scene, "family": family, "purpose": info.get("purpose") or "", "metric": info.get("metric") or "",
+            "report": report, "table": _scene_table(conf, metric, info.get("metric") or ""),
+            "prefix": f"{quote(run_dir)}/" if run_dir else "", "images": images, "insets": insets,
+            "captions": captions, "legends": record.get("legends", {}),
+            "failed": [{"title": as_text(r["short_label"]), "error": as_text(r["error"])}
+                       for _, r in fails[fails["scene"] == scene].iterrows()]}
+
+
+def _summary_rows(results: pd.DataFrame) -> list[list[str]]:
+    """The per-configuration table across the suite: median and worst error, median time and
+    set-up, scenes, fails (k of n) and wins."""
     table = summary_table(results)
-    if not len(table):
-        return "<p>No configuration ran.</p>"
-    shown = pd.DataFrame({
-        "technique": table["technique"], "configuration": table["short_label"],
-        "median error": table["median_error_rate"].map(fmt_pct), "median time, ms": table["median_time_ms"].map(fmt_ms),
-        "median setup, ms": table["median_setup_ms"].map(fmt_ms),
-        "scenes": [f"{s}" + (f" (+{f} failed)" if f else "") for s, f in zip(table["scenes"], table["failed"])],
-        "wins": table["wins"].map(lambda w: _wins_text(w) or "—"),
-        "fails": table["fails"].map(lambda fl: ", ".join(f"{s} ({why})" for s, why in fl) or "—")})
-    return shown.to_html(index=False, escape=True, classes="summary")
+    rows = []
+    for _, r in table.iterrows():
+        n = int(r["scenes"]) + int(r["failed"])
+        rows.append([r["technique"], r["short_label"], fmt_pct(r["median_error_rate"]),
+                     fmt_pct(r["worst_error_rate"]), fmt_ms(r["median_time_ms"]), fmt_ms(r["median_setup_ms"]),
+                     f"{len(r['fails'])} of {n}" if r["fails"] else f"0 of {n}",
+                     ", ".join(f"{s} ({why})" for s, why in r["fails"]), _wins_text(r["wins"]) or "—"])
+    return rows
 
 
-def _scene_table(cfg_scene: pd.DataFrame) -> str:
-    """The scene's metrics, formatted like the run report's table (pooled over lights)."""
-    t = cfg_scene.rename(columns={"time_ms": "time_ms_median", "time_iqr_ms": "time_ms_iqr"})
-    return format_table(t, "summary").to_html(index=False, escape=True)
+def _study_provenance(meta: dict) -> list[tuple[str, str]]:
+    """The footer's facts of a study: size and repeats, device, revision, date, timing, workers,
+    elapsed time, run counts, suite file."""
+    items = list(_meta_lines(meta))
+    if meta.get("workers") is not None:
+        items.append(("workers", as_text(meta["workers"])))
+    if not is_missing(meta.get("elapsed_s")):
+        items.append(("elapsed", f"{float(meta['elapsed_s']):.1f} s"))
+    counts = [f"{meta[k]} {k}" for k in ("runs", "cached", "failed") if meta.get(k) is not None]
+    if counts:
+        items.append(("runs", " · ".join(counts)))
+    if meta.get("suite_file"):
+        items.append(("suite file", Path(str(meta["suite_file"])).name))
+    return items
 
 
 def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: str = "pareto.png") -> Path:
-    """Write ``study_dir/study.html`` and return its path.
+    """Write ``study_dir/study.html`` (template ``study.html``) and return its path.
 
-    Sections: the header (suite, description, size, device, revision, date, timing sentence,
-    workers, elapsed time, runs / cached / failed counts from ``meta``); the Pareto figure
-    ``pareto_png`` (relative to the study dir); the summary table (per configuration, as in
-    summary.md); the failed runs (scene, configuration, error) if any; the error-map legend
-    (:data:`shadowlab.report.ERROR_COLORS`; and the signed map's caption when a configuration has
-    one); then per scene a link to its run report
-    (``run_dir``/report.html), its metrics pooled over lights, and a horizontal strip: the
-    truth's shaded image, then per configuration its error map (caption: short label, error
-    rate, time) with the magnified crop of its worst region under it (caption: the box and the
-    number of wrong pixels; "no wrong pixels" when there are none) and, for a soft
-    configuration with a ``signed_image``, its signed difference map V − G. Images are referenced by
-    their paths relative to the study dir (missing files are named, not linked); all text is
-    HTML-escaped."""
-    e = html.escape
+    The page opens with the verdicts — scenes × technique families, each cell the family's best
+    configuration on the scene with its error and time (best per row in bold, failures marked;
+    :func:`~shadowlab.study.aggregate.verdict_table`) and one generated sentence per scene
+    family — then the Pareto panels, the configurations across the suite (median and worst
+    error), the failed runs, and per scene its purpose, its table (with the metric the scene
+    exists for) and every configuration in a wrapping grid with the run directory's zoom insets.
+    A software rasteriser's times are flagged at the top; provenance is in the footer."""
+    from ..output.pages import render_page
+    from ..output.rundir import error_legend
+
     study_dir = Path(study_dir)
+    scenes_meta = meta.get("scenes") or {}
+    scene_metrics = {k: v.get("metric") for k, v in scenes_meta.items()}
     df = normalised(results) if len(results) else results
-    cfg = per_configuration(results)
+    cfg = per_configuration(results, scene_metrics)
     fails = failed_runs(results)
-    name = as_text(meta.get("name")) or "study"
-    facts = [f"{k}: {e(v)}" for k, v in _meta_lines(meta)]
-    if meta.get("workers") is not None:
-        facts.append(f"workers: {e(as_text(meta['workers']))}")
-    if not is_missing(meta.get("elapsed_s")):
-        facts.append(f"elapsed: {float(meta['elapsed_s']):.1f} s")
-    counts = [f"{meta[k]} {k}" for k in ("runs", "cached", "failed") if meta.get(k) is not None]
-    if counts:
-        facts.append("runs: " + e(" · ".join(counts)))
-    if meta.get("suite_file"):
-        facts.append(f"suite file: {e(Path(str(meta['suite_file'])).name)}")
-    legend = "".join(f'<span class="sw" style="background:rgb({",".join(str(int(255 * v)) for v in col)})"></span>'
-                     f"{e(label)} &nbsp; " for label, col in ERROR_COLORS.values())
-    pareto = _rel(study_dir, pareto_png) or quote(Path(pareto_png).as_posix())
-    has_signed = "signed_image" in cfg.columns and any(_rel(study_dir, v) for v in cfg["signed_image"])
-    signed_note = (f'<p class="signed-legend">Soft configurations: {e(SIGNED_CAPTION)}; each run report has the '
-                   f'colour bar of its scale.</p>' if has_signed else "")
-    failed_html = ""
-    if len(fails):
-        ft = pd.DataFrame({"scene": fails["scene"], "configuration": fails["label"], "error": fails["error"]})
-        failed_html = f'<h2 id="failed">Failed runs ({len(fails)})</h2>{ft.to_html(index=False, escape=True)}'
-    scenes = scenes_in_order(df) if len(df) else []
-    nav = " · ".join(f'<a href="#scene-{k}">{e(s)}</a>' for k, s in enumerate(scenes))
+    verdicts = verdict_table(results, scene_metrics)
     sections = []
-    for k, scene in enumerate(scenes):
-        rows = df[df["scene"].astype(str) == scene]
-        fam = as_text(rows["scene_family"].iloc[0])
-        c = cfg[cfg["scene"] == scene]
-        truth = c[c["reference"].astype(bool)]
-        conf = c[~c["reference"].astype(bool)]
-        run_dirs = [d for d in map(as_text, rows.get("run_dir", pd.Series(dtype=str))) if d]
-        link = ""
-        if run_dirs:
-            report = _rel(study_dir, f"{run_dirs[0].rstrip('/')}/report.html")
-            link = (f'<a href="{e(report)}">run report</a>' if report
-                    else f'run report: {e(run_dirs[0])}/report.html (missing)')
-        strip = []
-        if len(truth):
-            tr = truth.iloc[0]
-            shaded = _rel(study_dir, tr["shaded_image"])
-            img = (f'<img class="map" src="{e(shaded)}" alt="ground truth, shaded">' if shaded
-                   else '<div class="missing">no image</div>')
-            strip.append(f'<div class="cfg"><figure>{img}<figcaption><b>truth</b> '
-                         f'({e(as_text(tr["short_label"]))})<br>shaded · {e(fmt_ms(tr["time_ms"]))} ms</figcaption>'
-                         f'</figure></div>')
-        strip += [_figure(study_dir, r) for _, r in conf.iterrows()]
-        f = fails[fails["scene"] == scene]
-        strip += [f'<div class="cfg failed"><b>{e(as_text(r["short_label"]))}</b>'
-                  f'{" (ground truth)" if r["reference"] else ""}<br>failed: {e(r["error"])}</div>'
-                  for _, r in f.iterrows()]
-        table = _scene_table(conf) if len(conf) else ""
-        sections.append(
-            f'<h2 id="scene-{k}">{e(scene)}</h2>'
-            f'<p class="fam">{e(fam) + " · " if fam else ""}{link}</p>'
-            f'<div class="scroll">{table}</div>'
-            f'<div class="strip">{"".join(strip)}</div>')
-    doc = f"""<!doctype html>
-<html><head><meta charset="utf-8"><title>shadowlab study — {e(name)}</title>
-<style>
-body {{ font-family: system-ui, sans-serif; margin: 1.5em; color: #222; }}
-table {{ border-collapse: collapse; font-size: 0.85em; margin-bottom: 0.8em; }}
-td, th {{ border: 1px solid #ccc; padding: 0.25em 0.5em; text-align: right; }}
-table.summary td {{ text-align: left; }}
-.scroll {{ overflow-x: auto; }}
-.strip {{ display: flex; gap: 0.7em; overflow-x: auto; align-items: flex-start; padding-bottom: 0.6em; }}
-.cfg {{ flex: 0 0 auto; width: 260px; }}
-.cfg.failed {{ color: #b00000; font-size: 0.85em; border: 1px dashed #b00000; padding: 0.4em; }}
-figure {{ margin: 0 0 0.4em 0; }}
-img.map {{ width: 260px; border: 1px solid #999; }}
-img.crop {{ width: 192px; image-rendering: pixelated; border: 1px solid #999; }}
-figcaption {{ font-size: 0.78em; color: #444; word-break: break-word; }}
-.none {{ font-size: 0.8em; color: #2a7a2a; }} .missing {{ font-size: 0.8em; color: #888; }}
-.fam {{ margin-top: -0.6em; color: #555; }}
-.sw {{ display: inline-block; width: 1em; height: 1em; vertical-align: middle; margin-right: 0.3em; border: 1px solid #666; }}
-</style></head><body>
-<h1>shadowlab study: {e(name)}</h1>
-{f'<p>{e(as_text(meta.get("description")))}</p>' if meta.get("description") else ''}
-<p>{'<br>'.join(facts)}</p>
-<h2>Speed vs error</h2>
-<p><img src="{e(pareto)}" alt="speed against error per scene, Pareto front marked" style="max-width: 100%"></p>
-<p class="fam">One panel per scene: time per frame (all lights) against error rate, both log scales; hollow
-markers = no wrong pixel, drawn at half a pixel; step line = Pareto front; dashed = the ray-traced truth's time.</p>
-<h2>Configurations across the suite</h2>
-<p>Medians over the scenes each configuration ran on (error pooled over a scene's lights, time summed over
-them). Win = lowest error rate of a scene; fail = the run failed or its error rate exceeds
-{100 * FAIL_ERROR_RATE:g} % of the evaluated pixels.</p>
-<div class="scroll">{_summary_html(results)}</div>
-{failed_html}
-<h2>Scenes</h2>
-<p>{nav}</p>
-<p>Error map legend: {legend} dimmed: not evaluated. Maps and crops show the first light; errors and times
-pool every light. Crops are magnified with nearest-neighbour so single wrong pixels stay visible.</p>
-{signed_note}
-{''.join(sections)}
-</body></html>
-"""
-    out = study_dir / "study.html"
-    write_text_atomic(out, doc)
-    return out
+    for scene in (scenes_in_order(df) if len(df) else []):
+        family = as_text(df.loc[df["scene"].astype(str) == scene, "scene_family"].iloc[0])
+        sections.append(_scene_section(study_dir, scene, cfg[cfg["scene"] == scene], fails,
+                                       scenes_meta.get(scene, {}), family))
+    renderer = as_text(meta.get("renderer")) or (as_text(results["renderer"].iloc[0])
+                                                 if len(results) and "renderer" in results.columns else "")
+    name = as_text(meta.get("name")) or "study"
+    return render_page(
+        "study.html", study_dir / "study.html", title=f"shadowlab study: {name}", renderer=renderer,
+        provenance=_study_provenance(meta), description=as_text(meta.get("description")),
+        verdicts=verdict_grid(verdicts, scenes_meta), sentences=[s for _, s in verdict_sentences(verdicts)],
+        thresholds={"error_rate": fmt_limit("error_rate", FAIL_ERROR_RATE),
+                    "visibility_mae": fmt_limit("visibility_mae", FAIL_VISIBILITY_MAE),
+                    "tie": fmt_limit("error_rate", TIE_TOLERANCE["error_rate"])},
+        pareto=_rel(study_dir, pareto_png) or quote(Path(pareto_png).as_posix()),
+        summary=_summary_rows(results),
+        failed=[[as_text(r["scene"]), as_text(r["label"]), as_text(r["error"])] for _, r in fails.iterrows()],
+        scenes=sections, error_colors=error_legend())
 
 
 def write_study_report(study_dir, results: pd.DataFrame, meta: dict) -> dict:

@@ -29,16 +29,17 @@ import numpy as np
 import pandas as pd
 
 from .. import provenance, timing
-from ..commands.compare import RunError, safe_name
+from ..output.rundir import safe_name
+from ..validation import RunError
 from ..techniques import from_spec
 from . import rundir
 from .cache import Cache, run_key, scene_content_hash
 from .executors import DaskExecutor, LocalExecutor, cores
-from .suite import Suite, load_suite
+from .suite import Suite, load_suite, scene_purpose
 
 #: Columns a study adds to every metrics row in results.csv (DESIGN §12).
 STUDY_COLUMNS = ("config", "scene_family", "status", "error", "run_dir", "revision", "renderer", "shaded_image",
-                 "error_image", "worst_crop_image", "worst_box", "worst_errors", "signed_image")
+                 "error_image", "signed_image", "footprint_image")
 
 
 @dataclass
@@ -179,7 +180,9 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
             "revision": provenance.revision(), "date": record["date"], "timing": timing_text,
             "workers": f"dask {executor.description}" if executor is not None else workers,
             "elapsed_s": elapsed, "runs": len(runs), "cached": 2 * len(runs) - n_tasks,
-            "failed": len(problems), "suite_file": suite.file, "phases_s": phases}
+            "failed": len(problems), "suite_file": suite.file, "phases_s": phases,
+            "scenes": {e.name: {"family": e.family, "metric": e.metric, "purpose": scene_purpose(e.path)}
+                       for e in suite.scenes}}
     report_files = _write_study_files(out, results, meta, record)
     failures = [f"{scene} / {spec}: {err}" for (scene, spec), err in problems.items()]
     phases["report_s"] = time.perf_counter() - t_start - elapsed
@@ -361,7 +364,6 @@ def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, timing
                 sr.configs[r.spec] = res
             sr.keys += [r.acc_key, r.time_key if tim is not None else "untimed"]
             stem = "ground_truth" if r.reference else rundir.image_stem(res["meta"]["rows"][0]["short_label"])
-            worst = None if r.reference else res["meta"].get("worst")
             columns = tim["columns"] if tim is not None else [{}] * len(res["meta"]["rows"])
             for li, (row, cols) in enumerate(zip(res["meta"]["rows"], columns)):
                 row = {**row, **cols}
@@ -373,12 +375,9 @@ def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, timing
                     extra["shaded_image"] = f"{run_dir}/images/{stem}_shaded.png"
                     if not r.reference:
                         extra["error_image"] = f"{run_dir}/images/{stem}_error.png"
-                        if "signed.png" in res.get("files", {}):
-                            extra["signed_image"] = f"{run_dir}/images/{stem}_signed.png"
-                        extra["worst_errors"] = worst["count"] if worst else 0
-                        if worst and worst["count"]:
-                            extra["worst_crop_image"] = f"{run_dir}/images/{stem}_worst.png"
-                            extra["worst_box"] = ",".join(map(str, worst["box"]))
+                        for kind in ("signed", "footprint"):
+                            if f"{kind}.png" in res.get("files", {}):
+                                extra[f"{kind}_image"] = f"{run_dir}/images/{stem}_{kind}.png"
                 rows.append({**row, **extra})
         if truth is not None and rows:
             df = rundir.ordered(pd.DataFrame(rows))

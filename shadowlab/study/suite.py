@@ -38,8 +38,9 @@ from ..techniques.raytrace import RayTraced
 from ..validation import SceneError, TableReader
 
 #: Scene-name prefixes → hard-case family (HARD_CASES.md), for the study's summary.
-FAMILIES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps", "rm_": "real meshes",
-            "rt_": "ground truth", "soft_": "soft shadows"}
+FAMILIES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps", "pa_": "perspective aliasing",
+            "pt_": "projective textures", "tm_": "temporal stability", "rm_": "real meshes", "rt_": "ground truth",
+            "soft_": "soft shadows"}
 GENERAL_FAMILY = "general"
 
 
@@ -65,6 +66,8 @@ class SceneEntry:
     path: Path
     family: str
     light_types: tuple[str, ...] = ()
+    #: The metrics column the scene exists for (its file's ``metric`` key), None when it has none.
+    metric: str | None = None
 
 
 @dataclass
@@ -160,7 +163,8 @@ def _scene(ref: str, where: str, file: str, base: Path) -> SceneEntry:
     name = data.get("name", path.stem) if isinstance(data.get("name", path.stem), str) else path.stem
     lights = data.get("lights", [])
     types = tuple(t.get("type", "?") for t in lights if isinstance(t, dict)) if isinstance(lights, list) else ()
-    return SceneEntry(name, path.resolve(), scene_family(name), types)
+    metric = data.get("metric") if isinstance(data.get("metric"), str) else None
+    return SceneEntry(name, path.resolve(), scene_family(name), types, metric)
 
 
 def _spec(spec: str, where: str, file: str, written: dict[str, str]) -> str:
@@ -264,3 +268,14 @@ def parse_suite(data: dict, file: str = "<suite>", base: Path | None = None) -> 
         raise SuiteError(f"{file}: no technique configurations (give techniques or [[sweeps]])")
     _check_lights(scenes, configurations, written, file)
     return Suite(name, description, size, repeat, warmup, pass_timing, scenes, configurations, truth, file, written)
+
+
+def scene_purpose(path: Path) -> str:
+    """What a scene file tests, in one line: its opening comment (TEMPORARY: replaced by
+    :func:`shadowlab.scene.reading.scene_purpose` when that lands)."""
+    lines = []
+    for line in Path(path).read_text(errors="replace").splitlines():
+        if not line.startswith("#"):
+            break
+        lines.append(line.lstrip("#").strip())
+    return " ".join(lines)

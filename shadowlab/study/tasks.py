@@ -24,9 +24,6 @@ import numpy as np
 
 #: Frames kept per worker (each holds a G-buffer and the scene's geometry).
 FRAMES_KEPT = 2
-#: The worst-region crop: side = this fraction of the image's smaller side (at least MIN_CROP
-#: pixels), enlarged to about CROP_DISPLAY pixels.
-CROP_FRACTION, MIN_CROP, CROP_DISPLAY = 1 / 8, 16, 192
 #: The study's signed difference maps V − G share this fixed scale (±, visibility units): tasks
 #: run apart, so no run-wide maximum is known when each map is drawn; beyond it the colours clip.
 STUDY_SIGNED_LIMIT = 0.5
@@ -121,37 +118,25 @@ def _accuracy_row(row: dict) -> dict:
     return {k: v for k, v in row.items() if not _is_time_column(k)}
 
 
-def _images(frame, visibilities, truth0):
-    """PNG bytes of the shaded image, the first light's visibility and (given the truth)
-    the error map and the magnified crop of its worst region, with that region's box and count."""
-    from .. import metrics
-    from ..output import pictures as report
+def _images(frame, visibilities, truth0, footprint=None) -> dict:
+    """PNG bytes of a configuration's pictures (:func:`shadowlab.output.pictures.config_pictures`):
+    the shaded image, the first light's visibility and, given the truth, the error map, the signed
+    map of a soft configuration (on :data:`STUDY_SIGNED_LIMIT`) and the texel-footprint map."""
+    from ..output import pictures
     from ..shading import ShadingPass
 
     shading = ShadingPass(frame)
     try:
-        shaded = report.to_display(shading.shade(list(visibilities)), frame.covered)
+        shaded = pictures.to_display(shading.shade(list(visibilities)), frame.covered)
     finally:
         shading.release()
     ev0 = frame.evaluated(0)
-    files = {"shaded.png": report.encode_png(shaded),
-             "visibility.png": report.encode_png(report.visibility_picture(visibilities[0], ev0, frame.covered))}
-    worst = None
+    signed = None
     if truth0 is not None:
-        classes = metrics.error_classes(visibilities[0], truth0, ev0)
-        error_rgb = report.error_picture(classes, shaded)
-        files["error.png"] = report.encode_png(error_rgb)
-        window = max(MIN_CROP, int(round(min(frame.width, frame.height) * CROP_FRACTION)))
-        box, count = report.worst_region((classes == 3) | (classes == 4), window)
-        worst = {"box": list(box), "count": count}
-        if count:
-            factor = max(1, CROP_DISPLAY // window)
-            files["worst.png"] = report.encode_png(report.magnified(error_rgb, box, factor))
-            worst["factor"] = factor
-        diff = report.signed_difference(frame.scene.lights[0], visibilities[0], truth0, ev0)
-        if diff is not None:
-            files["signed.png"] = report.encode_png(report.signed_picture(diff, STUDY_SIGNED_LIMIT, ev0, frame.covered))
-    return files, worst
+        diff = pictures.signed_difference(frame.scene.lights[0], visibilities[0], truth0, ev0)
+        signed = None if diff is None else (diff, STUDY_SIGNED_LIMIT)
+    made = pictures.config_pictures(shaded, visibilities[0], truth0, ev0, frame.covered, signed, footprint)
+    return {f"{kind}.png": data for kind, data in made.items()}  # the cache's file names
 
 
 def _truth(task: dict) -> dict:
@@ -165,7 +150,7 @@ def _truth(task: dict) -> dict:
     lights = range(len(frame.scene.lights))
     truths = [evaluator.truth(li) for li in lights]
     rows = [_accuracy_row(evaluator.row(m, reference=True)) for m in truths]
-    files, _ = _images(frame, [m.visibility for m in truths], None)
+    files = _images(frame, [m.visibility for m in truths], None)
     ev0 = frame.evaluated(0)
     arrays = {f"truth_{li}": m.visibility.astype(np.float32) for li, m in zip(lights, truths)}
     arrays["mask_0"] = np.where(ev0, truths[0].visibility, np.nan).astype(np.float32)
@@ -195,10 +180,10 @@ def _config(task: dict) -> dict:
     rows = [_accuracy_row(evaluator.row(m)) for m in ms]
     for row, m in zip(rows, ms):
         row["notes"] = "; ".join(m.notes)
-    files, worst = _images(frame, [m.visibility for m in ms], task["truth"][0])
+    files = _images(frame, [m.visibility for m in ms], task["truth"][0], ms[0].footprint)
     ev0 = frame.evaluated(0)
     arrays = {"mask_0": np.where(ev0, ms[0].visibility, np.nan).astype(np.float32)}
-    meta = {"rows": rows, "notes": list(dict.fromkeys(tech.notes)), "worst": worst}
+    meta = {"rows": rows, "notes": list(dict.fromkeys(tech.notes))}
     return {"meta": meta, "arrays": arrays, "files": files}
 
 

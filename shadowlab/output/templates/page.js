@@ -10,10 +10,15 @@
     fig.querySelectorAll(".inset").forEach(function (d) { d.style.backgroundImage = "url(" + JSON.stringify(src) + ")"; });
   }
   function view(section) { return section.getAttribute("data-view") || "error"; }
-  function own(fig) { return fig.getAttribute("data-" + view(fig.closest("[data-view]"))); }
+  // a figure without the section's view (no signed map, no footprint) shows its shaded image, dimmed
+  function own(fig) {
+    var src = fig.getAttribute("data-" + view(fig.closest("[data-view]")));
+    fig.classList.toggle("na", !src);
+    return src || fig.getAttribute("data-shaded");
+  }
   function truth(fig) {
     var s = fig.closest("[data-view]"), v = view(s);
-    return s.getAttribute("data-truth-" + (v === "error" ? "visibility" : v));
+    return s.getAttribute("data-truth-" + (v === "shaded" ? "shaded" : "visibility"));
   }
   document.querySelectorAll("[data-view]").forEach(function (section) {
     section.querySelectorAll(".views button").forEach(function (b) {

@@ -169,3 +169,57 @@ def test_pass_timing_and_device_are_recorded(tmp_path):
     assert run["revision"] and run["pass_timing"] and (out / run["pass_times_image"]).stat().st_size > 0
     page = (out / "report.html").read_text()
     assert run["gl"]["GL_RENDERER"] in page and run["pass_times_image"] in page
+
+
+# --------------------------------------------------------------------------- spelling hints, listings
+
+@pytest.mark.parametrize("args,hint", [
+    (["compare", "box_on_plane", "-t", "shadow_mpa"], "unknown technique 'shadow_mpa'; did you mean 'shadow_map'?"),
+    (["compare", "box_on_plane", "-t", "shadow_map:resolutoin=512"],
+     "shadow_map: unknown parameter 'resolutoin'; did you mean 'resolution'?"),
+    (["compare", "box_on_plane", "-t", "shadow_map:variant=slop"], "got 'slop'; did you mean 'slope'?"),
+    (["compare", "box_on_plan"], "box_on_plan: scene: no such scene file, and not a shipped scene; "
+                                 "did you mean 'box_on_plane'?"),
+    (["animate", "tm_rotating_su"], "not a shipped scene; did you mean 'tm_rotating_sun'?"),
+    (["study", "quik"], "quik: no such suite file, and not a shipped suite; did you mean 'quick'?"),
+])
+def test_misspelt_names_get_a_did_you_mean(tmp_path, capsys, args, hint):
+    assert main(args + (["--out", str(tmp_path / "out")] if args[0] != "techniques" else [])) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("shadowlab: error: ") and hint in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_no_hint_when_nothing_is_close(capsys):
+    assert main(["compare", "box_on_plane", "-t", "zzzz"]) == 2
+    assert "did you mean" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("body,hint", [
+    ('scenes = ["box_on_plan"]\ntechniques = ["shadow_map"]\n',
+     "scenes[0]: unknown scene 'box_on_plan'; did you mean 'box_on_plane'?"),
+    ('scenes = ["box_on_plane"]\ntechniques = ["shadow_mpa"]\n',
+     "techniques[0]: unknown technique 'shadow_mpa'; did you mean 'shadow_map'?"),
+    ('scenes = ["box_on_plane"]\ntechnique = ["shadow_map"]\n', "technique: unknown key; did you mean 'techniques'?"),
+    ('scenes = ["box_on_plane"]\n[[sweeps]]\ntechnique = "shadow_map"\nresolutoin = [256, 512]\n',
+     "unknown parameter 'resolutoin'; did you mean 'resolution'?"),
+    ('scenes = ["box_on_plane"]\n[[sweeps]]\ntechnique = "shadow_map"\nvariant = ["slope", "constnat"]\n',
+     "got 'constnat'; did you mean 'constant'?"),
+    ('scenes = ["box_on_plane"]\n[[sweeps]]\ntechnique = "shadow_map"\nscenes = ["box_on_plan"]\n',
+     "sweeps[0].scenes: 'box_on_plan' is not one of the suite's scenes; did you mean 'box_on_plane'?"),
+])
+def test_suite_file_misspellings_get_the_same_hint(tmp_path, capsys, body, hint):
+    suite = tmp_path / "my_suite.toml"
+    suite.write_text('name = "my_suite"\nsize = [64, 48]\n' + body)
+    assert main(["study", str(suite), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"{suite}: " in err and hint in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_did_you_mean_helper():
+    from shadowlab.validation import did_you_mean
+
+    assert did_you_mean("slop", ("constant", "slope")) == "; did you mean 'slope'?"
+    assert did_you_mean("u_colr", ["u_color", "u_colour", "u_depth"], n=3) == "; did you mean 'u_color' or 'u_colour'?"
+    assert did_you_mean("zzz", ["shadow_map"]) == ""

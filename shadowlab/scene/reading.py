@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 
 from ..geometry import transforms as tf
-from ..validation import SceneError, TableReader
+from ..validation import SceneError, TableReader, did_you_mean
 from .animation import parse_animation
 from .area_lights import AREA_SHAPES
 from .lights import LIGHT_TYPES, Light
@@ -228,7 +228,8 @@ def resolve_scene_path(ref: str | Path) -> Path:
     path = Path(ref)
     if path.is_file():
         return path
-    raise SceneError(ref, "scene", f"no such scene file, and not a shipped scene ({', '.join(shipped)})")
+    raise SceneError(ref, "scene", f"no such scene file, and not a shipped scene{did_you_mean(ref, shipped)} "
+                                   f"({', '.join(shipped)})")
 
 
 def load_scene(ref: str | Path) -> Scene:

@@ -223,3 +223,27 @@ def test_did_you_mean_helper():
     assert did_you_mean("slop", ("constant", "slope")) == "; did you mean 'slope'?"
     assert did_you_mean("u_colr", ["u_color", "u_colour", "u_depth"], n=3) == "; did you mean 'u_color' or 'u_colour'?"
     assert did_you_mean("zzz", ["shadow_map"]) == ""
+
+
+@pytest.mark.parametrize("mesh,data,reason", [
+    ("x.obj", np.random.default_rng(0).bytes(4096), "(not UTF-8 text)"),  # random bytes as an OBJ
+    ("x.ply", b"ply\nformat nonsense\n", "("),
+])
+def test_unreadable_mesh_file_exit_2(tmp_path, capsys, monkeypatch, mesh, data, reason):
+    """Bytes trimesh cannot read as a mesh: one line naming the scene file, the object key and
+    the mesh file — not the optional module trimesh reaches for (charset_normalizer, absent
+    from constraints.txt: made absent here whether or not it is installed)."""
+    from shadowlab.scene import builtin_scenes
+
+    monkeypatch.setitem(sys.modules, "charset_normalizer", None)
+    (tmp_path / mesh).write_bytes(data)
+    text = builtin_scenes()["box_on_plane"].read_text()
+    assert 'mesh = "box"' in text
+    path = tmp_path / "bad.toml"
+    path.write_text(text.replace('mesh = "box"', f'mesh = "{mesh}"'))
+    assert main(["compare", str(path), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith(f"shadowlab: error: {path}: objects[1].mesh: {tmp_path / mesh} is not a readable mesh file "
+                          f"{reason}"), err
+    assert "charset_normalizer" not in err and not (tmp_path / "r").exists()

@@ -92,14 +92,26 @@ def _read_mesh(path: Path) -> trimesh.Trimesh:
     return trimesh.load(io.BytesIO(data), file_type=inner, force="mesh", process=False)
 
 
+def _unreadable_reason(exc: Exception) -> str:
+    """A short reason why trimesh could not read a mesh file. Bytes that are not text in a text
+    format (OBJ, ASCII PLY/STL) surface as a UnicodeDecodeError, or as the ImportError of the
+    optional charset detector trimesh then falls back on: both mean "not UTF-8 text"."""
+    if isinstance(exc, UnicodeDecodeError) or (isinstance(exc, ImportError)
+                                               and isinstance(exc.__context__, UnicodeDecodeError)):
+        return "not UTF-8 text"
+    if isinstance(exc, ImportError):
+        return f"trimesh needs the missing module {exc.name or exc}"
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
 def _load_mesh_file(rd: TableReader, ref: str, base: Path) -> trimesh.Trimesh:
     path = (base / ref).resolve()
     if not path.is_file():
         raise rd.error("mesh", f"mesh file not found: {path}")
     try:
         mesh = _read_mesh(path)
-    except Exception as exc:
-        raise rd.error("mesh", f"cannot read mesh file {path}: {exc}") from exc
+    except Exception as exc:  # trimesh raises anything (ImportError, IndexError, ...) on a bad file
+        raise rd.error("mesh", f"{path} is not a readable mesh file ({_unreadable_reason(exc)})") from exc
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise rd.error("mesh", f"{path} holds no triangles")
     faces = np.asarray(mesh.faces)
@@ -250,3 +262,4 @@ def scene_summary(path: Path) -> str:
     tris = sum(len(o.faces) for o in s.objects)
     lights = ", ".join(l.type_name for l in s.lights)
     return f"{len(s.objects)} objects, {tris} triangles, lights: {lights}"
+

@@ -182,6 +182,7 @@ def test_pass_timing_and_device_are_recorded(tmp_path):
                                  "did you mean 'box_on_plane'?"),
     (["animate", "tm_rotating_su"], "not a shipped scene; did you mean 'tm_rotating_sun'?"),
     (["study", "quik"], "quik: no such suite file, and not a shipped suite; did you mean 'quick'?"),
+    (["techniques", "shadow_mpa"], "unknown technique 'shadow_mpa'; did you mean 'shadow_map'?"),
 ])
 def test_misspelt_names_get_a_did_you_mean(tmp_path, capsys, args, hint):
     assert main(args + (["--out", str(tmp_path / "out")] if args[0] != "techniques" else [])) == 2
@@ -223,6 +224,60 @@ def test_did_you_mean_helper():
     assert did_you_mean("slop", ("constant", "slope")) == "; did you mean 'slope'?"
     assert did_you_mean("u_colr", ["u_color", "u_colour", "u_depth"], n=3) == "; did you mean 'u_color' or 'u_colour'?"
     assert did_you_mean("zzz", ["shadow_map"]) == ""
+
+
+def test_version(capsys):
+    from shadowlab import __version__, provenance
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code in (0, None)
+    rev = provenance.revision()  # git describe in a checkout (the tests' case), else "shadowlab <version>"
+    expected = f"shadowlab {__version__}" + ("" if rev.startswith("shadowlab ") else f" ({rev})")
+    assert capsys.readouterr().out == expected + "\n"
+
+
+def test_techniques_name_prints_its_block_of_the_listing(capsys):
+    import re
+
+    from shadowlab.techniques import REGISTRY
+
+    assert main(["techniques"]) == 0
+    full = capsys.readouterr().out
+    blocks = {b.split(":", 1)[0]: b + "\n" for b in re.split(r"\n(?=\S)", full.rstrip("\n"))}
+    assert list(blocks) == list(REGISTRY)
+    assert main(["techniques", "pcss"]) == 0
+    one = capsys.readouterr().out
+    assert one == blocks["pcss"] and one.startswith("pcss: ") and "\n    lights: area\n" in one
+
+
+def test_scenes_listing_gives_every_scene_its_purpose(capsys):
+    from shadowlab.scene import builtin_scenes, scene_purpose
+
+    assert main(["scenes"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    scenes = builtin_scenes()
+    assert len(lines) == 2 * len(scenes)
+    for (name, path), line, summary in zip(scenes.items(), lines[::2], lines[1::2]):
+        assert line.startswith(f"{name} ") and line[28:29] == " ", line
+        purpose = line[29:]
+        assert purpose == scene_purpose(path) and purpose and not purpose.startswith("#"), line
+        assert len(purpose) <= 102 and "INVALID" not in summary and "triangles, lights: " in summary, summary
+    assert lines[0] == f"{'box_on_plane':28s} A unit box resting on a floor, lit by a point light: the lab's default scene."
+
+
+def test_scene_purpose_is_one_shortened_line(tmp_path):
+    from shadowlab.scene import scene_purpose
+
+    path = tmp_path / "s.toml"
+    path.write_text("# Hard case XY: one two three four five six seven eight nine ten eleven twelve thirteen fourteen\n"
+                    "# fifteen sixteen seventeen eighteen. Second sentence.\n#\n# More.\nname = 'x'\n")
+    assert scene_purpose(path) == ("Hard case XY: one two three four five six seven eight nine ten eleven twelve "
+                                   "thirteen fourteen …")
+    path.write_text("# Short: what it tests (Author 2001). Then more.\n# Still more.\nname = 'x'\n")
+    assert scene_purpose(path) == "Short: what it tests (Author 2001)."
+    path.write_text("name = 'x'  # no opening comment\n")
+    assert scene_purpose(path) == ""
 
 
 @pytest.mark.parametrize("mesh,data,reason", [

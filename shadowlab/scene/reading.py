@@ -263,3 +263,24 @@ def scene_summary(path: Path) -> str:
     lights = ", ".join(l.type_name for l in s.lights)
     return f"{len(s.objects)} objects, {tris} triangles, lights: {lights}"
 
+
+#: The longest purpose line :func:`scene_purpose` returns (longer ones are shortened).
+PURPOSE_LENGTH = 100
+
+
+def scene_purpose(path: Path) -> str:
+    """What a scene file is for, in one line: the first sentence of the ``#`` comment that opens
+    it (every shipped scene has one), shortened to about :data:`PURPOSE_LENGTH` characters the
+    way the README's summaries are (:func:`shadowlab.docs_tables.first_sentence`: parentheses
+    dropped first, then cut at a dash or colon or at a word boundary with "…"); "" when the
+    file opens with no comment. Reads only the comment: the scene is not loaded."""
+    from ..docs_tables import first_sentence
+
+    lines = []
+    for line in Path(path).read_text(encoding="utf-8").splitlines():
+        if not line.strip() and not lines:
+            continue  # blank lines before the comment
+        if not line.lstrip().startswith("#"):
+            break
+        lines.append(line.lstrip().lstrip("#").strip())
+    return first_sentence("\n".join(lines), limit=PURPOSE_LENGTH)

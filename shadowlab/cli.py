@@ -75,14 +75,15 @@ class StudyProgress:
             self.bar = None
 
 
-def technique_listing() -> str:
-    """Registered techniques with their parameters and defaults, for ``shadowlab techniques``."""
-    from .techniques import REGISTRY
+def technique_listing(name: str | None = None) -> str:
+    """Registered techniques with their parameters and defaults, for ``shadowlab techniques``;
+    with ``name``, only that technique's block (TechniqueError, with a hint, if there is none)."""
+    from .techniques import REGISTRY, technique_class
     from .techniques.base import format_value
 
     lines = []
-    for name, cls in REGISTRY.items():
-        lines.append(f"{name}: {cls.summary}")
+    for cls in [technique_class(name)] if name is not None else REGISTRY.values():
+        lines.append(f"{cls.name}: {cls.summary}")
         sampled = "; area lights as the average of light_samples point lights" if cls.LIGHT_SAMPLED else ""
         lines.append(f"    lights: {', '.join(sorted(cls.LIGHTS))}{sampled}")
         for key, p in cls.PARAMS.items():
@@ -91,12 +92,35 @@ def technique_listing() -> str:
     return "\n".join(lines)
 
 
+def version_text() -> str:
+    """``shadowlab <version>``, followed by the code's revision (``git describe``,
+    :func:`shadowlab.provenance.revision`) when run from a git checkout."""
+    from . import __version__
+    from .provenance import revision
+
+    rev = revision()
+    return f"shadowlab {__version__}" + ("" if rev.startswith("shadowlab ") else f" ({rev})")
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: print :func:`version_text` (asked for only then: it may run git) and exit."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(version_text())
+        parser.exit()
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="shadowlab", description="Compare real-time shadow techniques "
                                 "against a ray-traced ground truth.")
+    p.add_argument("--version", action=_VersionAction, help="print the version (and git revision) and exit")
     sub = p.add_subparsers(dest="command", required=True)
-    sub.add_parser("scenes", help="list the shipped scenes")
-    sub.add_parser("techniques", help="list registered techniques and their parameters")
+    sub.add_parser("scenes", help="list the shipped scenes: what each tests, its objects and lights")
+    te = sub.add_parser("techniques", help="list registered techniques and their parameters")
+    te.add_argument("name", nargs="?", default=None, help="only this technique")
     c = sub.add_parser("compare", help="run the ground truth and techniques on a scene")
     c.add_argument("scene", help="a shipped scene's name (see 'shadowlab scenes') or a path to a scene file")
     c.add_argument("--technique", "-t", action="append", default=None, metavar="SPEC",
@@ -227,14 +251,15 @@ def _cmd_check(args) -> int:
 
 
 def _cmd_scenes() -> int:
-    from .scene import builtin_scenes, scene_summary
+    from .scene import builtin_scenes, scene_purpose, scene_summary
 
     for name, path in builtin_scenes().items():
         try:
             desc = scene_summary(path)
         except SceneError as exc:  # a broken shipped scene should still be listed
             desc = f"INVALID: {exc}"
-        print(f"{name:28s} {desc}")
+        print(f"{name:28s} {scene_purpose(path) or '(no opening comment)'}")
+        print(f"{'':28s}   {desc}")
     return 0
 
 
@@ -301,7 +326,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "scenes":
             return _cmd_scenes()
         if args.command == "techniques":
-            print(technique_listing())
+            print(technique_listing(args.name))
             return 0
         if args.command == "suites":
             return _cmd_suites()

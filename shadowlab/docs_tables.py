@@ -54,28 +54,29 @@ def _without_private_references(text: str) -> str:
     return re.sub(ref, "the design", text)
 
 
-def _shorten(sentence: str) -> str:
-    """A summary longer than :data:`MAX_SUMMARY` without its parentheses (citations, asides);
-    if still too long, cut before its first dash or colon, or else at a word boundary."""
-    if len(sentence) <= MAX_SUMMARY:
+def _shorten(sentence: str, limit: int = MAX_SUMMARY) -> str:
+    """A summary longer than ``limit`` (:data:`MAX_SUMMARY`) without its parentheses (citations,
+    asides); if still too long, cut before its first dash or colon, or else at a word boundary."""
+    if len(sentence) <= limit:
         return sentence
     while True:
         bare = re.sub(r"\s*\([^()]*\)", "", sentence)
         if bare == sentence:
             break
         sentence = bare
-    if len(sentence) <= MAX_SUMMARY:
+    if len(sentence) <= limit:
         return sentence
     for sep in (" — ", ": "):
         head = sentence.split(sep, 1)[0]
-        if 30 <= len(head) <= MAX_SUMMARY:
+        if 30 <= len(head) <= limit:
             return head.rstrip(",;:") + "."
-    return sentence[:MAX_SUMMARY].rsplit(" ", 1)[0].rstrip(",;:") + " …"
+    return sentence[:limit].rsplit(" ", 1)[0].rstrip(",;:") + " …"
 
 
-def first_sentence(doc: str | None) -> str:
+def first_sentence(doc: str | None, limit: int = MAX_SUMMARY) -> str:
     """The summary of a docstring: its first sentence (of its first paragraph), as one line of
-    markdown, without references to the project's private documents; "" for no docstring."""
+    markdown, without references to the project's private documents, shortened to ``limit``
+    characters (:func:`_shorten`); "" for no docstring."""
     if not doc:
         return ""
     paragraph = " ".join(doc.strip().split("\n\n", 1)[0].split())
@@ -83,7 +84,7 @@ def first_sentence(doc: str | None) -> str:
     # "et al. ", an initial "D. B. ")
     m = re.search(r"(?<=[a-z0-9)\]`*])[.!?](?=\s+[A-Z`*(])", paragraph)
     sentence = paragraph[: m.end()] if m else paragraph
-    return _shorten(_markdown(_without_private_references(sentence)).strip())
+    return _shorten(_markdown(_without_private_references(sentence)).strip(), limit)
 
 
 # --------------------------------------------------------------------------- technique table

@@ -10,7 +10,6 @@ that row 0 is the *top* of the image (DESIGN §5).
 """
 from __future__ import annotations
 
-import difflib
 import os
 import re
 import sys
@@ -29,6 +28,7 @@ if "OpenGL.GL" not in sys.modules:
     OpenGL.ERROR_CHECKING = os.environ.get("SHADOWLAB_GL_DEBUG") == "1"
 
 from . import glstate
+from .validation import did_you_mean
 
 _CONTEXT = None
 
@@ -436,8 +436,7 @@ def set_uniforms(prog, values: dict) -> None:
     for key, val in values.items():
         if key not in prog:
             if info is not None and key not in info.uniforms:
-                close = difflib.get_close_matches(key, sorted(info.uniforms), n=3)
-                hint = f"; did you mean {' or '.join(close)}?" if close else ""
+                hint = did_you_mean(key, sorted(info.uniforms), n=3)
                 raise UnknownUniformError(f"{info.label()} declares no uniform {key!r}{hint}")
             continue
         member = prog[key]

@@ -1,15 +1,26 @@
 """Strict reading of TOML tables: typed keys, required keys, unknown keys, finite numbers.
 
 Every failure raises :class:`SceneError` naming the file, the key and the reason, so a bad
-scene file stops the run with one line before any GL work (DESIGN §4).
+scene file stops the run with one line before any GL work (DESIGN §4). :func:`did_you_mean` is
+the one spelling hint for every name lookup (keys, choices, scenes, suites, techniques,
+parameters, uniforms).
 """
 from __future__ import annotations
 
+import difflib
 import math
 
 import numpy as np
 
 _REQUIRED = object()
+
+
+def did_you_mean(word, known, n: int = 1) -> str:
+    """The hint for a misspelt name: ``"; did you mean 'x'?"`` naming the entry of ``known``
+    closest to ``word`` (:func:`difflib.get_close_matches`; up to ``n`` of them, joined by "or"),
+    or ``""`` when none is close. Entries and ``word`` are compared as strings."""
+    close = difflib.get_close_matches(str(word), [str(k) for k in known], n=n)
+    return "; did you mean " + " or ".join(f"'{c}'" for c in close) + "?" if close else ""
 
 
 class SceneError(ValueError):
@@ -96,7 +107,7 @@ class TableReader:
         if not isinstance(val, str):
             raise self.error(name, f"must be a string, got {val!r}")
         if choices is not None and val not in choices:
-            raise self.error(name, f"must be one of {', '.join(choices)}, got {val!r}")
+            raise self.error(name, f"must be one of {', '.join(choices)}, got {val!r}{did_you_mean(val, choices)}")
         return val
 
     def table_list(self, name: str, default=_REQUIRED) -> list:
@@ -110,7 +121,8 @@ class TableReader:
         """Reject the keys of the table that were never read (pbrt's unused-parameter check)."""
         unknown = sorted(set(self.table) - self.used)
         if unknown:
-            raise self.error(unknown[0], f"unknown key (known here: {', '.join(sorted(self.used))})")
+            raise self.error(unknown[0], f"unknown key{did_you_mean(unknown[0], self.used)} "
+                                         f"(known here: {', '.join(sorted(self.used))})")
 
 
 class RunError(ValueError):

@@ -169,3 +169,136 @@ def test_pass_timing_and_device_are_recorded(tmp_path):
     assert run["revision"] and run["pass_timing"] and (out / run["pass_times_image"]).stat().st_size > 0
     page = (out / "report.html").read_text()
     assert run["gl"]["GL_RENDERER"] in page and run["pass_times_image"] in page
+
+
+# --------------------------------------------------------------------------- spelling hints, listings
+
+@pytest.mark.parametrize("args,hint", [
+    (["compare", "box_on_plane", "-t", "shadow_mpa"], "unknown technique 'shadow_mpa'; did you mean 'shadow_map'?"),
+    (["compare", "box_on_plane", "-t", "shadow_map:resolutoin=512"],
+     "shadow_map: unknown parameter 'resolutoin'; did you mean 'resolution'?"),
+    (["compare", "box_on_plane", "-t", "shadow_map:variant=slop"], "got 'slop'; did you mean 'slope'?"),
+    (["compare", "box_on_plan"], "box_on_plan: scene: no such scene file, and not a shipped scene; "
+                                 "did you mean 'box_on_plane'?"),
+    (["animate", "tm_rotating_su"], "not a shipped scene; did you mean 'tm_rotating_sun'?"),
+    (["study", "quik"], "quik: no such suite file, and not a shipped suite; did you mean 'quick'?"),
+    (["techniques", "shadow_mpa"], "unknown technique 'shadow_mpa'; did you mean 'shadow_map'?"),
+])
+def test_misspelt_names_get_a_did_you_mean(tmp_path, capsys, args, hint):
+    assert main(args + (["--out", str(tmp_path / "out")] if args[0] != "techniques" else [])) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("shadowlab: error: ") and hint in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_no_hint_when_nothing_is_close(capsys):
+    assert main(["compare", "box_on_plane", "-t", "zzzz"]) == 2
+    assert "did you mean" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("body,hint", [
+    ('scenes = ["box_on_plan"]\ntechniques = ["shadow_map"]\n',
+     "scenes[0]: unknown scene 'box_on_plan'; did you mean 'box_on_plane'?"),
+    ('scenes = ["box_on_plane"]\ntechniques = ["shadow_mpa"]\n',
+     "techniques[0]: unknown technique 'shadow_mpa'; did you mean 'shadow_map'?"),
+    ('scenes = ["box_on_plane"]\ntechnique = ["shadow_map"]\n', "technique: unknown key; did you mean 'techniques'?"),
+    ('scenes = ["box_on_plane"]\n[[sweeps]]\ntechnique = "shadow_map"\nresolutoin = [256, 512]\n',
+     "unknown parameter 'resolutoin'; did you mean 'resolution'?"),
+    ('scenes = ["box_on_plane"]\n[[sweeps]]\ntechnique = "shadow_map"\nvariant = ["slope", "constnat"]\n',
+     "got 'constnat'; did you mean 'constant'?"),
+    ('scenes = ["box_on_plane"]\n[[sweeps]]\ntechnique = "shadow_map"\nscenes = ["box_on_plan"]\n',
+     "sweeps[0].scenes: 'box_on_plan' is not one of the suite's scenes; did you mean 'box_on_plane'?"),
+])
+def test_suite_file_misspellings_get_the_same_hint(tmp_path, capsys, body, hint):
+    suite = tmp_path / "my_suite.toml"
+    suite.write_text('name = "my_suite"\nsize = [64, 48]\n' + body)
+    assert main(["study", str(suite), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"{suite}: " in err and hint in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_did_you_mean_helper():
+    from shadowlab.validation import did_you_mean
+
+    assert did_you_mean("slop", ("constant", "slope")) == "; did you mean 'slope'?"
+    assert did_you_mean("u_colr", ["u_color", "u_colour", "u_depth"], n=3) == "; did you mean 'u_color' or 'u_colour'?"
+    assert did_you_mean("zzz", ["shadow_map"]) == ""
+
+
+def test_version(capsys):
+    from shadowlab import __version__, provenance
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code in (0, None)
+    rev = provenance.revision()  # git describe in a checkout (the tests' case), else "shadowlab <version>"
+    expected = f"shadowlab {__version__}" + ("" if rev.startswith("shadowlab ") else f" ({rev})")
+    assert capsys.readouterr().out == expected + "\n"
+
+
+def test_techniques_name_prints_its_block_of_the_listing(capsys):
+    import re
+
+    from shadowlab.techniques import REGISTRY
+
+    assert main(["techniques"]) == 0
+    full = capsys.readouterr().out
+    blocks = {b.split(":", 1)[0]: b + "\n" for b in re.split(r"\n(?=\S)", full.rstrip("\n"))}
+    assert list(blocks) == list(REGISTRY)
+    assert main(["techniques", "pcss"]) == 0
+    one = capsys.readouterr().out
+    assert one == blocks["pcss"] and one.startswith("pcss: ") and "\n    lights: area\n" in one
+
+
+def test_scenes_listing_gives_every_scene_its_purpose(capsys):
+    from shadowlab.scene import builtin_scenes, scene_purpose
+
+    assert main(["scenes"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    scenes = builtin_scenes()
+    assert len(lines) == 2 * len(scenes)
+    for (name, path), line, summary in zip(scenes.items(), lines[::2], lines[1::2]):
+        assert line.startswith(f"{name} ") and line[28:29] == " ", line
+        purpose = line[29:]
+        assert purpose == scene_purpose(path) and purpose and not purpose.startswith("#"), line
+        assert len(purpose) <= 102 and "INVALID" not in summary and "triangles, lights: " in summary, summary
+    assert lines[0] == f"{'box_on_plane':28s} A unit box resting on a floor, lit by a point light: the lab's default scene."
+
+
+def test_scene_purpose_is_one_shortened_line(tmp_path):
+    from shadowlab.scene import scene_purpose
+
+    path = tmp_path / "s.toml"
+    path.write_text("# Hard case XY: one two three four five six seven eight nine ten eleven twelve thirteen fourteen\n"
+                    "# fifteen sixteen seventeen eighteen. Second sentence.\n#\n# More.\nname = 'x'\n")
+    assert scene_purpose(path) == ("Hard case XY: one two three four five six seven eight nine ten eleven twelve "
+                                   "thirteen fourteen …")
+    path.write_text("# Short: what it tests (Author 2001). Then more.\n# Still more.\nname = 'x'\n")
+    assert scene_purpose(path) == "Short: what it tests (Author 2001)."
+    path.write_text("name = 'x'  # no opening comment\n")
+    assert scene_purpose(path) == ""
+
+
+@pytest.mark.parametrize("mesh,data,reason", [
+    ("x.obj", np.random.default_rng(0).bytes(4096), "(not UTF-8 text)"),  # random bytes as an OBJ
+    ("x.ply", b"ply\nformat nonsense\n", "("),
+])
+def test_unreadable_mesh_file_exit_2(tmp_path, capsys, monkeypatch, mesh, data, reason):
+    """Bytes trimesh cannot read as a mesh: one line naming the scene file, the object key and
+    the mesh file — not the optional module trimesh reaches for (charset_normalizer, absent
+    from constraints.txt: made absent here whether or not it is installed)."""
+    from shadowlab.scene import builtin_scenes
+
+    monkeypatch.setitem(sys.modules, "charset_normalizer", None)
+    (tmp_path / mesh).write_bytes(data)
+    text = builtin_scenes()["box_on_plane"].read_text()
+    assert 'mesh = "box"' in text
+    path = tmp_path / "bad.toml"
+    path.write_text(text.replace('mesh = "box"', f'mesh = "{mesh}"'))
+    assert main(["compare", str(path), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith(f"shadowlab: error: {path}: objects[1].mesh: {tmp_path / mesh} is not a readable mesh file "
+                          f"{reason}"), err
+    assert "charset_normalizer" not in err and not (tmp_path / "r").exists()

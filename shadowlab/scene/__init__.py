@@ -8,7 +8,8 @@ Import order is one-way: lights ← area_lights ← model ← animation ← read
 """
 from .model import Camera, Material, Scene, SceneObject, Shading, default_of
 from .reading import (PRIMITIVES, builtin_scene_dir, builtin_scenes, load_scene, parse_light, parse_scene,
-                      resolve_scene_path, scene_summary)
+                      resolve_scene_path, scene_purpose, scene_summary)
 
 __all__ = ["Camera", "Material", "Scene", "SceneObject", "Shading", "default_of", "PRIMITIVES", "builtin_scene_dir",
-           "builtin_scenes", "load_scene", "parse_light", "parse_scene", "resolve_scene_path", "scene_summary"]
+           "builtin_scenes", "load_scene", "parse_light", "parse_scene", "resolve_scene_path", "scene_purpose",
+           "scene_summary"]

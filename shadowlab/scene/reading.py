@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 
 from ..geometry import transforms as tf
-from ..validation import SceneError, TableReader
+from ..validation import SceneError, TableReader, did_you_mean, did_you_mean
 from .animation import parse_animation
 from .area_lights import AREA_SHAPES
 from .lights import LIGHT_TYPES, Light
@@ -92,14 +92,26 @@ def _read_mesh(path: Path) -> trimesh.Trimesh:
     return trimesh.load(io.BytesIO(data), file_type=inner, force="mesh", process=False)
 
 
+def _unreadable_reason(exc: Exception) -> str:
+    """A short reason why trimesh could not read a mesh file. Bytes that are not text in a text
+    format (OBJ, ASCII PLY/STL) surface as a UnicodeDecodeError, or as the ImportError of the
+    optional charset detector trimesh then falls back on: both mean "not UTF-8 text"."""
+    if isinstance(exc, UnicodeDecodeError) or (isinstance(exc, ImportError)
+                                               and isinstance(exc.__context__, UnicodeDecodeError)):
+        return "not UTF-8 text"
+    if isinstance(exc, ImportError):
+        return f"trimesh needs the missing module {exc.name or exc}"
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
 def _load_mesh_file(rd: TableReader, ref: str, base: Path) -> trimesh.Trimesh:
     path = (base / ref).resolve()
     if not path.is_file():
         raise rd.error("mesh", f"mesh file not found: {path}")
     try:
         mesh = _read_mesh(path)
-    except Exception as exc:
-        raise rd.error("mesh", f"cannot read mesh file {path}: {exc}") from exc
+    except Exception as exc:  # trimesh raises anything (ImportError, IndexError, ...) on a bad file
+        raise rd.error("mesh", f"{path} is not a readable mesh file ({_unreadable_reason(exc)})") from exc
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise rd.error("mesh", f"{path} holds no triangles")
     faces = np.asarray(mesh.faces)
@@ -214,16 +226,13 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
 def _scene_metric(rd: TableReader) -> str | None:
     """The optional ``metric`` key: the name of a metrics column (DESIGN §7), checked here so a
     misspelt one stops the run with a suggestion."""
-    import difflib
-
     from ..metrics import COLUMN_BY_NAME, METRIC_COLUMNS
     from ..texel_footprint import COLUMNS as FOOTPRINT_COLUMNS
 
     metric = rd.string("metric", default=None) if "metric" in rd.table else None
     names = [c.name for c in METRIC_COLUMNS] + [c for c in FOOTPRINT_COLUMNS if c in COLUMN_BY_NAME]
     if metric is not None and metric not in names:
-        close = difflib.get_close_matches(metric, names, n=1)
-        hint = f"; did you mean '{close[0]}'?" if close else f" (one of {', '.join(names)})"
+        hint = did_you_mean(metric, names) or f" (one of {', '.join(names)})"
         raise rd.error("metric", f"{metric!r} is not a metric column{hint}")
     return metric
 
@@ -247,7 +256,8 @@ def resolve_scene_path(ref: str | Path) -> Path:
     path = Path(ref)
     if path.is_file():
         return path
-    raise SceneError(ref, "scene", f"no such scene file, and not a shipped scene ({', '.join(shipped)})")
+    raise SceneError(ref, "scene", f"no such scene file, and not a shipped scene{did_you_mean(ref, shipped)} "
+                                   f"({', '.join(shipped)})")
 
 
 def load_scene(ref: str | Path) -> Scene:
@@ -268,3 +278,25 @@ def scene_summary(path: Path) -> str:
     tris = sum(len(o.faces) for o in s.objects)
     lights = ", ".join(l.type_name for l in s.lights)
     return f"{len(s.objects)} objects, {tris} triangles, lights: {lights}"
+
+
+#: The longest purpose line :func:`scene_purpose` returns (longer ones are shortened).
+PURPOSE_LENGTH = 100
+
+
+def scene_purpose(path: Path) -> str:
+    """What a scene file is for, in one line: the first sentence of the ``#`` comment that opens
+    it (every shipped scene has one), shortened to about :data:`PURPOSE_LENGTH` characters the
+    way the README's summaries are (:func:`shadowlab.docs_tables.first_sentence`: parentheses
+    dropped first, then cut at a dash or colon or at a word boundary with "…"); "" when the
+    file opens with no comment. Reads only the comment: the scene is not loaded."""
+    from ..docs_tables import first_sentence
+
+    lines = []
+    for line in Path(path).read_text(encoding="utf-8").splitlines():
+        if not line.strip() and not lines:
+            continue  # blank lines before the comment
+        if not line.lstrip().startswith("#"):
+            break
+        lines.append(line.lstrip().lstrip("#").strip())
+    return first_sentence("\n".join(lines), limit=PURPOSE_LENGTH)

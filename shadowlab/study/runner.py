@@ -35,7 +35,8 @@ from ..techniques import from_spec
 from . import rundir
 from .cache import Cache, run_key, scene_content_hash
 from .executors import DaskExecutor, LocalExecutor, cores
-from .suite import Suite, load_suite, scene_purpose
+from ..scene import scene_purpose
+from .suite import Suite, load_suite
 
 #: Columns a study adds to every metrics row in results.csv (DESIGN §12).
 STUDY_COLUMNS = ("config", "scene_family", "status", "error", "run_dir", "revision", "renderer", "shaded_image",

@@ -35,7 +35,7 @@ from pathlib import Path
 from ..techniques import TechniqueError, from_spec
 from ..techniques.base import format_value
 from ..techniques.raytrace import RayTraced
-from ..validation import SceneError, TableReader
+from ..validation import SceneError, TableReader, did_you_mean
 
 #: Scene-name prefixes → hard-case family (HARD_CASES.md), for the study's summary.
 FAMILIES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps", "pa_": "perspective aliasing",
@@ -117,7 +117,8 @@ def resolve_suite_path(ref: str | Path) -> Path:
     path = Path(ref)
     if path.is_file():
         return path
-    raise SuiteError(f"{ref}: no such suite file, and not a shipped suite ({', '.join(shipped)})")
+    raise SuiteError(f"{ref}: no such suite file, and not a shipped suite{did_you_mean(ref, shipped)} "
+                     f"({', '.join(shipped)})")
 
 
 def load_suite(ref: str | Path) -> Suite:
@@ -154,8 +155,8 @@ def _scene(ref: str, where: str, file: str, base: Path) -> SceneEntry:
     elif any(c.is_file() for c in candidates):
         path = next(c for c in candidates if c.is_file())
     else:
-        raise SuiteError(f"{file}: {where}: unknown scene {ref!r} (not a shipped scene — see 'shadowlab scenes' — "
-                         f"and no file {candidates[0]})")
+        raise SuiteError(f"{file}: {where}: unknown scene {ref!r}{did_you_mean(ref, shipped)} (not a shipped scene "
+                         f"— see 'shadowlab scenes' — and no file {candidates[0]})")
     try:
         data = tomllib.loads(path.read_text())
     except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:
@@ -192,7 +193,8 @@ def _sweep_specs(table, where: str, file: str, scene_names: set[str],
             raise SuiteError(f"{file}: {where}.scenes: must be a list of scene names")
         unknown = [s for s in scenes if s not in scene_names]
         if unknown:
-            raise SuiteError(f"{file}: {where}.scenes: {unknown[0]!r} is not one of the suite's scenes")
+            raise SuiteError(f"{file}: {where}.scenes: {unknown[0]!r} is not one of the suite's scenes"
+                             f"{did_you_mean(unknown[0], sorted(scene_names))}")
     axes = {k: (v if isinstance(v, list) else [v]) for k, v in table.items() if k not in ("technique", "scenes")}
     for key, values in axes.items():
         if not values:
@@ -269,13 +271,3 @@ def parse_suite(data: dict, file: str = "<suite>", base: Path | None = None) -> 
     _check_lights(scenes, configurations, written, file)
     return Suite(name, description, size, repeat, warmup, pass_timing, scenes, configurations, truth, file, written)
 
-
-def scene_purpose(path: Path) -> str:
-    """What a scene file tests, in one line: its opening comment (TEMPORARY: replaced by
-    :func:`shadowlab.scene.reading.scene_purpose` when that lands)."""
-    lines = []
-    for line in Path(path).read_text(errors="replace").splitlines():
-        if not line.startswith("#"):
-            break
-        lines.append(line.lstrip("#").strip())
-    return " ".join(lines)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib
 import pkgutil
 
+from ..validation import did_you_mean
 from .base import REGISTRY, Param, PlotStyle, Technique, TechniqueError, parse_spec
 
 for _module in sorted(m.name for m in pkgutil.iter_modules(__path__)):
@@ -21,16 +22,20 @@ REGISTRY.clear()
 REGISTRY.update(_ordered)
 
 
+def technique_class(name: str) -> type:
+    """The registered technique class called ``name`` (TechniqueError, with the closest name as
+    a hint, if there is none)."""
+    if name not in REGISTRY:
+        raise TechniqueError(f"unknown technique '{name}'{did_you_mean(name, REGISTRY)} "
+                             f"(known: {', '.join(REGISTRY)})")
+    return REGISTRY[name]
+
+
 def from_spec(spec: str) -> Technique:
     """Build a technique from ``name`` or ``name:key=value,...`` (TechniqueError if invalid)."""
-    import difflib
-
     name, values = parse_spec(spec)
-    if name not in REGISTRY:
-        close = difflib.get_close_matches(name, list(REGISTRY), n=1)
-        hint = f"; did you mean '{close[0]}'?" if close else ""
-        raise TechniqueError(f"unknown technique '{name}'{hint} (known: {', '.join(REGISTRY)})")
-    return REGISTRY[name](**values)
+    return technique_class(name)(**values)
 
 
-__all__ = ["REGISTRY", "from_spec", "Technique", "TechniqueError", "Param", "PlotStyle", "parse_spec"]
+__all__ = ["REGISTRY", "from_spec", "technique_class", "Technique", "TechniqueError", "Param", "PlotStyle",
+           "parse_spec"]

@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from .. import gl
+from ..validation import did_you_mean
 
 
 class TechniqueError(ValueError):
@@ -95,7 +96,9 @@ class Param:
         except (TypeError, ValueError):
             raise TechniqueError(f"{owner}: {key} must be {kind.__name__}, got {value!r}") from None
         if self.choices is not None and value not in self.choices:
-            raise TechniqueError(f"{owner}: {key} must be one of {', '.join(map(str, self.choices))}, got {value!r}")
+            hint = did_you_mean(value, self.choices) if isinstance(value, str) else ""
+            raise TechniqueError(f"{owner}: {key} must be one of {', '.join(map(str, self.choices))}, "
+                                 f"got {value!r}{hint}")
         if self.min is not None and (value <= self.min if self.min_open else value < self.min):
             raise TechniqueError(f"{owner}: {key} must be {'>' if self.min_open else '>='} {self.min}, got {value!r}")
         if self.max is not None and value > self.max:
@@ -209,7 +212,8 @@ class Technique:
         unknown = sorted(set(params) - set(self.PARAMS))
         if unknown:
             known = ", ".join(self.PARAMS) or "none"
-            raise TechniqueError(f"{self.name}: unknown parameter '{unknown[0]}' (known: {known})")
+            hint = did_you_mean(unknown[0], self.PARAMS)
+            raise TechniqueError(f"{self.name}: unknown parameter '{unknown[0]}'{hint} (known: {known})")
         self._params = {k: p.parse(self.name, k, params.get(k, p.default)) for k, p in self.PARAMS.items()}
         self.notes: list[str] = []
         self._owned: list = []

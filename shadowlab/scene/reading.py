@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 
 from ..geometry import transforms as tf
-from ..validation import SceneError, TableReader, did_you_mean, did_you_mean
+from ..validation import SceneError, TableReader, did_you_mean
 from .animation import parse_animation
 from .area_lights import AREA_SHAPES
 from .lights import LIGHT_TYPES, Light

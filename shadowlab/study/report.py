@@ -21,6 +21,7 @@ from urllib.parse import quote
 import pandas as pd
 
 from ..metrics import COLUMN_BY_NAME
+from ..output.pages import fmt_ms as fmt_ms_short
 from ..output.pages import fmt_num
 from ..output.pareto import pareto_plot
 from .aggregate import (FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, as_text, failed_runs, family_order,
@@ -199,8 +200,9 @@ def verdict_grid(verdicts: pd.DataFrame, scenes_meta: dict) -> dict:
         cells = {}
         for _, r in g.iterrows():
             cells[r["technique"]] = {
-                "config": as_text(r["short_label"]), "error": _error_text(r["metric"], r["error"]),
-                "time": fmt_ms(r["time_ms"]), "moving": fmt_ms(r["moving_ms"]),
+                "config": "" if as_text(r["short_label"]) == r["technique"] else as_text(r["short_label"]),
+                "error": _error_text(r["metric"], r["error"]),
+                "time": fmt_ms_short(r["time_ms"]), "moving": fmt_ms_short(r["moving_ms"]),
                 "moves_differ": not is_missing(r["moving_ms"]) and not is_missing(r["time_ms"])
                 and r["moving_ms"] > r["time_ms"] * 1.05,
                 "scene_metric": _metric_text(as_text(r["scene_metric"]), r["scene_metric_value"]),
@@ -226,7 +228,7 @@ def _scene_table(c: pd.DataFrame, metric: str, scene_metric: str) -> dict:
                _metric_text("boundary_error_px", r["boundary_error_px"]), fmt_num(r["visibility_mae"])]
         if scene_metric:
             row.append(_metric_text(scene_metric, r["scene_metric_value"]))
-        row += [fmt_ms(r["time_ms"]), fmt_ms(r["setup_ms"]), fmt_ms(r["moving_ms"])]
+        row += [fmt_ms_short(r["time_ms"]), fmt_ms_short(r["setup_ms"]), fmt_ms_short(r["moving_ms"])]
         rows.append(row)
     return {"columns": columns, "rows": rows}
 
@@ -253,7 +255,7 @@ def _scene_section(study_dir: Path, scene: str, c: pd.DataFrame, fails: pd.DataF
     captions = {}
     for _, r in c.iterrows():
         lines = [] if r["reference"] else [f"{metric.replace('_', ' ')} {_error_text(metric, r[metric])}"]
-        lines.append(f"{fmt_ms(r['time_ms'])} ms per frame" + (f" · moving {fmt_ms(r['moving_ms'])} ms"
+        lines.append(f"{fmt_ms_short(r['time_ms'])} ms per frame" + (f" · moving {fmt_ms_short(r['moving_ms'])} ms"
                                                                if r["preprocess_ms"] else ""))
         if info.get("metric") and not r["reference"]:
             lines.append(f"{info['metric']} {_metric_text(info['metric'], r['scene_metric_value'])}")
@@ -275,7 +277,7 @@ def _summary_rows(results: pd.DataFrame) -> list[list[str]]:
     for _, r in table.iterrows():
         n = int(r["scenes"]) + int(r["failed"])
         rows.append([r["technique"], r["short_label"], fmt_pct(r["median_error_rate"]),
-                     fmt_pct(r["worst_error_rate"]), fmt_ms(r["median_time_ms"]), fmt_ms(r["median_setup_ms"]),
+                     fmt_pct(r["worst_error_rate"]), fmt_ms_short(r["median_time_ms"]), fmt_ms_short(r["median_setup_ms"]),
                      f"{len(r['fails'])} of {n}" if r["fails"] else f"0 of {n}",
                      ", ".join(f"{s} ({why})" for s, why in r["fails"]), _wins_text(r["wins"]) or "—"])
     return rows

@@ -421,8 +421,8 @@ def fmt_limit(metric: str, limit: float) -> str:
 def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
     """One sentence per scene family, from :func:`verdict_table`: (family, sentence) saying who
     is most accurate (lowest median best-configuration error over the family's scenes, among the
-    techniques that ran on most of them; every technique within :data:`TIE_TOLERANCE` of it is
-    named), who is fastest for a static and for a moving light
+    techniques that ran on most of them and fail none — the median would hide a failure; every
+    technique within :data:`TIE_TOLERANCE` of it is named), who is fastest for a static and for a moving light
     among the techniques that fail none of those scenes, and who fails where."""
     out = []
     if not len(verdicts):
@@ -440,6 +440,8 @@ def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
         where = f"{n} scene{'s' if n != 1 else ''}: {', '.join(scenes)}"
         parts = []
         scored = full[full["err"].notna()]
+        if (scored["fails"] == 0).any():  # a technique that fails a scene of the family is not its most accurate
+            scored = scored[scored["fails"] == 0]
         if len(scored):
             best = scored["err"].min()
             winners = list(scored.index[scored["err"] <= best + TIE_TOLERANCE[metric]])

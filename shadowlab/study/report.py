@@ -69,11 +69,42 @@ def _meta_lines(meta: dict) -> list[tuple[str, str]]:
     return [(k, v) for k, v in items if v]
 
 
+def verdict_markdown(results: pd.DataFrame, meta: dict | None = None) -> list[str]:
+    """The verdicts as markdown lines: a table of scenes × technique families (each cell the
+    family's best configuration's error and time, the best per row in bold, ✗ where it fails;
+    :func:`~shadowlab.study.aggregate.verdict_table`) and one sentence per scene family. The
+    README's headline is made of these lines."""
+    meta = meta or {}
+    scenes_meta = meta.get("scenes") or {}
+    verdicts = verdict_table(results, {k: v.get("metric") for k, v in scenes_meta.items()})
+    if not len(verdicts):
+        return []
+    grid = verdict_grid(verdicts, scenes_meta)
+
+    def cell(c) -> str:
+        if c is None:
+            return "—"
+        err = f"**{c['error']}**" if c["best_error"] else c["error"]
+        time = f"**{c['time']} ms**" if c["best_time"] else f"{c['time']} ms"
+        moving = f" (moving {c['moving']})" if c["moves_differ"] else ""
+        return f"{err}{' ✗' if c['failed'] else ''} · {time}{moving}"
+
+    lines = ["## Verdicts", "",
+             _md_table(["scene"] + grid["families"], [[r["scene"]] + [cell(c) for c in r["cells"]] for r in grid["rows"]]),
+             "", f"Each cell: the family's best configuration on the scene — its error (share of wrong pixels; soft "
+             f"scenes: mean |V − G|) and its ms per frame (moving: with its per-light preprocessing). Bold: best in "
+             f"the row; ✗: fails (error above {fmt_limit('error_rate', FAIL_ERROR_RATE)}, soft scenes above "
+             f"{fmt_limit('visibility_mae', FAIL_VISIBILITY_MAE)}).", ""]
+    lines += [f"- {s}" for _, s in verdict_sentences(verdicts)]
+    return lines + [""]
+
+
 def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> Path:
     """Write ``summary.md``: the study at a glance, readable as plain text.
 
     Header: suite name, description and the facts of ``meta`` (size, device, revision, date,
-    timing sentence). Then per configuration (short label; grouped by technique family, best
+    timing sentence). Then the verdicts (:func:`verdict_markdown`: scenes × technique families,
+    one sentence per scene family), as at the top of study.html. Then per configuration (short label; grouped by technique family, best
     median error first, from :func:`summary_table`): median error rate and median time per
     frame across the scenes it ran on, the number of scenes, wins (scenes where its error rate
     is the lowest of the scene's configurations, per scene family; ties count for each) and
@@ -91,12 +122,13 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> P
     lines = [f"# Study: {meta.get('name', '(unnamed)')}", ""]
     if meta.get("description"):
         lines += [str(meta["description"]), ""]
+    lines += verdict_markdown(results, meta)
     lines += [f"- {k}: {v}" for k, v in _meta_lines(meta)]
     n_scenes = len(scenes_in_order(results)) if len(results) else 0
     lines += [f"- {n_scenes} scenes, {len(table)} configurations, {len(fails)} failed runs", ""]
     lines += ["Error rate = wrong / evaluated pixels, pooled over a scene's lights; time = ms per frame, the "
-              "sum of the lights' median times; setup = ms to set up for the lights (paid once for static lights, every "
-              "frame for moving ones). Medians are taken across the scenes a configuration ran on. "
+              "sum of the lights' median times; setup = ms to set up for the lights (GL objects and programs, and "
+              "any per-light preprocessing). Medians are taken across the scenes a configuration ran on. "
               "A win = the lowest error rate among a scene's configurations (ties count for each); a fail = "
               f"the run failed or its error rate exceeds {100 * FAIL_ERROR_RATE:g} % of the evaluated pixels.",
               ""]

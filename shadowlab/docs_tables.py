@@ -1,12 +1,14 @@
-"""README tables generated from the code, so that they cannot go stale: the technique table (from
-the registry) and the code-layout table (from the modules' docstrings).
+"""Documentation tables generated from the code and data, so that they cannot go stale: the
+technique table (from the registry) and the code-layout table (from the modules' docstrings) in
+docs/guide.md, and the README's headline verdicts (from the committed quick study in
+results/quick).
 
-The README holds each table between marker comments (``<!-- technique-table:begin -->`` …
-``<!-- technique-table:end -->``, the same for ``layout-table``); ``tests/test_docs.py``
-regenerates them and fails, showing the difference, when the README's copy differs.
+Each page holds each table between marker comments (``<!-- technique-table:begin -->`` …
+``<!-- technique-table:end -->``); ``tests/test_docs.py`` regenerates them and fails, showing
+the difference, when a page's copy differs.
 
-    python -m shadowlab.docs_tables            # print both tables
-    python -m shadowlab.docs_tables --write    # rewrite them in README.md (in a source checkout)
+    python -m shadowlab.docs_tables            # print the tables
+    python -m shadowlab.docs_tables --write    # rewrite them in README.md and docs/guide.md
 """
 from __future__ import annotations
 
@@ -18,10 +20,14 @@ import re
 import sys
 from pathlib import Path
 
-#: The tables the README holds, by marker name.
-TABLES = ("technique-table", "layout-table")
-#: The README of a source checkout (the package's parent folder).
+#: The README of a source checkout (the package's parent folder), and the user's guide in docs/.
 README = Path(__file__).resolve().parent.parent / "README.md"
+GUIDE = README.parent / "docs" / "guide.md"
+#: The committed run of the quick study the README's headline verdicts are generated from.
+HEADLINE_STUDY = README.parent / "results" / "quick"
+#: The generated tables, by marker name → the page that holds them.
+HOMES = {"technique-table": GUIDE, "layout-table": GUIDE, "headline-verdicts": README}
+TABLES = tuple(HOMES)
 #: The command that brings the README's tables up to date (shown when they differ).
 FIX_COMMAND = "python -m shadowlab.docs_tables --write"
 #: A layout-table summary longer than this is shortened (:func:`_shorten`).
@@ -162,9 +168,28 @@ def layout_table(folder: Path | None = None) -> str:
 
 # --------------------------------------------------------------------------- the README's copies
 
+def headline_verdicts(study: Path = HEADLINE_STUDY) -> str:
+    """The README's headline: the verdicts of the committed quick study (``results/quick``:
+    results.csv and study.json), as summary.md opens with them, and where they come from."""
+    import json
+
+    import pandas as pd
+
+    from .study.report import verdict_markdown
+
+    results = pd.read_csv(study / "results.csv")
+    meta = json.loads((study / "study.json").read_text())
+    lines = verdict_markdown(results, meta)[2:]  # without its "## Verdicts" heading
+    source = (f"From the committed run in [`results/quick/`](results/quick/) (`shadowlab study quick`, "
+              f"{meta['size'][0]}×{meta['size'][1]}, revision {meta['revision']}, renderer {meta['device']}). "
+              f"Times are CPU-rasteriser times there: compare techniques with each other, not with a GPU.")
+    return "\n".join([source, ""] + lines).strip()
+
+
 def generated() -> dict[str, str]:
-    """Each README table, freshly generated, by marker name."""
-    return {"technique-table": technique_table(), "layout-table": layout_table()}
+    """Each generated table, freshly made, by marker name."""
+    return {"technique-table": technique_table(), "layout-table": layout_table(),
+            "headline-verdicts": headline_verdicts()}
 
 
 def _markers(name: str) -> tuple[str, str]:
@@ -188,41 +213,47 @@ def replace(text: str, name: str, table: str) -> str:
     return pattern.sub(lambda _: f"{begin}\n{table}\n{end}", text, count=1)
 
 
-def differences(readme: Path = README) -> dict[str, str]:
-    """Per table whose README copy differs from the generated one, a unified diff (README →
-    generated); a table whose markers are missing is reported too. Empty when up to date."""
-    text = readme.read_text(encoding="utf-8")
+def differences(homes: dict[str, Path] | None = None) -> dict[str, str]:
+    """Per table whose copy in its page (:data:`HOMES`) differs from the generated one, a unified
+    diff (page → generated); a table whose markers are missing is reported too. Empty when up
+    to date."""
     out = {}
     for name, table in generated().items():
-        current = extract(text, name)
+        page = (homes or HOMES)[name]
+        current = extract(page.read_text(encoding="utf-8"), name)
         if current is None:
-            out[name] = f"README has no <!-- {name}:begin --> … <!-- {name}:end --> markers"
+            out[name] = f"{page.name} has no <!-- {name}:begin --> … <!-- {name}:end --> markers"
         elif current != table.strip():
             out[name] = "\n".join(difflib.unified_diff(current.splitlines(), table.splitlines(),
-                                                       f"README.md ({name})", "generated", lineterm=""))
+                                                       f"{page.name} ({name})", "generated", lineterm=""))
     return out
 
 
-def write(readme: Path = README) -> bool:
-    """Rewrite the README's tables from the code; True when something changed."""
-    text = readme.read_text(encoding="utf-8")
-    new = text
-    for name, table in generated().items():
-        new = replace(new, name, table)
-    if new != text:
-        readme.write_text(new, encoding="utf-8")
-    return new != text
+def write(homes: dict[str, Path] | None = None) -> bool:
+    """Rewrite every generated table in its page from the code; True when something changed."""
+    changed = False
+    tables = generated()
+    for page in dict.fromkeys((homes or HOMES).values()):
+        text = page.read_text(encoding="utf-8")
+        new = text
+        for name, home in (homes or HOMES).items():
+            if home == page:
+                new = replace(new, name, tables[name])
+        if new != text:
+            page.write_text(new, encoding="utf-8")
+            changed = True
+    return changed
 
 
 def main(argv: list[str] | None = None) -> int:
     """Print the tables, or (``--write``) update them in the README."""
     p = argparse.ArgumentParser(prog="python -m shadowlab.docs_tables", description=__doc__.split("\n\n")[0])
-    p.add_argument("--write", action="store_true", help="rewrite the tables between the README's markers")
-    p.add_argument("--readme", type=Path, default=README, help=f"the README to write (default {README})")
+    p.add_argument("--write", action="store_true", help="rewrite the tables between the markers of README.md "
+                                                        "and docs/guide.md")
     args = p.parse_args(argv)
     if args.write:
-        changed = write(args.readme)
-        print(f"{args.readme}: {'tables updated' if changed else 'tables already up to date'}")
+        changed = write()
+        print(f"{'tables updated' if changed else 'tables already up to date'}: {', '.join(map(str, dict.fromkeys(HOMES.values())))}")
         return 0
     for name, table in generated().items():
         begin, end = _markers(name)

@@ -164,7 +164,12 @@ def write_comparison(rd: RunDirectory, rows: pd.DataFrame, configs: list[ConfigI
     passes_png = pictures.pass_time_plot(rows, rd.path / "pass_times.png") if pass_timing else None
     run = {**record, "size": [w, h], "masks_light": 0, "pass_times_image": passes_png,
            "images": images, "insets": [{"box": list(i.box), "wrong": i.wrong} for i in insets],
-           "legends": legends, "peak_rss_mib": peak_mib(rows)}
+           "legends": legends, "peak_rss_mib": peak_mib(rows),
+           # the keys earlier run.json files had for the two colour bars (scripts read them)
+           "signed_map": ({"limit": signed_limit, "colormap": pictures.SIGNED_COLORMAP,
+                           "legend": legends["signed"]["file"], "caption": pictures.SIGNED_CAPTION}
+                          if "signed" in legends else None),
+           "footprint_legend": legends["footprint"]["file"] if "footprint" in legends else None}
     rd.record("run.json", run)
     rd.page("compare.html", title=f"shadowlab: {run['scene']['name']}", renderer=run.get("renderer"),
             provenance=provenance_items(run), run=run, table=compare_table(rows), insets=insets,

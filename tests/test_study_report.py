@@ -217,11 +217,92 @@ def test_pareto_figure_content():
     texts = " ".join(t.get_text() for t in sv.texts)
     assert "failed: planar" in texts
     assert _gid(sv, "truth")[0].get_xdata()[0] == pytest.approx(60.0)
-    # one legend for the figure, by technique family
+    # one legend for the figure: every drawn configuration, family by family (the registry's order)
     (legend,) = fig.legends
     labels = [t.get_text() for t in legend.get_texts()]
-    assert labels[:3] == ["planar", "shadow_map", "shadow_volume"]  # the registry's order
+    assert labels[:4] == ["planar", ODD, "shadow_map", "shadow_volume"]
     assert any("no wrong pixel" in s for s in labels)
+    assert any(f"> {100 * agg.FAIL_ERROR_RATE:g} %" in s for s in labels)
+    # the fail threshold: a line at 1 % in every panel with points; shadow_map's 2 % on box_on_plane is
+    # over it (and off the front), so it is named there in the fail colour
+    for ax in panels.values():
+        (line,) = _gid(ax, "fail-threshold")
+        assert line.get_ydata()[0] == pytest.approx(100 * agg.FAIL_ERROR_RATE)
+    assert max(ln.get_ydata()[0] for ln in _points(box)) > 100 * agg.FAIL_ERROR_RATE
+    named = {t.get_text(): t.get_color() for t in box.texts}
+    assert named.get("shadow_map") == pareto.FAIL_COLOR
+    assert "planar" in named and "shadow_volume" in named   # the front's points
+
+
+def _points(ax):
+    """The configurations' points of a panel (one Line2D each, labelled by short label)."""
+    return [ln for ln in ax.lines if ln.get_gid() == "configuration"]
+
+
+def _filtered_family_rows(scene):
+    rows = [_row(scene, "shadow maps", 0, TRUTH, time=30.0)]
+    for k, spec in enumerate(("filtered_map", "filtered_map:variant=esm", "filtered_map:variant=msm",
+                              "shadow_map", "shadow_map:variant=slope")):
+        rows.append(_row(scene, "shadow maps", 0, spec, error=0.004, time=5.0 + k))
+    return rows
+
+
+def test_pareto_figure_tells_configurations_of_a_family_apart():
+    """Three filtered_map variants at the same spot were three identical glyphs: now each
+    configuration of a family has its own marker, in the family's colour (its declared STYLE),
+    the family's own marker first, the same in every panel and in the legend."""
+    from matplotlib.colors import to_hex
+    from shadowlab.techniques import REGISTRY
+
+    res = pd.DataFrame(_filtered_family_rows("a") + _filtered_family_rows("b") + synthetic().to_dict("records"))
+    fig = pareto.pareto_figure(res)
+    seen: dict[str, tuple[str, str]] = {}
+    for ax in _panels(fig).values():
+        for ln in _points(ax):
+            style = (to_hex(ln.get_color()), ln.get_marker())
+            assert seen.setdefault(ln.get_label(), style) == style   # one look per configuration
+    family = {lab: lab.split(":")[0] for lab in seen}
+    for fam in set(family.values()):
+        mine = [style for lab, style in seen.items() if family[lab] == fam]
+        assert len(set(mine)) == len(mine), (fam, mine)              # distinct within the family
+        assert {c for c, _ in mine} == {REGISTRY[fam].STYLE.color}    # the family's colour
+    assert seen["filtered_map"][1] == REGISTRY["filtered_map"].STYLE.marker
+    assert len({m for lab, (_, m) in seen.items() if family[lab] == "filtered_map"}) == 3
+    (legend,) = fig.legends
+    handles = {t.get_text(): h for t, h in zip(legend.get_texts(), legend.legend_handles)}
+    for lab, (color, marker) in seen.items():
+        assert (to_hex(handles[lab].get_color()), handles[lab].get_marker()) == (color, marker)
+    # legend grouped by family: each family's entries together, in the registry's order
+    order = [family[t.get_text()] for t in legend.get_texts() if t.get_text() in seen]
+    assert order == sorted(order, key=list(REGISTRY).index)
+
+
+def test_configuration_styles_past_the_markers():
+    """More configurations of a family than markers: the markers repeat in a shade of the
+    family's colour, the (colour, marker) pairs all distinct."""
+    n = 2 * len(pareto.CONFIG_MARKERS) + 3
+    cfg = pd.DataFrame({"technique": ["shadow_map"] * n, "label": [f"shadow_map:bias={k}" for k in range(n)]})
+    styles = pareto.configuration_styles(cfg)
+    assert len(set(styles.values())) == n
+    assert pareto.configuration_styles(cfg.iloc[:0]) == {}
+
+
+def test_pareto_figure_text_legible_at_page_width():
+    """Six panels make a figure about as wide as the study page (≈ 1350 px), so it is shown 1:1,
+    with tick labels, titles and the legend at ≥ 8 pt and point names at ≥ 7.5 pt."""
+    six = pd.concat([_row_frame(f"scene_{k}", k) for k in range(6)], ignore_index=True)
+    fig = pareto.pareto_figure(six)
+    width_px = fig.get_figwidth() * fig.dpi
+    assert 1300 <= width_px <= 1400
+    panels = _panels(fig)
+    assert len(panels) == 6
+    for ax in panels.values():
+        ticks = ax.get_xticklabels() + ax.get_yticklabels()
+        assert ticks and all(t.get_fontsize() >= 8 for t in ticks)
+        assert ax.title.get_fontsize() >= 8
+        assert ax.texts and all(t.get_fontsize() >= 7.5 for t in ax.texts)
+    (legend,) = fig.legends
+    assert all(t.get_fontsize() >= 8 for t in legend.get_texts())
 
 
 @pytest.mark.slow  # draws a 30-panel figure to PNG (~8 s of matplotlib)

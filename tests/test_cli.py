@@ -69,7 +69,7 @@ def test_soft_run_report_has_the_signed_map(tmp_path):
     conf = [im for im in run["images"] if im["label"] != run["ground_truth"]]
     assert len(conf) == 1 and (out / conf[0]["signed"]).stat().st_size > 0
     page = (out / "report.html").read_text()
-    assert f'src="{conf[0]["signed"]}"' in page and f'src="{sm["legend"]}"' in page
+    assert f'data-signed="{conf[0]["signed"]}"' in page and f'src="{sm["legend"]}"' in page
     assert "positive (blue) = the technique is too bright (false light)" in page and f"±{sm['limit']:.2f}" in page
     df = pd.read_csv(out / "metrics.csv")
     row = df[~df["reference"]].iloc[0]

@@ -3,6 +3,7 @@ Pareto figure, summary.md and study.html — on a synthetic results table (no GL
 from __future__ import annotations
 
 import math
+import json
 import re
 from pathlib import Path
 
@@ -45,22 +46,25 @@ def _row(scene, family, light, spec, *, evaluated=1000, error=0.0, fs=None, fl=N
 
 
 def _with_images(root: Path, row: dict, worst: int | None) -> dict:
-    """Light-0 image columns, with tiny PNGs written under ``root`` (no crop when ``worst`` is 0)."""
+    """Light-0 image columns, with tiny PNGs written under ``root``, and the configuration's entry
+    in its run directory's run.json (images, as the run-directory writer lays them out)."""
     stem = re.sub(r"[^A-Za-z0-9_.-]+", "_", row["short_label"])
     images = root / row["run_dir"] / "images"
     images.mkdir(parents=True, exist_ok=True)
     rgb = np.full((6, 8, 3), 0.5)
-    save_png(images / f"{stem}_shaded.png", rgb)
+    entry = {"label": row["label"], "title": row["short_label"], "reference": bool(row["reference"])}
+    for kind in ("shaded", "visibility") + (() if row["reference"] else ("error",)):
+        save_png(images / f"{stem}_{kind}.png", rgb)
+        entry[kind] = f"images/{stem}_{kind}.png"
     row["shaded_image"] = f"{row['run_dir']}/images/{stem}_shaded.png"
-    if row["reference"]:
-        return row
-    save_png(images / f"{stem}_error.png", rgb)
-    row["error_image"] = f"{row['run_dir']}/images/{stem}_error.png"
-    row["worst_errors"] = worst
-    if worst:
-        save_png(images / f"{stem}_worst.png", np.repeat(np.repeat(rgb[:2, :2], 8, 0), 8, 1))
-        row["worst_crop_image"] = f"{row['run_dir']}/images/{stem}_worst.png"
-        row["worst_box"] = "1,2,9,10"
+    if not row["reference"]:
+        row["error_image"] = f"{row['run_dir']}/images/{stem}_error.png"
+        entry["inset_wrong"] = [worst or 0]
+    record_path = root / row["run_dir"] / "run.json"
+    record = json.loads(record_path.read_text()) if record_path.is_file() else {
+        "size": [8, 6], "images": [], "insets": [{"box": [1, 2, 5, 6], "wrong": 3}], "legends": {}}
+    record["images"].append(entry)
+    record_path.write_text(json.dumps(record))
     return row
 
 
@@ -391,11 +395,6 @@ def test_summary_md(tmp_path):
 
 def test_study_html(tmp_path):
     res = synthetic(tmp_path)
-    # a missing error map, and a crop given as an absolute path inside the study dir
-    gone = (res["scene"] == "sm_thin") & (res["label"] == "shadow_volume")
-    res.loc[gone, "error_image"] = "runs/sm_thin/images/not_there_error.png"
-    absolute = (res["scene"] == "sm_thin") & (res["label"] == "planar")
-    res.loc[absolute, "worst_crop_image"] = str(tmp_path / res.loc[absolute, "worst_crop_image"].iloc[0])
     out = sr.write_study_report(tmp_path, res, META)
     assert set(out) == {"pareto", "html", "summary"} and all(Path(p).is_file() for p in out.values())
     doc = Path(out["html"]).read_text()
@@ -404,56 +403,45 @@ def test_study_html(tmp_path):
     for s in srcs + links:
         assert not s.startswith("/") and "://" not in s and (tmp_path / s).is_file(), s
     assert str(tmp_path) not in doc
-    expected = set()
-    for col in ("error_image", "worst_crop_image"):
-        for v in res[col].dropna():
-            v = str(v)
-            if v and (Path(v) if Path(v).is_absolute() else tmp_path / v).is_file():
-                expected.add(str(Path(v).relative_to(tmp_path)) if Path(v).is_absolute() else v)
-    assert len(expected) == 8 + 8   # 9 error maps (one missing), 8 crops (shadow_volume had no wrong pixel)
-    assert expected <= set(srcs)
-    assert "pareto.png" in srcs
-    assert "runs/sm_thin/images/not_there_error.png" not in doc and "no error map" in doc
-    # the truth's shaded image leads each strip; every scene links its run report
-    assert srcs.index("runs/box_on_plane/images/raytrace_shaded.png") < srcs.index(
-        "runs/box_on_plane/images/shadow_map_error.png")
+    # verdicts first: the headline table comes before the Pareto figure and the scenes
+    assert doc.count("<h1>") == 1
+    assert doc.index('id="verdict-table"') < doc.index('src="pareto.png"') < doc.index('id="scene-1"')
+    # a software rasteriser's times are flagged at the top, provenance is in the footer
+    assert doc.index('id="timing-banner"') < doc.index('id="verdict-table"')
+    footer = doc.split('<footer class="provenance">')[1]
+    for fact in ("llvmpipe (test)", "abc123", "12.5 s", "14 runs", "3 cached", "1 failed", "suite.toml"):
+        assert fact in footer
+    # every configuration of a scene is in its grid, images from its run directory, with the insets
+    grid = doc.split('id="scene-1"')[1].split('id="scene-2"')[0]
+    for stem in ("raytrace", "shadow_map", "shadow_volume", "planar"):
+        assert f'runs/box_on_plane/images/{stem}_' in grid
+    assert "url(&#39;runs/box_on_plane/images/shadow_map_error.png&#39;)" in grid
     assert links.count("runs/box_on_plane/report.html") == 1 and "runs/sv_two_lights/report.html" in links
-    # escaped text, never raw
-    assert "planar:note=&lt;b&gt;&amp;&quot;x&quot;" in doc and ODD not in doc
-    assert "synthetic &lt;suite&gt;" in doc and "<suite>" not in doc
-    assert "no planar receiver &lt;here&gt;" in doc
-    # zero error: no crop, said so; a crop's caption has its box and count
-    assert doc.count("no wrong pixels") == 1
-    assert "x 1–9, y 2–10: 7 wrong px" in doc
-    # header facts and the error-map legend
-    for fact in ("llvmpipe (test)", "abc123", "elapsed: 12.5 s", "14 runs", "3 cached", "1 failed", "workers: 2"):
-        assert fact in doc
-    assert "false lit (leak, missing shadow)" in doc
-    # the failed-runs table
-    failed = doc.split('id="failed"')[1].split("<h2>")[0]
+    # the failed run is in its scene's grid and in the failed-runs table
+    assert "failed: RuntimeError: no planar receiver &lt;here&gt;" in doc
+    failed = doc.split('id="failed"')[1].split("<h2")[0]
     assert "sv_two_lights" in failed and "planar" in failed
+    # escaped text, never raw
+    assert "planar:note=&lt;b&gt;&amp;&#34;x&#34;" in doc and ODD not in doc
+    assert "a made-up study &amp; its report" in doc and "synthetic &lt;suite&gt;" in doc and "<suite>" not in doc
+    assert "false lit (leak, missing shadow)" in doc
+    # the verdicts: planar fails sm_thin (20 %), marked in its cell
+    verdicts = doc.split('id="verdict-table"')[1].split("</table>")[0]
+    assert verdicts.count("✗") >= 1 and 'class="fail"' in verdicts
 
 
-def test_study_html_shows_signed_maps_of_soft_configurations(tmp_path):
-    """A configuration whose results row names a signed difference map (soft shadows) shows it
-    in its strip, under its error map, and the page explains the colours once; a named but
-    missing file is not linked; a study without any shows no signed-map text."""
+def test_study_html_offers_signed_maps_of_soft_configurations(tmp_path):
+    """A configuration whose run directory has a signed difference map (soft shadows) carries it
+    as a view of the scene's grid; a study without any offers no such view."""
     res = synthetic(tmp_path)
     plain = Path(sr.write_study_html(tmp_path, res, META)).read_text()
-    assert "signed V − G" not in plain and "signed-legend" not in plain
-    soft = (res["scene"] == "box_on_plane") & (res["label"] == "shadow_map") & (res["light"] == 0)
-    gone = (res["scene"] == "sm_thin") & (res["label"] == "planar") & (res["light"] == 0)
-    assert soft.sum() == 1 and gone.sum() == 1
+    assert "data-signed=" not in plain and 'data-show="signed"' not in plain
+    record_path = tmp_path / "runs/box_on_plane/run.json"
+    record = json.loads(record_path.read_text())
     save_png(tmp_path / "runs/box_on_plane/images/shadow_map_signed.png", np.full((6, 8, 3), 0.9))
-    res["signed_image"] = ""
-    res.loc[soft, "signed_image"] = "runs/box_on_plane/images/shadow_map_signed.png"
-    res.loc[gone, "signed_image"] = "runs/sm_thin/images/planar_signed.png"
-    cfg = agg.per_configuration(res)
-    assert _cfg(cfg, "box_on_plane", "shadow_map")["signed_image"] == "runs/box_on_plane/images/shadow_map_signed.png"
+    next(im for im in record["images"] if im["label"] == "shadow_map")["signed"] = "images/shadow_map_signed.png"
+    record_path.write_text(json.dumps(record))
     doc = Path(sr.write_study_html(tmp_path, res, META)).read_text()
-    srcs = re.findall(r'<img[^>]* src="([^"]+)"', doc)
-    assert srcs.count("runs/box_on_plane/images/shadow_map_signed.png") == 1
-    assert srcs.index("runs/box_on_plane/images/shadow_map_error.png") < srcs.index(
-        "runs/box_on_plane/images/shadow_map_signed.png")
-    assert "planar_signed.png" not in doc and doc.count("signed V − G (first light") == 1
-    assert "positive (blue) = the technique is too bright (false light)" in doc
+    scene = doc.split('id="scene-1"')[1].split('id="scene-2"')[0]
+    assert 'data-show="signed"' in scene and 'data-signed="runs/box_on_plane/images/shadow_map_signed.png"' in scene
+    assert doc.count("data-signed=") == 1

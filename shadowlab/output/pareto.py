@@ -9,8 +9,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..study.aggregate import FAIL_ERROR_RATE, failed_runs, family_order, normalised, pareto_front, \
-    per_configuration, scenes_in_order, as_text, truthy
+from ..study.aggregate import (FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, as_text, fail_threshold, failed_runs,
+                               family_order, judged_metric, normalised, pareto_front, per_configuration,
+                               scenes_in_order, truthy)
 
 #: Zero error has no place on a log axis: it is drawn at this many wrong pixels (half a pixel of
 #: the configuration's evaluated pixels, below any real error, which is at least one pixel).
@@ -288,7 +289,9 @@ def pareto_figure(results: pd.DataFrame):
     (:func:`configuration_styles`); the legend lists every drawn configuration, family by
     family, with its colour and marker. A configuration with no wrong pixel is drawn hollow at
     a floor of half a pixel (:data:`ZERO_FLOOR_PIXELS` / evaluated pixels, the dotted line, gid
-    "zero-floor") since zero has no place on a log axis. The fail threshold
+    "zero-floor") since zero has no place on a log axis. A soft scene's panel (scene family
+    "soft shadows") draws mean |V − G| instead of the error rate, as the verdicts judge it. The
+    fail threshold
     (:data:`FAIL_ERROR_RATE`) is a horizontal line (gid "fail-threshold") with a tinted band
     above it, always in range, so that a failing configuration stands out and a scene nobody
     fails says so; failing points are named in :data:`FAIL_COLOR` (off the front, the worst
@@ -313,7 +316,8 @@ def pareto_figure(results: pd.DataFrame):
     styles = configuration_styles(pd.concat([cfg[["technique", "label", "reference"]],
                                              fails[["technique", "label", "reference"]]]))
     short = dict(zip(cfg["label"].astype(str), cfg["short_label"].astype(str)))
-    threshold = 100 * FAIL_ERROR_RATE
+    soft_panels = hard_panels = False
+    soft_axes = []  # labelled on their own when hard panels share the figure
 
     nrows, ncols = _grid(max(len(scenes), 1))
     fig_w = min(max(PANEL_WIDTH_IN * ncols, MIN_FIGURE_WIDTH_IN), PAGE_WIDTH_PX / FIGURE_DPI)
@@ -345,7 +349,14 @@ def pareto_figure(results: pd.DataFrame):
         labels = conf["label"].astype(str).to_numpy()
         names = conf["short_label"].astype(str).to_numpy()
         t = conf["time_ms"].to_numpy(dtype=float)
-        err = conf["error_rate"].to_numpy(dtype=float)
+        # soft scenes are judged (and drawn) on mean |V - G|, as the verdicts judge them
+        metric = judged_metric(fam)
+        threshold = 100 * fail_threshold(metric)
+        soft_panels |= metric != "error_rate"
+        hard_panels |= metric == "error_rate"
+        if metric != "error_rate":
+            soft_axes.append(ax)
+        err = conf[metric].to_numpy(dtype=float)
         floor = _zero_floor(conf)
         zero = err == 0
         y = np.where(zero, floor, err) * 100
@@ -433,7 +444,9 @@ def pareto_figure(results: pd.DataFrame):
                 Line2D([], [], color="0.3", ls="--", lw=1.0, label="truth (ray-traced): time")]
     if any_fail_line:
         handles.append(Line2D([], [], color=FAIL_COLOR, lw=FAIL_LINE_PT,
-                              label=f"fails: error > {threshold:g} % (named)"))
+                              label=f"fails: error > {100 * FAIL_ERROR_RATE:g} %"
+                                    + (f", soft: mean |V − G| > {100 * FAIL_VISIBILITY_MAE:g} %" if soft_panels else "")
+                                    + " (named)"))
     if any_zero:
         handles.append(Line2D([], [], ls=":", color="0.55", marker="o", mfc="white", mec="0.3", mew=1.4,
                               ms=MARKER_PT, label=f"no wrong pixel: drawn at {ZERO_FLOOR_PIXELS:g} px"))
@@ -444,7 +457,11 @@ def pareto_figure(results: pd.DataFrame):
     fig.set_figheight(fig.get_figheight() + legend_rows * LEGEND_PT * 1.5 / 72)
     fig.legend(handles=handles, loc="outside upper center", ncol=ncol, fontsize=LEGEND_PT, frameon=False)
     fig.supxlabel("time per frame, ms (median, all lights; bar = IQR)  —  log scale", fontsize=AXIS_LABEL_PT)
-    fig.supylabel("error rate, % of evaluated pixels  —  log scale", fontsize=AXIS_LABEL_PT)
+    if soft_panels and hard_panels:
+        for ax in soft_axes:
+            ax.set_ylabel("mean |V − G|, %", fontsize=TICK_PT)
+    fig.supylabel(("mean |V − G|, %" if soft_panels and not hard_panels else "error rate, % of evaluated pixels")
+                  + "  —  log scale", fontsize=AXIS_LABEL_PT)
     # lay the panels out once, name the points in pixels of that layout (the names are kept out
     # of it), then freeze it: a second constrained-layout pass at save time would cost as much
     # again (the log axes' ticks dominate) for the same positions

@@ -120,7 +120,7 @@ def test_bad_scene_file_exit_2(tmp_path, capsys, change, culprit):
 
 def test_failed_run_leaves_earlier_results(tmp_path, monkeypatch):
     """A failure in the middle of a run (after GL work began) keeps the old run directory."""
-    from shadowlab.commands import compare as runmod
+    from shadowlab.output import rundir
 
     out = tmp_path / "run"
     assert main(["compare", "box_on_plane", "--size", "64x48", "--repeat", "1", "--out", str(out)]) == 0
@@ -129,7 +129,7 @@ def test_failed_run_leaves_earlier_results(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise RuntimeError("simulated failure while writing")
 
-    monkeypatch.setattr(runmod.report, "write_html", boom)
+    monkeypatch.setattr(rundir, "render_page", boom)  # the page is the last thing the writer makes
     with pytest.raises(RuntimeError):
         main(["compare", "box_on_plane", "--size", "80x60", "--repeat", "1", "--out", str(out)])
     assert (out / "metrics.csv").read_text() == before

@@ -15,7 +15,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import metrics
-from .pictures import worst_region
 
 #: Insets per scene.
 INSET_COUNT = 2
@@ -50,6 +49,20 @@ class Inset:
         py = 100 * y0 / (h - bh) if h > bh else 0.0
         return (f"background-image:url('{src}');background-size:{100 * w / bw:.3f}% {100 * h / bh:.3f}%;"
                 f"background-position:{px:.3f}% {py:.3f}%;aspect-ratio:{bw}/{bh}")
+
+
+def worst_region(wrong: np.ndarray, window: int) -> tuple[tuple[int, int, int, int], int]:
+    """The ``window`` x ``window`` box (clipped to the image) holding the most wrong pixels of the
+    bool mask ``wrong`` (H, W), row 0 = top: ((x0, y0, x1, y1) with x1, y1 exclusive, count).
+    Where several boxes tie, the first in row-major order."""
+    h, w = wrong.shape
+    wy, wx = min(window, h), min(window, w)
+    # window sums from the summed-area table
+    sat = np.zeros((h + 1, w + 1), np.int64)
+    sat[1:, 1:] = np.cumsum(np.cumsum(wrong.astype(np.int64), 0), 1)
+    sums = sat[wy:, wx:] - sat[:-wy, wx:] - sat[wy:, :-wx] + sat[:-wy, :-wx]
+    y0, x0 = np.unravel_index(int(np.argmax(sums)), sums.shape)
+    return (int(x0), int(y0), int(x0 + wx), int(y0 + wy)), int(sums[y0, x0])
 
 
 def inset_window(width: int, height: int) -> int:

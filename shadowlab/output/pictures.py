@@ -119,18 +119,15 @@ def signed_legend(path: Path, limit: float) -> None:
     in visibility units, its ends named (too dark / too bright)."""
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import Normalize
 
-    fig, ax = plt.subplots(figsize=(5.0, 0.95), dpi=110)
+    fig, ax = _figure((5.0, 0.95))
     cb = fig.colorbar(matplotlib.cm.ScalarMappable(Normalize(-limit, limit), SIGNED_COLORMAP), cax=ax,
                       orientation="horizontal", ticks=[-limit, -limit / 2, 0.0, limit / 2, limit])
     cb.set_label("V − G, visibility   (← too dark: false shadow | too bright: false light →)", fontsize=8)
     cb.ax.tick_params(labelsize=8)
     fig.subplots_adjust(left=0.05, right=0.95, top=0.92, bottom=0.55)
     fig.savefig(path)
-    plt.close(fig)
 
 
 #: The texel-footprint image (Lloyd et al.'s m, :mod:`shadowlab.texel_footprint`): colour map and
@@ -163,18 +160,30 @@ def footprint_legend(path: Path) -> None:
     log scale, in pixels per texel."""
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import LogNorm
 
-    fig, ax = plt.subplots(figsize=(5.0, 0.95), dpi=110)
+    fig, ax = _figure((5.0, 0.95))
     cb = fig.colorbar(matplotlib.cm.ScalarMappable(LogNorm(*FOOTPRINT_RANGE), FOOTPRINT_COLORMAP), cax=ax,
                       orientation="horizontal")
     cb.set_label("texel footprint m, pixels   (<= 1 alias-free | > 10 severe)", fontsize=8)
     cb.ax.tick_params(labelsize=8)
     fig.subplots_adjust(left=0.05, right=0.95, top=0.92, bottom=0.55)
     fig.savefig(path)
-    plt.close(fig)
+
+
+#: Resolution of the run page's plots, dots per inch.
+PLOT_DPI = 110
+
+
+def _figure(size: tuple[float, float]):
+    """A figure of ``size`` inches and its one axes, on an Agg canvas of its own (object-oriented
+    matplotlib: no pyplot state, nothing to close)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=size, dpi=PLOT_DPI)
+    FigureCanvasAgg(fig)
+    return fig, fig.add_subplot()
 
 
 def save_png(path: Path, rgb: np.ndarray) -> None:
@@ -193,36 +202,9 @@ def encode_png(rgb: np.ndarray) -> bytes:
     return buf.getvalue()
 
 
-def worst_region(wrong: np.ndarray, window: int) -> tuple[tuple[int, int, int, int], int]:
-    """The ``window`` x ``window`` box (clipped to the image) holding the most wrong pixels of the
-    bool mask ``wrong`` (H, W), row 0 = top: ((x0, y0, x1, y1) with x1, y1 exclusive, count).
-    Where several boxes tie, the first in row-major order."""
-    h, w = wrong.shape
-    wy, wx = min(window, h), min(window, w)
-    # window sums from the summed-area table
-    sat = np.zeros((h + 1, w + 1), np.int64)
-    sat[1:, 1:] = np.cumsum(np.cumsum(wrong.astype(np.int64), 0), 1)
-    sums = sat[wy:, wx:] - sat[:-wy, wx:] - sat[wy:, :-wx] + sat[:-wy, :-wx]
-    y0, x0 = np.unravel_index(int(np.argmax(sums)), sums.shape)
-    return (int(x0), int(y0), int(x0 + wx), int(y0 + wy)), int(sums[y0, x0])
-
-
-def magnified(rgb: np.ndarray, box: tuple[int, int, int, int], factor: int) -> np.ndarray:
-    """The crop ``box`` = (x0, y0, x1, y1) of an image (H, W, 3), enlarged ``factor`` times by
-    repeating pixels (nearest neighbour: single wrong pixels stay sharp squares)."""
-    x0, y0, x1, y1 = box
-    crop = rgb[y0:y1, x0:x1]
-    return np.repeat(np.repeat(crop, factor, axis=0), factor, axis=1)
-
-
 def speed_error_plot(df: pd.DataFrame, path: Path) -> None:
     """Scatter of error rate against median time, one point per configuration and light."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
+    fig, ax = _figure((6.4, 4.2))
     key = "short_label" if "short_label" in df.columns else "label"
     for (label, light), g in df.groupby([key, "light"], sort=False):
         ax.errorbar(g["time_ms_median"], 100 * g["error_rate"], xerr=g["time_ms_iqr"] / 2, fmt="o", capsize=3,
@@ -234,7 +216,6 @@ def speed_error_plot(df: pd.DataFrame, path: Path) -> None:
     ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)
 
 
 def pass_time_plot(df: pd.DataFrame, path: Path) -> str | None:
@@ -243,15 +224,13 @@ def pass_time_plot(df: pd.DataFrame, path: Path) -> str | None:
     None when no pass was timed."""
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     cols = [c for c in df.columns if c.startswith("pass_") and c.endswith("_ms")]
     if not cols:
         return None
     rows = df[df["light"] == df["light"].min()].reset_index(drop=True)
-    fig, ax = plt.subplots(figsize=(7.5, 0.45 * len(rows) + 1.6), dpi=110)
-    colors = plt.get_cmap("tab20")
+    fig, ax = _figure((7.5, 0.45 * len(rows) + 1.6))
+    colors = matplotlib.colormaps["tab20"]
     left = np.zeros(len(rows))
     for k, col in enumerate(cols):
         vals = rows[col].fillna(0.0).to_numpy()
@@ -266,7 +245,6 @@ def pass_time_plot(df: pd.DataFrame, path: Path) -> str | None:
     ax.grid(alpha=0.3, axis="x")
     fig.tight_layout()
     fig.savefig(path)
-    plt.close(fig)
     return Path(path).name
 
 

@@ -257,6 +257,133 @@ def test_animate_end_to_end_writes_every_file(tmp_path, capsys):
     assert gif.n_frames == 3 and gif.size == (3 * 64 + 2 * 2, 48)
     html = (out / "report.html").read_text()
     assert "<table" in html and "strip_shadow_volume.gif" in html and "flicker_shadow_volume.png" in html
+    # summary.csv: the columns users' scripts read, in their order, then the added time column
+    assert list(summary.columns[:12]) == SUMMARY_COLUMNS_V1 and "time_ms_median" in summary.columns
+    assert (summary["time_ms_median"] > 0).all()
+    _check_summary_table(html, summary)
+    _check_flicker_png(out / "flicker_shadow_map_resolution_128.png")
+
+
+#: summary.csv's columns before the time column was added (a contract: only ever add).
+SUMMARY_COLUMNS_V1 = ["label", "short_label", "technique", "reference", "light", "frames", "error_rate_mean",
+                      "flip_rate_mean", "flip_rate_p95", "flip_rate_max", "temporal_error_mean", "temporal_error_max"]
+#: Largest share of near-black pixels the flicker PNG may have among its non-white ones: the old
+#: heat map was black on every covered pixel that did not flicker (most of the picture).
+FLICKER_MAX_BLACK_SHARE = 0.05
+#: Smallest mean brightness of the flicker PNG's picture pixels (not the figure's white, not
+#: the slate background): the grey scene underneath is at least FLICKER_UNDERLAY_GREY's low end.
+FLICKER_MIN_MEAN = 0.3
+
+
+def _summary_rows(html: str) -> list[list[str]]:
+    """The cells of the page's summary table, row by row (header left out)."""
+    import re
+
+    table = re.search(r'<table class="animate-summary">(.*?)</table>', html, re.S).group(1)
+    return [re.findall(r"<td[^>]*>(.*?)</td>", row, re.S) for row in re.findall(r"<tr[^>]*>(.*?)</tr>", table, re.S)
+            if "<td" in row]
+
+
+def _check_summary_table(html: str, summary: pd.DataFrame) -> None:
+    """The page's summary: the short label first (the full spec only as its tooltip), rates in
+    percent, the temporal error with 4 decimals and a time column."""
+    import html as html_lib
+    import re
+
+    rows = _summary_rows(html)
+    assert len(rows) == len(summary)
+    header = re.search(r'<table class="animate-summary">\s*<tr>(.*?)</tr>', html, re.S).group(1)
+    assert "time ms" in header and header.index("configuration") < header.index("light")
+    for cells, (_, r) in zip(rows, summary.iterrows()):
+        first = re.sub(r"<[^>]+>.*?</[^>]+>", "", cells[0]).strip()
+        assert first == r["short_label"], cells[0]
+        assert r["label"] not in html_lib.unescape(first)
+        assert f'title="{html_lib.escape(r["label"])}"' in html
+        rates = [c for c in cells if re.fullmatch(r"\d+\.\d\d %", c)]
+        assert len(rates) == 4, cells  # error rate, flip rate mean / p95 / max
+        assert sum(bool(re.fullmatch(r"\d\.\d{4}", c)) for c in cells) == 2, cells  # temporal error mean / max
+        assert re.fullmatch(r"\d+(\.\d+)?", cells[-1]) and float(cells[-1]) > 0, cells  # time, ms
+
+
+def _check_flicker_png(path) -> None:
+    """The flicker picture shows the scene: few near-black pixels and a bright enough mean over
+    the picture's pixels (the figure's white and the slate background left out)."""
+    from PIL import Image
+
+    from shadowlab.output import pictures
+
+    rgb = np.asarray(Image.open(path).convert("RGB")).reshape(-1, 3) / 255.0
+    ink = rgb[(rgb < 0.95).any(axis=1)]
+    black = (ink.max(axis=1) < 0.1).mean()
+    assert black < FLICKER_MAX_BLACK_SHARE, black
+    scene = ink[np.abs(ink - pictures.BACKGROUND).max(axis=1) > 0.02]
+    assert scene.mean() > FLICKER_MIN_MEAN, scene.mean()
+
+
+def test_flicker_overlay_shows_the_scene_and_colours_only_flips():
+    """flicker_overlay: the scene in grey where nothing flipped (bright where it is lit), the
+    colour map's colours (none near black) where something did, background where uncovered."""
+    from shadowlab.commands.animate import FLICKER_UNDERLAY_GREY, flicker_colormap, flicker_overlay
+    from shadowlab.output import pictures
+
+    h, w = 6, 8
+    covered = np.ones((h, w), bool)
+    covered[0] = False
+    underlay = np.full((h, w, 3), 0.8)
+    counts = np.zeros((h, w), np.int32)
+    counts[3, 2], counts[4, 5] = 1, 4
+    rgb = flicker_overlay(counts, covered, underlay)
+    quiet = covered & (counts == 0)
+    assert np.allclose(rgb[quiet], rgb[quiet][:, :1])  # grey
+    assert rgb[quiet].mean() > FLICKER_UNDERLAY_GREY[0] + 0.5 * (FLICKER_UNDERLAY_GREY[1] - FLICKER_UNDERLAY_GREY[0])
+    assert np.allclose(rgb[3, 2], flicker_colormap()(0.0)[:3]) and np.allclose(rgb[4, 5], flicker_colormap()(1.0)[:3])
+    assert rgb[3, 2].max() > 0.3  # the lowest count is no near-black
+    assert np.allclose(rgb[0], pictures.BACKGROUND)
+    # nothing flipped at all: the picture is the grey scene
+    assert np.allclose(flicker_overlay(np.zeros((h, w), np.int32), covered, underlay)[quiet], rgb[quiet])
+
+
+#: A label's text pixels: white, give or take the rounding of the alpha compositing.
+TEXT_WHITE = 240
+
+
+def test_label_strip_draws_frame_and_panel_names():
+    """label_strip writes white text on a dark box at each panel's top left and at the bottom
+    left, and leaves the rest of the strip alone."""
+    from shadowlab.commands.animate import STRIP_GAP, STRIP_PANELS, label_strip
+
+    w, h = 64, 48
+    strip = np.full((h, 3 * w + 2 * STRIP_GAP, 3), 128, np.uint8)
+    out = label_strip(strip, 0, 3)
+    assert out.shape == strip.shape and out.dtype == np.uint8
+    changed = (out != strip).any(axis=2)
+    for i in range(len(STRIP_PANELS)):
+        x0 = i * (w + STRIP_GAP)
+        corner = out[:h // 4, x0:x0 + w // 2]
+        assert (corner >= TEXT_WHITE).all(axis=2).any() and (corner < 128).all(axis=2).any(), STRIP_PANELS[i]
+    bottom = out[-h // 4:, :w // 2]
+    assert (bottom >= TEXT_WHITE).all(axis=2).any() and (bottom < 128).all(axis=2).any()
+    assert not changed[h // 3:2 * h // 3, w // 2:].any()  # the middle of the pictures is untouched
+    assert not np.array_equal(label_strip(strip, 0, 3), label_strip(strip, 1, 3))  # "frame 1/3" vs "frame 2/3"
+
+
+def test_gif_frames_are_labelled(tmp_path, monkeypatch):
+    """The GIF's first frame differs from the same run's frame without labels (the renders are
+    deterministic), and only in the label corners."""
+    import shadowlab.commands.animate as anim
+    from PIL import Image
+
+    args = dict(frames=2, size=(64, 48))
+    spec = ["shadow_map:resolution=128"]
+    labelled = anim.animate("tm_rotating_sun", spec, out=tmp_path / "a", **args)
+    monkeypatch.setattr(anim, "label_strip", lambda strip, k, n: strip)
+    plain = anim.animate("tm_rotating_sun", spec, out=tmp_path / "b", **args)
+    a, b = (np.asarray(Image.open(d / "strip_shadow_map_resolution_128.gif").convert("RGB"))
+            for d in (labelled, plain))
+    diff = (a != b).any(axis=2)
+    assert diff.sum() > 50, diff.sum()
+    h = a.shape[0]
+    assert not diff[h // 3:2 * h // 3].any()  # the labels sit at the top and the bottom
 
 
 @pytest.mark.slow  # a sweep: every registered technique animated over three frames, with its report

@@ -7,25 +7,25 @@ technique on every light through :mod:`shadowlab.pipeline` (``measure``; one unt
 render unless ``repeat`` says otherwise) → the usual metrics row plus ``frame``, ``t`` and, from
 frame 1 on, the temporal columns of :mod:`shadowlab.temporal` against frame k−1.
 
-Outputs (in the run directory, written into a temporary sibling and moved into place at the
-end, so a failed run leaves earlier results untouched — as :mod:`shadowlab.commands.compare` does):
-``frames.csv`` (one row per frame × light × configuration, the truth included), ``summary.csv``
-(per configuration and light: mean error rate, flip rate mean/p95/max, temporal error
-mean/max), ``flicker_<name>.png`` (per technique, first light: per pixel, how many frame pairs
-flipped where the truth did not), ``strip_<name>.gif`` (per technique, first light: truth |
-technique | error map, one GIF frame per animation frame), ``pictures.html`` and
-``animation.json`` (provenance, :mod:`shadowlab.provenance`).
+Outputs (through the one run-directory writer, :class:`shadowlab.output.rundir.RunDirectory`:
+written into a temporary sibling and moved into place at the end, so a failed run leaves earlier
+results untouched — as :mod:`shadowlab.commands.compare` does): ``frames.csv`` (one row per
+frame × light × configuration, the truth included), ``summary.csv`` (per configuration and
+light: mean error rate, flip rate mean/p95/max, temporal error mean/max, median time per frame),
+``flicker_<name>.png`` (per technique, first light: per pixel, how many frame pairs flipped where
+the truth did not, coloured over the last frame's shaded truth in grey), ``strip_<name>.gif``
+(per technique, first light: truth | technique | error map, one labelled GIF frame per animation
+frame), ``animation.json`` (provenance, :mod:`shadowlab.provenance`) and ``report.html``
+(template ``animate.html``). These names are a contract: users' scripts read them.
 
-The GIFs are written with Pillow's GIF writer: Pillow is already installed (matplotlib depends
-on it), whereas imageio would be a new dependency for the same few lines; the strips are flat
-colour pictures that a 256-colour palette holds without visible loss.
+The GIFs are written, and their frames labelled, with Pillow (GIF writer, ImageDraw and its
+default font): Pillow is already installed (matplotlib depends on it), whereas imageio would be a
+new dependency for the same few lines; the strips are flat colour pictures that a 256-colour
+palette holds without visible loss.
 """
 from __future__ import annotations
 
 import datetime as _dt
-import html
-import json
-import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,7 +37,9 @@ from .. import gl, metrics, provenance, temporal, timing
 from ..scene.animation import frame_times, scene_at
 from ..frame import Frame
 from ..pipeline import Evaluator, StepCallback, build_techniques, check_lights, measure, pass_order
-from ..output.rundir import move_into_place, safe_name, staging_dir
+from ..output.pages import provenance_items
+from ..output.rundir import RunDirectory, error_legend, safe_name
+from ..shading import ShadingPass
 from ..validation import RunError
 from .compare import check_size
 from ..scene import Scene, load_scene
@@ -46,8 +48,34 @@ from ..scene import Scene, load_scene
 GIF_FRAME_MS = 150
 #: Width of the dark separator between the panels of a strip, pixels.
 STRIP_GAP = 2
-#: Colour map of the flicker heat maps (matplotlib name): dark = no flips, bright = many.
+#: Colour map of the flicker heat maps (matplotlib name): dark = few flips, bright = many.
 FLICKER_COLORMAP = "inferno"
+#: Where on :data:`FLICKER_COLORMAP` a count of 1 starts: its near-black low end would read as
+#: shadow over the grey scene, so the overlay uses the map from here up.
+FLICKER_COLORMAP_FLOOR = 0.3
+#: Entries of that cut colour map (matplotlib's usual resolution).
+FLICKER_COLORMAP_STEPS = 256
+#: The grey scene under the flicker counts: luminance of the shaded truth mapped linearly onto
+#: [low, high], so the scene is visible but never as bright as the brightest overlay colours.
+FLICKER_UNDERLAY_GREY = (0.15, 0.75)
+#: Rec. 709 luma weights (sRGB-encoded RGB → grey) of the flicker picture's underlay.
+LUMA_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
+#: Panel names of a strip, left to right, drawn on every GIF frame.
+STRIP_PANELS = ("truth", "technique", "error")
+#: Margin of a GIF label from its panel's corner, and padding of its dark box, pixels.
+LABEL_MARGIN = 2
+LABEL_PAD = 1
+#: Opacity (0–255) of the dark box behind a GIF label.
+LABEL_BOX_ALPHA = 170
+#: The flicker figure: width and title height (inches), resolution, and its colour bar's width
+#: and gap from the picture (matplotlib axes_grid1 sizes).
+FLICKER_FIGURE_WIDTH = 5.0
+FLICKER_TITLE_HEIGHT = 0.6
+FLICKER_DPI = 110
+COLORBAR_WIDTH = "4%"
+COLORBAR_PAD = 0.08
+#: Decimals of the temporal error (a visibility difference, not a rate) on the page.
+TEMPORAL_ERROR_DECIMALS = 4
 TRUTH_KEY = "ground_truth"
 
 
@@ -96,32 +124,98 @@ def _strip_picture(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, co
     return _uint8(np.concatenate([truth_pic, gap, vis_pic, gap, err_pic], axis=1))
 
 
-def write_gif(path: Path, pictures: list[np.ndarray]) -> None:
+def label_strip(strip: np.ndarray, k: int, n: int) -> np.ndarray:
+    """One strip picture (uint8 (H, 3W + 2·gap, 3), :func:`_strip_picture`) with its labels drawn
+    in: each panel's name (:data:`STRIP_PANELS`) at its top left and "frame k/n" (1-based) at the
+    bottom left, white on a translucent dark box, so a GIF frame says what it shows and when
+    (Pillow ImageDraw, default font). Returns a new array of the same shape."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    h, total, _ = strip.shape
+    panel = (total - (len(STRIP_PANELS) - 1) * STRIP_GAP) // len(STRIP_PANELS)
+    image = Image.fromarray(strip, "RGB").convert("RGBA")
+    overlay = Image.new("RGBA", image.size, (0, 0, 0, 0))
+    draw = ImageDraw.Draw(overlay)
+    font = ImageFont.load_default()
+
+    def text(x: int, y: int, words: str, anchor: str) -> None:
+        box = draw.textbbox((x, y), words, font=font, anchor=anchor)
+        draw.rectangle((box[0] - LABEL_PAD, box[1] - LABEL_PAD, box[2] + LABEL_PAD, box[3] + LABEL_PAD),
+                       fill=(0, 0, 0, LABEL_BOX_ALPHA))
+        draw.text((x, y), words, font=font, fill=(255, 255, 255, 255), anchor=anchor)
+
+    for i, name in enumerate(STRIP_PANELS):
+        text(i * (panel + STRIP_GAP) + LABEL_MARGIN, LABEL_MARGIN, name, "la")
+    text(LABEL_MARGIN, h - LABEL_MARGIN, f"frame {k + 1}/{n}", "ld")
+    return np.asarray(Image.alpha_composite(image, overlay).convert("RGB")).copy()
+
+
+def write_gif(path: Path, strip: list[np.ndarray]) -> None:
     """An animated, looping GIF of uint8 RGB pictures (H, W, 3), :data:`GIF_FRAME_MS` each
     (Pillow's GIF writer, see the module docstring)."""
     from PIL import Image
 
-    images = [Image.fromarray(p, "RGB") for p in pictures]
+    images = [Image.fromarray(p, "RGB") for p in strip]
     images[0].save(path, save_all=True, append_images=images[1:], duration=GIF_FRAME_MS, loop=0)
 
 
-def flicker_picture(path: Path, counts: np.ndarray, covered: np.ndarray, title: str, caption: str) -> None:
-    """The flicker heat map (PNG, matplotlib): per pixel the number of frame pairs in which the
-    technique's thresholded visibility flipped while the truth's did not, on
-    :data:`FLICKER_COLORMAP` with a colour bar; background where nothing is visible."""
+def flicker_colormap():
+    """:data:`FLICKER_COLORMAP` from :data:`FLICKER_COLORMAP_FLOOR` up (a matplotlib colour map):
+    the overlay's colours, none of them dark enough to pass for shadow."""
+    import matplotlib
+    from matplotlib.colors import ListedColormap
+
+    base = matplotlib.colormaps[FLICKER_COLORMAP]
+    return ListedColormap(base(np.linspace(FLICKER_COLORMAP_FLOOR, 1.0, FLICKER_COLORMAP_STEPS)),
+                          name=f"{FLICKER_COLORMAP}_floor")
+
+
+def flicker_overlay(counts: np.ndarray, covered: np.ndarray, underlay: np.ndarray) -> np.ndarray:
+    """The flicker picture's pixels, RGB float in [0, 1] (H, W, 3), row 0 = top: the scene in grey
+    (``underlay``: sRGB-encoded shaded RGB (H, W, 3), its luma mapped onto
+    :data:`FLICKER_UNDERLAY_GREY`), the flip ``counts`` in :func:`flicker_colormap` colours where
+    a count is above 0 (1 → the floor colour, the largest count → the top), background where
+    nothing is covered. Why: counts alone are black wherever nothing flickers, which hides the
+    scene the flicker is on."""
+    lo, hi = FLICKER_UNDERLAY_GREY
+    grey = lo + (hi - lo) * np.clip(underlay @ LUMA_WEIGHTS, 0.0, 1.0)
+    rgb = np.repeat(grey[..., None], 3, axis=2)
+    top = max(1, int(counts.max()))
+    hot = (counts > 0) & covered
+    if hot.any():
+        rel = (counts[hot] - 1) / max(1, top - 1)
+        rgb[hot] = flicker_colormap()(rel)[:, :3]
+    rgb[~covered] = pictures.BACKGROUND
+    return rgb
+
+
+def flicker_picture(path: Path, counts: np.ndarray, covered: np.ndarray, underlay: np.ndarray, title: str,
+                    caption: str) -> None:
+    """The flicker heat map (PNG, matplotlib): :func:`flicker_overlay` — per pixel the number of
+    frame pairs in which the technique's thresholded visibility flipped while the truth's did not,
+    coloured over the grey scene ``underlay`` — with a colour bar of the counts (from 1)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+    from matplotlib.ticker import MaxNLocator
+    from mpl_toolkits.axes_grid1 import make_axes_locatable
 
     h, w = counts.shape
-    data = np.ma.masked_where(~covered, counts)
-    cmap = matplotlib.colormaps[FLICKER_COLORMAP].with_extremes(bad=pictures.BACKGROUND)
-    fig, ax = plt.subplots(figsize=(5.0, 5.0 * h / w + 0.6), dpi=110)
-    im = ax.imshow(data, cmap=cmap, vmin=0, vmax=max(1, int(counts.max())), interpolation="nearest")
+    top = max(1, int(counts.max()))
+    fig, ax = plt.subplots(figsize=(FLICKER_FIGURE_WIDTH, FLICKER_FIGURE_WIDTH * h / w + FLICKER_TITLE_HEIGHT),
+                           dpi=FLICKER_DPI)
+    ax.imshow(flicker_overlay(counts, covered, underlay), interpolation="nearest")
     ax.set_axis_off()
     ax.set_title(title, fontsize=8)
-    cb = fig.colorbar(im, ax=ax, fraction=0.046, pad=0.02)
+    # counts 1..top on the colour bar, as the overlay maps them (a single count still gets a bar),
+    # in an axes as tall as the picture
+    cax = make_axes_locatable(ax).append_axes("right", size=COLORBAR_WIDTH, pad=COLORBAR_PAD)
+    cb = fig.colorbar(ScalarMappable(Normalize(1, max(top, 2)), flicker_colormap()), cax=cax)
+    cb.locator = MaxNLocator(integer=True)
+    cb.update_ticks()
     cb.set_label(caption, fontsize=7)
     cb.ax.tick_params(labelsize=7)
     fig.savefig(path, bbox_inches="tight")
@@ -130,7 +224,9 @@ def flicker_picture(path: Path, counts: np.ndarray, covered: np.ndarray, title: 
 
 def summary_table(df: pd.DataFrame) -> pd.DataFrame:
     """Per configuration and light (``label``, ``light``): frames, mean error rate, flip rate
-    mean/p95/max and temporal error mean/max over the frame pairs (:func:`shadowlab.temporal.summarise`)."""
+    mean/p95/max and temporal error mean/max over the frame pairs (:func:`shadowlab.temporal.summarise`)
+    and ``time_ms_median``, the median over frames of each frame's median time (the cost beside
+    the stability). Columns are only ever added: summary.csv is read by users' scripts."""
     rows = []
     for (label, light), g in df.groupby(["label", "light"], sort=False):
         flip = temporal.summarise(g["flip_rate"])
@@ -139,7 +235,8 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
                      "reference": bool(g["reference"].iloc[0]), "light": light, "frames": len(g),
                      "error_rate_mean": float(g["error_rate"].mean()),
                      "flip_rate_mean": flip["mean"], "flip_rate_p95": flip["p95"], "flip_rate_max": flip["max"],
-                     "temporal_error_mean": terr["mean"], "temporal_error_max": terr["max"]})
+                     "temporal_error_mean": terr["mean"], "temporal_error_max": terr["max"],
+                     "time_ms_median": float(g["time_ms_median"].median())})
     return pd.DataFrame(rows)
 
 
@@ -157,19 +254,14 @@ def animate(scene_ref, specs: list[str], frames: int | None = None, size: tuple[
     check_lights(techniques, scene, where="animate runs every technique on every light: ")
     n = frame_count(scene, frames)
     out = Path(out) if out is not None else default_out_dir(scene)
-    tmp = staging_dir(out)
-    try:
-        _run(tmp, scene, techniques, n, size, repeat, warmup, on_step)
-        move_into_place(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+    with RunDirectory(out) as rd:
+        _run(rd, scene, techniques, n, size, repeat, warmup, on_step)
     return out
 
 
-def _run(folder: Path, scene: Scene, techniques, n: int, size, repeat: int, warmup: int,
+def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, warmup: int,
          on_step: StepCallback | None) -> None:
-    """Measure every frame and write the outputs into ``folder``."""
+    """Measure every frame and write the outputs into the run directory ``rd``."""
     lights = range(len(scene.lights))
     total = n * len(lights) * (1 + len(techniques)) * (repeat + warmup)
     times = frame_times(n)
@@ -177,7 +269,7 @@ def _run(folder: Path, scene: Scene, techniques, n: int, size, repeat: int, warm
     rows, notes = [], []
     prev_geom = prev_eval = None
     truth_spec = None
-    covered_last = None
+    covered_last = underlay = None
     moving = scene.animation is not None and scene.animation.camera_moves
     for k, t in enumerate(times):
         frame = Frame(scene_at(scene, t), *size)
@@ -211,7 +303,8 @@ def _run(folder: Path, scene: Scene, techniques, n: int, size, repeat: int, warm
                     else:
                         row.update({c: float("nan") for c in temporal.TEMPORAL_COLUMNS})
                     if li == 0 and not is_ref:
-                        track.strip.append(_strip_picture(m.visibility, truth_m.visibility, evals[0], frame.covered))
+                        track.strip.append(label_strip(_strip_picture(m.visibility, truth_m.visibility, evals[0],
+                                                                      frame.covered), k, n))
                     track.prev_vis = m.visibility
                     rows.append(row)
             for tech in techniques:
@@ -219,27 +312,30 @@ def _run(folder: Path, scene: Scene, techniques, n: int, size, repeat: int, warm
                 tech.notes.clear()
             prev_geom, prev_eval = geom, evals
             covered_last = frame.covered.copy()
+            if k == n - 1:
+                underlay = _shaded_truth(frame, [evaluator.truth(li).visibility for li in lights])
         finally:
             frame.release()
 
     df = pd.DataFrame(rows)
     ordered = metrics.order_columns([c for c in df.columns if c not in ("frame", "t")], pass_order())
     df = df[["frame", "t"] + ordered]
-    df.to_csv(folder / "frames.csv", index=False)
+    rd.table("frames.csv", df)
     summary = summary_table(df)
-    summary.to_csv(folder / "summary.csv", index=False)
+    rd.table("summary.csv", summary)
 
     where = ("accumulated in each frame's own pixels (screen space: the camera moves, so a pixel's surface "
              "changes from frame to frame)" if moving else "in the last frame's pixels (still camera)")
     caption = f"frame pairs flipping beyond the truth, {where}"
-    pictures = []
+    images = []
     for tech in techniques:
         track = tracks[(tech.spec(), 0)]
         flicker = f"flicker_{track.stem}.png"
         strip = f"strip_{track.stem}.gif"
-        flicker_picture(folder / flicker, track.flip_count, covered_last, tech.short_label(), "flips / pixel")
-        write_gif(folder / strip, track.strip)
-        pictures.append({"label": tech.spec(), "title": tech.short_label(), "flicker": flicker, "strip": strip,
+        flicker_picture(rd.path / flicker, track.flip_count, covered_last, underlay, tech.short_label(),
+                        "flips / pixel")
+        write_gif(rd.path / strip, track.strip)
+        images.append({"label": tech.spec(), "title": tech.short_label(), "flicker": flicker, "strip": strip,
                          "flips_total": int(track.flip_count.sum()), "flips_max": int(track.flip_count.max())})
 
     record = {
@@ -261,56 +357,22 @@ def _run(folder: Path, scene: Scene, techniques, n: int, size, repeat: int, warm
                                      f"valid within {temporal.SAME_SURFACE_FOOTPRINTS} pixel footprints",
                      "threshold": metrics.THRESHOLD, "flicker_caption": caption,
                      "images_light": 0},
-        "images": pictures,
+        "images": images,
         "notes": list(dict.fromkeys(notes)),
         **provenance.record(),
     }
-    (folder / "animation.json").write_text(json.dumps(record, indent=2, default=provenance.json_default))
-    write_html(folder / "pictures.html", record, summary, pictures)
+    rd.record("animation.json", record)
+    rd.page("animate.html", title=f"shadowlab animate: {scene.name}", renderer=record["renderer"],
+            provenance=provenance_items(record), run=record, summary=summary.to_dict("records"), images=images,
+            error_colors=error_legend(), temporal_error_decimals=TEMPORAL_ERROR_DECIMALS)
 
 
-def write_html(path: Path, record: dict, summary: pd.DataFrame, pictures: list[dict]) -> None:
-    """``pictures.html`` of an animate run: the run's facts, the summary table, and per technique
-    its flicker heat map and its animated error strip (file names relative to the report)."""
-    table = summary.copy()
-    for c in table.columns:
-        if c.endswith(("_mean", "_p95", "_max")):
-            table[c] = table[c].map(lambda v: "" if not np.isfinite(v) else f"{v:.5f}")
-    legend = "".join(f"{html.escape(name)}; " for name, _ in pictures.ERROR_COLORS.values())
-    items = "".join(
-        f'<h3>{html.escape(p["title"])}</h3><p class="spec">{html.escape(p["label"])} · {p["flips_total"]} flips '
-        f'beyond the truth in all, at most {p["flips_max"]} on one pixel</p><div class="row">'
-        f'<figure><img src="{p["flicker"]}" alt="flicker heat map"><figcaption>flicker heat map</figcaption></figure>'
-        f'<figure><img class="strip" src="{p["strip"]}" alt="error strip"><figcaption>truth | technique | '
-        f'error map, per frame</figcaption></figure></div>' for p in pictures)
-    notes = "".join(f"<li>{html.escape(x)}</li>" for x in record["notes"])
-    scene = record["scene"]["name"]
-    doc = f"""<!doctype html>
-<html><head><meta charset="utf-8"><title>shadowlab animate — {html.escape(scene)}</title>
-<style>
-body {{ font-family: system-ui, sans-serif; margin: 1.5em; color: #222; }}
-table {{ border-collapse: collapse; font-size: 0.85em; }}
-td, th {{ border: 1px solid #ccc; padding: 0.25em 0.5em; text-align: right; }}
-.row {{ display: flex; gap: 0.8em; flex-wrap: wrap; align-items: flex-start; }}
-figure {{ margin: 0; }} .row img {{ max-width: 640px; border: 1px solid #999; }}
-img.strip {{ image-rendering: pixelated; min-width: 480px; }}
-.spec {{ font-family: monospace; font-size: 0.75em; color: #555; word-break: break-all; }}
-figcaption {{ font-size: 0.8em; color: #555; }}
-</style></head><body>
-<h1>shadowlab animate: {html.escape(scene)}</h1>
-<p>{record['frames']} frames at {record['size'][0]}×{record['size'][1]} pixels
-({'still scene' if record['still'] else 'camera moves' if record['camera_moves'] else 'lights move, camera still'})
-· device: {html.escape(record['device'])} · {html.escape(record['date'])} · revision {html.escape(record['revision'])}<br>
-flip_rate: share of validly reprojected pixels whose visibility (thresholded at {record['temporal']['threshold']})
-changes between consecutive frames while the truth's does not; temporal_error: mean |ΔV − ΔG|.
-Heat maps and strips are for light 0; the heat map counts {html.escape(record['temporal']['flicker_caption'])}.
-Error map colours: {legend}</p>
-{f'<h2>Notes</h2><ul>{notes}</ul>' if notes else ''}
-<h2>Summary</h2>
-{table.to_html(index=False, escape=True)}
-<p>Per-frame rows: frames.csv.</p>
-<h2>Flicker</h2>
-{items}
-</body></html>
-"""
-    path.write_text(doc)
+def _shaded_truth(frame: Frame, visibilities: list[np.ndarray]) -> np.ndarray:
+    """The frame shaded with the truth's visibility of every light, sRGB-encoded RGB float
+    (H, W, 3), background where uncovered: the scene under the flicker counts."""
+    shading = ShadingPass(frame)
+    try:
+        return pictures.to_display(shading.shade(visibilities), frame.covered)
+    finally:
+        shading.release()
+

@@ -51,18 +51,18 @@ class Inset:
                 f"background-position:{px:.3f}% {py:.3f}%;aspect-ratio:{bw}/{bh}")
 
 
-def worst_region(wrong: np.ndarray, window: int) -> tuple[tuple[int, int, int, int], int]:
-    """The ``window`` x ``window`` box (clipped to the image) holding the most wrong pixels of the
-    bool mask ``wrong`` (H, W), row 0 = top: ((x0, y0, x1, y1) with x1, y1 exclusive, count).
-    Where several boxes tie, the first in row-major order."""
-    h, w = wrong.shape
+def worst_region(weight: np.ndarray, window: int) -> tuple[tuple[int, int, int, int], float]:
+    """The ``window`` x ``window`` box (clipped to the image) holding the most of ``weight``
+    (H, W; a bool mask counts pixels), row 0 = top: ((x0, y0, x1, y1) with x1, y1 exclusive,
+    its sum). Where several boxes tie, the first in row-major order."""
+    h, w = weight.shape
     wy, wx = min(window, h), min(window, w)
     # window sums from the summed-area table
-    sat = np.zeros((h + 1, w + 1), np.int64)
-    sat[1:, 1:] = np.cumsum(np.cumsum(wrong.astype(np.int64), 0), 1)
+    sat = np.zeros((h + 1, w + 1), np.float64)
+    sat[1:, 1:] = np.cumsum(np.cumsum(weight.astype(np.float64), 0), 1)
     sums = sat[wy:, wx:] - sat[:-wy, wx:] - sat[wy:, :-wx] + sat[:-wy, :-wx]
     y0, x0 = np.unravel_index(int(np.argmax(sums)), sums.shape)
-    return (int(x0), int(y0), int(x0 + wx), int(y0 + wy)), int(sums[y0, x0])
+    return (int(x0), int(y0), int(x0 + wx), int(y0 + wy)), float(sums[y0, x0])
 
 
 def inset_window(width: int, height: int) -> int:
@@ -79,16 +79,19 @@ def wrong_pixels(mask: np.ndarray, truth: np.ndarray) -> np.ndarray:
     return (classes == 3) | (classes == 4)
 
 
-def _centred(box, wrong: np.ndarray) -> tuple[int, int, int, int]:
-    """``box`` moved (same size, inside the image) so its centre is the centroid of the wrong
-    pixels it holds."""
+def _centred(box, weight: np.ndarray) -> tuple[int, int, int, int]:
+    """``box`` moved (same size, inside the image) so its centre is the ``weight``-weighted
+    centroid of the pixels it holds."""
     x0, y0, x1, y1 = box
-    ys, xs = np.nonzero(wrong[y0:y1, x0:x1])
-    if not len(xs):
+    part = weight[y0:y1, x0:x1]
+    total = float(part.sum())
+    if total <= 0:
         return box
-    h, w = wrong.shape
+    h, w = weight.shape
     bw, bh = x1 - x0, y1 - y0
-    cx, cy = x0 + xs.mean() + 0.5, y0 + ys.mean() + 0.5
+    ys, xs = np.mgrid[0:bh, 0:bw]
+    cx = x0 + float((xs * part).sum()) / total + 0.5
+    cy = y0 + float((ys * part).sum()) / total + 0.5
     nx0 = int(np.clip(round(cx - bw / 2), 0, w - bw))
     ny0 = int(np.clip(round(cy - bh / 2), 0, h - bh))
     return nx0, ny0, nx0 + bw, ny0 + bh
@@ -96,22 +99,31 @@ def _centred(box, wrong: np.ndarray) -> tuple[int, int, int, int]:
 
 def common_insets(truth: np.ndarray, masks: list[np.ndarray], count: int = INSET_COUNT) -> list[Inset]:
     """Up to ``count`` regions where the configurations' ``masks`` (float (H, W), NaN off the
-    evaluated pixels) are wrong most against ``truth``, pooled over all of them: the window
-    (:func:`inset_window`) with the most wrong pixels, centred on them; its pixels are then
-    removed and the next window chosen. No region where nothing is wrong (an empty list when
-    every configuration is right everywhere)."""
+    evaluated pixels) are wrong against ``truth``, for as many of them as possible: the window
+    (:func:`inset_window`) holding the largest summed *share* of each configuration's wrong
+    pixels, centred on them; its pixels are then removed and the next window chosen. No region
+    where nothing is wrong (an empty list when every configuration is right everywhere).
+
+    Why shares, not counts: one configuration that is wrong over a large area (a blob shadow, a
+    planar shadow that misses a receiver) would otherwise pull every window onto its own error,
+    where the others are right; weighting each configuration's wrong pixels by 1 / its total
+    makes each configuration count the same, so the windows land where several go wrong."""
     h, w = truth.shape
     pooled = np.zeros((h, w), np.int64)
+    share = np.zeros((h, w), np.float64)
     for m in masks:
-        pooled += wrong_pixels(m, truth)
+        wrong = wrong_pixels(m, truth)
+        pooled += wrong
+        if wrong.any():
+            share += wrong / float(wrong.sum())
     window = inset_window(w, h)
     out: list[Inset] = []
-    left = pooled.copy()
+    left = share
     for k in range(count):
-        box, n = worst_region(left, window)
-        if n == 0:
+        box, score = worst_region(left, window)
+        if score <= 0:
             break
-        box = _centred(box, left > 0)
+        box = _centred(box, left)
         x0, y0, x1, y1 = box
         out.append(Inset(box, (w, h), int(pooled[y0:y1, x0:x1].sum()), k + 1))
         left[y0:y1, x0:x1] = 0

@@ -72,7 +72,7 @@ def test_verdict_sentences_name_winners_and_failures():
     # planar is as accurate on s1 but fails s2: the median would hide it, the sentence does not
     assert "most accurate: shadow_polygons, shadow_volume" in maps
     assert "fails: planar on 1 of 2" in maps
-    assert "fastest for a static light: shadow_polygons" in maps
+    assert "fastest per frame for a static light: shadow_polygons" in maps
     assert "for a moving light: shadow_volume" in maps
     assert "no technique passes every scene" not in maps
     soft = sentences["soft shadows"]
@@ -93,3 +93,13 @@ def test_scene_metric_is_pooled_and_carried():
 def test_summary_table_reports_the_worst_case_beside_the_median():
     s = agg.summary_table(_table()).set_index("label")
     assert s.loc["planar", "median_error_rate"] == 0.01 and s.loc["planar", "worst_error_rate"] == 0.02
+
+
+def test_times_within_the_time_tie_share_the_verdict():
+    rows = [_row("t", "raytrace", 0.0, 10.0), _row("t", "shadow_volume", 0.0, 3.0),
+            _row("t", "shadow_map", 0.0, 3.2), _row("t", "planar", 0.0, 4.0)]
+    v = agg.verdict_table(pd.DataFrame(rows)).set_index("technique")
+    assert v.loc["shadow_volume", "best_time"] and v.loc["shadow_map", "best_time"]   # 3.2 <= 3.0 * 1.1
+    assert not v.loc["planar", "best_time"]
+    (_, sentence), = agg.verdict_sentences(agg.verdict_table(pd.DataFrame(rows)))
+    assert "shadow_volume (3.000 ms), shadow_map (3.200 ms), tied within 10 %" in sentence

@@ -30,6 +30,9 @@ FAIL_VISIBILITY_MAE = 0.02
 #: Errors this close to a row's best count as tied with it (a few pixels of difference say nothing
 #: about a technique): 0.01 % of the evaluated pixels for error_rate, 0.001 for visibility_mae.
 TIE_TOLERANCE = {"error_rate": 1e-4, "visibility_mae": 1e-3}
+#: Times within this fraction of a row's fastest tie with it: a software rasteriser's timings move
+#: by several percent from one run to the next, and a verdict must not flip with them.
+TIME_TIE = 0.10
 #: The scene family whose scenes are judged on visibility error (:func:`judged_metric`).
 SOFT_FAMILY = "soft shadows"
 
@@ -365,7 +368,8 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None) -> p
     ``configurations`` (how many of the family's configurations ran); ``failed`` (bool: the best
     configuration's error is above :func:`fail_threshold`, or every configuration's run failed)
     and ``why``; ``best_error`` / ``best_time`` / ``best_moving`` (bool: the lowest error in the
-    scene's row, within :data:`TIE_TOLERANCE`; the lowest static / moving time among the row's families that do not fail)."""
+    scene's row, within :data:`TIE_TOLERANCE`; the lowest static / moving time among the row's
+    families that do not fail, within :data:`TIME_TIE`)."""
     cfg = per_configuration(results, scene_metrics)
     conf = cfg[~cfg["reference"].astype(bool)] if len(cfg) else cfg
     fails = failed_runs(results)
@@ -409,7 +413,7 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None) -> p
         ok = part[~part["failed"].astype(bool)]
         for col, flag in (("time_ms", "best_time"), ("moving_ms", "best_moving")):
             if ok[col].notna().any():
-                out.loc[ok.index, flag] = ok[col] == ok[col].min()
+                out.loc[ok.index, flag] = ok[col] <= ok[col].min() * (1 + TIME_TIE)
     return out
 
 
@@ -418,12 +422,26 @@ def fmt_limit(metric: str, limit: float) -> str:
     return f"{100 * limit:g} %" if metric == "error_rate" else f"{limit:g}"
 
 
+def _fastest_names(times: pd.Series) -> list[str]:
+    """The index labels of ``times`` within :data:`TIME_TIE` of the least, fastest first."""
+    best = times.min()
+    return list(times[times <= best * (1 + TIME_TIE)].sort_values(kind="stable").index)
+
+
+def _fastest(times: pd.Series) -> str:
+    """"A (1.20 ms)" or, with ties, "A (1.20 ms), B (1.25 ms), tied within 10 %"."""
+    names = _fastest_names(times)
+    text = ", ".join(f"{n} ({fmt_ms(times[n])} ms)" for n in names)
+    return text + (f", tied within {100 * TIME_TIE:g} %" if len(names) > 1 else "")
+
+
 def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
     """One sentence per scene family, from :func:`verdict_table`: (family, sentence) saying who
     is most accurate (lowest median best-configuration error over the family's scenes, among the
     techniques that ran on most of them and fail none — the median would hide a failure; every
     technique within :data:`TIE_TOLERANCE` of it is named), who is fastest for a static and for a moving light
-    among the techniques that fail none of those scenes, and who fails where."""
+    among the techniques that fail none of those scenes (times within :data:`TIME_TIE` tie), and
+    who fails where."""
     out = []
     if not len(verdicts):
         return out
@@ -449,13 +467,16 @@ def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
             parts.append(f"most accurate: {', '.join(winners)} (median {metric} {show(best)}{tied})")
         sound = full[(full["fails"] == 0) & full["time"].notna()]
         if len(sound):
-            fast, moving = sound["time"].idxmin(), sound["moving"].idxmin()
-            parts.append(f"fastest for a static light: {fast} ({fmt_ms(sound.loc[fast, 'time'])} ms per frame)")
-            if moving != fast:
-                parts.append(f"for a moving light: {moving} ({fmt_ms(sound.loc[moving, 'moving'])} ms; {fast} needs "
-                             f"{fmt_ms(sound.loc[fast, 'moving'])} ms with its per-light preprocessing)")
+            parts.append("fastest per frame for a static light: " + _fastest(sound["time"]))
+            static, moving = _fastest_names(sound["time"]), _fastest_names(sound["moving"])
+            if moving != static:
+                slow = [n for n in static if n not in moving]
+                extra = (f"; {', '.join(slow)} {'needs' if len(slow) == 1 else 'need'} "
+                         f"{', '.join(fmt_ms(sound.loc[n, 'moving']) + ' ms' for n in slow)} with per-light "
+                         f"preprocessing" if slow else "")
+                parts.append(f"for a moving light: {_fastest(sound['moving'])}{extra}")
             else:
-                parts.append(f"for a moving light too ({fmt_ms(sound.loc[moving, 'moving'])} ms)")
+                parts.append("the same for a moving light")
         else:
             parts.append("no technique passes every scene")
         failing = per[per["fails"] > 0]

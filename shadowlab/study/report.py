@@ -24,7 +24,7 @@ from ..metrics import COLUMN_BY_NAME
 from ..output.pages import fmt_ms as fmt_ms_short
 from ..output.pages import fmt_num
 from ..output.pareto import pareto_plot
-from .aggregate import (FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, as_text, failed_runs, family_order,
+from .aggregate import (FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, TIME_TIE, as_text, failed_runs, family_order,
                         family_table, fmt_limit, fmt_ms, fmt_pct, is_missing, judged_metric, names_text, normalised,
                         per_configuration, scenes_in_order, summary_table, verdict_sentences, verdict_table,
                         write_text_atomic)
@@ -365,7 +365,7 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
         verdicts=verdict_grid(verdicts, scenes_meta), sentences=[s for _, s in verdict_sentences(verdicts)],
         thresholds={"error_rate": fmt_limit("error_rate", FAIL_ERROR_RATE),
                     "visibility_mae": fmt_limit("visibility_mae", FAIL_VISIBILITY_MAE),
-                    "tie": fmt_limit("error_rate", TIE_TOLERANCE["error_rate"])},
+                    "tie": fmt_limit("error_rate", TIE_TOLERANCE["error_rate"]), "time": f"{100 * TIME_TIE:g} %"},
         pareto=_rel(study_dir, pareto_png) or quote(Path(pareto_png).as_posix()),
         summary=_summary_rows(results),
         failed=[[as_text(r["scene"]), as_text(r["label"]), as_text(r["error"])] for _, r in fails.iterrows()],

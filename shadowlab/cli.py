@@ -305,11 +305,18 @@ def _cmd_animate(args) -> int:
         return EXIT_NO_GL
     finally:
         bar.close()
+    from .output.pages import fmt_ms, fmt_pct
+
     summary = pd.read_csv(out / "summary.csv")
-    cols = ["short_label", "light", "frames", "error_rate_mean", "flip_rate_mean", "flip_rate_p95", "flip_rate_max",
-            "temporal_error_mean", "temporal_error_max"]
-    with pd.option_context("display.width", 200, "display.max_colwidth", 60, "display.float_format", "{:.5f}".format):
-        print(summary[cols].to_string(index=False))
+    shown = pd.DataFrame({"configuration": summary["short_label"], "light": summary["light"],
+                          "frames": summary["frames"]})
+    for col in ("error_rate_mean", "flip_rate_mean", "flip_rate_p95", "flip_rate_max"):  # rates: percent, as compare
+        shown[col] = summary[col].map(fmt_pct)
+    for col in ("temporal_error_mean", "temporal_error_max"):  # a visibility difference, not a rate
+        shown[col] = summary[col].map(lambda v: f"{v:.4f}" if v == v else "")
+    shown["time_ms"] = summary["time_ms_median"].map(fmt_ms)
+    with pd.option_context("display.width", 200, "display.max_colwidth", 60):
+        print(shown.to_string(index=False))
     print(f"run directory: {out.resolve()}")
     print(f"report: {(out / 'report.html').resolve()}")
     return 0

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import ast
 import difflib
+import functools
 import pkgutil
 import re
 import sys
@@ -186,6 +187,7 @@ def headline_verdicts(study: Path = HEADLINE_STUDY) -> str:
     return "\n".join([source, ""] + lines).strip()
 
 
+@functools.lru_cache(maxsize=1)
 def generated() -> dict[str, str]:
     """Each generated table, freshly made, by marker name."""
     return {"technique-table": technique_table(), "layout-table": layout_table(),

@@ -1,5 +1,5 @@
 """The HTML pages (DESIGN §17) as a reader's browser gets them: a compare page, a study page and an
-animate page, made once per module at SMALL with two or three configurations.
+animate page, made once per module at PAGE_SIZE with two or three configurations.
 
 * Always (standard-library parser, no browser, a few seconds): one <h1>; every <img src>, every
   image a view button swaps in (``data-*`` attributes), every CSS ``url(...)`` (style attributes
@@ -31,12 +31,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import SMALL
 from shadowlab import gl
 from shadowlab.commands.animate import animate
 from shadowlab.commands.compare import compare
 from shadowlab.scene import resolve_scene_path, scene_purpose
-from shadowlab.study.report import write_study_report
+from shadowlab.output.pictures import save_png
+from shadowlab.study.report import write_study_html
 from shadowlab.study.suite import load_suite
 
 #: Strings a user controls, each with markup, an ampersand and a quote: the scene name (scene file),
@@ -48,6 +48,9 @@ FAIL_MESSAGE = "RuntimeError: <i>boom</i> & \"more\" <script>alert('failed')</sc
 #: The configurations of the compare run (the study's scenes all show its images): a shadow map
 #: (footprint map), shadow volumes, planar shadows (signed map).
 SPECS = ["shadow_map:resolution=256", "shadow_volume", "planar"]
+#: The pages' image size: small, the pages' structure does not depend on it (80x60 keeps the module
+#: fixture near 3 s of the inner loop).
+PAGE_SIZE = (80, 60)
 #: The browser's window (the study's first screen).
 WINDOW = (1400, 900)
 IMAGE_SUFFIXES = (".png", ".gif", ".jpg", ".jpeg", ".svg", ".webp")
@@ -98,7 +101,7 @@ def _study_results(run: Path, run_dir: str) -> tuple[pd.DataFrame, dict]:
     df["run_dir"] = np.where(failed, "", run_dir)
     df["revision"] = "abc123"
     df["renderer"] = gl.renderer()
-    meta = {"name": STUDY_NAME, "description": f"{quick.description} {DESCRIPTION}", "size": list(SMALL),
+    meta = {"name": STUDY_NAME, "description": f"{quick.description} {DESCRIPTION}", "size": list(PAGE_SIZE),
             "repeat": 1, "warmup": 0, "device": gl.device(), "renderer": gl.renderer(), "revision": "abc123",
             "date": "2026-01-01T00:00:00+00:00", "timing": "wall clock", "workers": 1, "elapsed_s": 1.0,
             "runs": len(df), "cached": 0, "failed": 1, "suite_file": "/somewhere/quick.toml", "scenes": scenes}
@@ -108,14 +111,17 @@ def _study_results(run: Path, run_dir: str) -> tuple[pd.DataFrame, dict]:
 def make_pages(root: Path) -> dict[str, list[Path]]:
     """{"compare": [report.html], "study": [study.html], "animate": [its .html pages]} under
     ``root``: a compare run (inside a study directory, as a study's scene run), the study page over
-    it, and an animate run of 3 frames, all of the scene named :data:`SCENE_NAME`."""
+    it, and an animate run of 2 frames, all of the scene named :data:`SCENE_NAME`."""
     scene = _scene_file(root)
     study = root / "study"
     run = study / "runs" / "odd"
-    compare(scene, SPECS, SMALL, run, repeat=1, warmup=0)
+    compare(scene, SPECS, PAGE_SIZE, run, repeat=1, warmup=0)
     results, meta = _study_results(run, "runs/odd")
-    write_study_report(study, results, meta)
-    moving = animate(scene, SPECS[:2], frames=3, size=SMALL, out=root / "animate")
+    # the page, not the Pareto figure (tests/test_study_report.py draws that; drawing it here would
+    # cost the inner loop about 3.5 s): a small stand-in image under its name
+    save_png(study / "pareto.png", np.full((40, 60, 3), 0.8))
+    write_study_html(study, results, meta)
+    moving = animate(scene, SPECS[:2], frames=2, size=PAGE_SIZE, out=root / "animate")
     found = {"compare": [run / "report.html"], "study": [study / "study.html"],
              "animate": sorted(Path(moving).glob("*.html"))}
     assert found["animate"], f"animate wrote no .html page into {moving}"

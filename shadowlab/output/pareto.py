@@ -307,7 +307,7 @@ def pareto_figure(results: pd.DataFrame):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
 
     df = normalised(results) if len(results) else results
     cfg = per_configuration(results)
@@ -407,7 +407,10 @@ def pareto_figure(results: pd.DataFrame):
                 subs = (1.0, 2.0, 5.0) if 3 * math.log10(hi / lo) <= room else (1.0,)
                 axis.set_major_locator(LogLocator(base=10, subs=subs))
                 axis.set_major_formatter(plain)
-                axis.set_minor_formatter(NullFormatter())
+                # no minor ticks: on log axes matplotlib makes a tick object for each one, and laying
+                # them out was most of the figure's time (3.5 of 4.7 s for the quick study); the grid
+                # follows the labelled ticks
+                axis.set_minor_locator(NullLocator())
             ax.axhline(threshold, color=FAIL_COLOR, ls="-", lw=FAIL_LINE_PT, alpha=0.8, zorder=1, gid="fail-threshold")
             ax.axhspan(threshold, ax.get_ylim()[1], color=FAIL_COLOR, alpha=FAIL_BAND_ALPHA, lw=0, zorder=0)
             any_fail_line = True

@@ -23,8 +23,8 @@ import pandas as pd
 from .. import provenance
 from ..validation import RunError
 from . import pictures
-from .insets import common_insets
-from .pages import provenance_items, render_page
+from .insets import common_insets, wrong_pixels
+from .pages import fmt_ms, fmt_pct, provenance_items, render_page
 
 GROUND_TRUTH_KEY = "ground_truth"
 #: The picture kinds of a configuration, in the order the page offers them.
@@ -180,8 +180,6 @@ def write_comparison(rd: RunDirectory, rows: pd.DataFrame, configs: list[ConfigI
 def captions_of(rows: pd.DataFrame) -> dict[str, list[str]]:
     """Caption lines per configuration label from its first light's metrics row: error rate and
     the false shadow / false lit split, time per frame and set-up time."""
-    from .pages import fmt_ms, fmt_pct
-
     out = {}
     first = rows[rows["light"] == rows["light"].min()] if "light" in rows.columns else rows
     for _, r in first.iterrows():
@@ -204,8 +202,6 @@ def _truthy(value) -> bool:
 
 def _wrong_in(mask: np.ndarray, truth: np.ndarray, insets) -> list[int]:
     """Wrong pixels of one configuration inside each inset."""
-    from .insets import wrong_pixels
-
     wrong = wrong_pixels(mask, truth)
     return [int(wrong[y0:y1, x0:x1].sum()) for (x0, y0, x1, y1) in (i.box for i in insets)]
 

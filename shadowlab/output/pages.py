@@ -13,6 +13,8 @@ from pathlib import Path
 
 import jinja2
 
+from ..study.aggregate import is_missing
+
 TEMPLATES = Path(__file__).parent / "templates"
 
 #: The sentence a page opens with when its times come from a CPU rasteriser.
@@ -20,21 +22,14 @@ SOFTWARE_BANNER = ("Times on this page were measured on a software rasteriser ({
                    "times, good for comparing techniques with each other, not for judging a GPU.")
 
 
-def _missing(value) -> bool:
-    try:
-        return value is None or value != value  # NaN is the one value unequal to itself
-    except (TypeError, ValueError):
-        return False
-
-
 def fmt_pct(rate, digits: int = 2) -> str:
     """A rate in [0, 1] as a percentage ("0.12 %"); '' when missing."""
-    return "" if _missing(rate) else f"{100.0 * float(rate):.{digits}f} %"
+    return "" if is_missing(rate) else f"{100.0 * float(rate):.{digits}f} %"
 
 
 def fmt_ms(value) -> str:
     """Milliseconds with sensible precision ("0.31", "12.4", "1250"); '' when missing."""
-    if _missing(value):
+    if is_missing(value):
         return ""
     v = float(value)
     return f"{v:.2f}" if v < 10 else f"{v:.1f}" if v < 100 else f"{v:.0f}"
@@ -42,7 +37,7 @@ def fmt_ms(value) -> str:
 
 def fmt_num(value, digits: int = 3) -> str:
     """A number to ``digits`` significant digits; '' when missing."""
-    return "" if _missing(value) else f"{float(value):.{digits}g}"
+    return "" if is_missing(value) else f"{float(value):.{digits}g}"
 
 
 @functools.lru_cache(maxsize=1)

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from .. import provenance
+from ..study.aggregate import is_true
 from ..validation import RunError
 from . import pictures
 from .insets import common_insets, wrong_pixels
@@ -184,7 +185,7 @@ def captions_of(rows: pd.DataFrame) -> dict[str, list[str]]:
     first = rows[rows["light"] == rows["light"].min()] if "light" in rows.columns else rows
     for _, r in first.iterrows():
         lines = []
-        if not _truthy(r.get("reference")):
+        if not is_true(r.get("reference")):
             lines.append(f"error {fmt_pct(r.get('error_rate'))} (false shadow {fmt_pct(r.get('false_shadow_rate'))},"
                          f" false lit {fmt_pct(r.get('false_lit_rate'))})")
         timing = f"{fmt_ms(r.get('time_ms_median'))} ms per frame" if fmt_ms(r.get("time_ms_median")) else "no time"
@@ -193,11 +194,6 @@ def captions_of(rows: pd.DataFrame) -> dict[str, list[str]]:
         lines.append(timing)
         out[str(r["label"])] = lines
     return out
-
-
-def _truthy(value) -> bool:
-    """A bool cell that may have been read back from CSV as text."""
-    return str(value).strip().lower() in ("true", "1", "1.0", "yes")
 
 
 def _wrong_in(mask: np.ndarray, truth: np.ndarray, insets) -> list[int]:

@@ -53,6 +53,7 @@ _IMAGE_COLUMNS = ["run_dir", "shaded_image", "error_image", "signed_image", "foo
 
 
 def is_missing(value) -> bool:
+    """Whether a table cell holds nothing: None or NaN (other values, lists included, do not)."""
     if value is None:
         return True
     try:
@@ -66,11 +67,16 @@ def as_text(value) -> str:
     return "" if is_missing(value) else str(value)
 
 
+def is_true(value) -> bool:
+    """A bool cell that may have been read back from CSV as text ('True'/'False') or as NaN."""
+    return (not is_missing(value)) and str(value).strip().lower() in ("true", "1", "1.0", "yes")
+
+
 def truthy(series: pd.Series) -> pd.Series:
     """A bool column that may have been read back from CSV as text ('True'/'False') or with NaN."""
     if series.dtype == bool:
         return series
-    return series.map(lambda v: (not is_missing(v)) and str(v).strip().lower() in ("true", "1", "1.0", "yes"))
+    return series.map(is_true)
 
 
 def normalised(results: pd.DataFrame) -> pd.DataFrame:

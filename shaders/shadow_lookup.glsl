@@ -6,6 +6,11 @@
 // one texel on the receiver's plane), and normal offset (the lookup point moved along the normal
 // by u_normal_offset texels). Filtering: texel-exact PCF over (2r+1)² texels (r = 0: nearest),
 // or, with FILTER_HW, the hardware 2x2 bilinear comparison (sampler2DShadow).
+// With THRESHOLDS defined (the exact bias optimiser, shadowlab/tuning/exact_bias.py) the pass
+// writes, instead of the visibility, the terms of one tap's comparison ref = receiver - bias <=
+// stored with bias = u_bias + extra: (receiver, stored depth at tap u_tap, extra, COMPARED), or
+// w = LIT_ANYWAY where the point is lit whatever the bias (no G-buffer point, behind the light's
+// centre of projection, outside the map). Every term is computed by the same code as the lookup.
 // With CASCADES defined (cascaded shadow maps, shadowlab/techniques/cascaded_map.py) the faces
 // are the cascades of a directional light: the face is chosen by the point's camera view depth
 // against u_cascade_far, and with u_blend_start[f] < u_cascade_far[f] the visibility blends
@@ -43,7 +48,21 @@ uniform float u_cascade_far[MAX_FACES];  // far split of each cascade (view dept
 uniform float u_blend_start[MAX_FACES];  // view depth where blending into the next cascade starts
 uniform float u_cascade_texel[MAX_FACES];  // world size of a texel of each cascade
 #endif
+#ifdef THRESHOLDS
+#ifdef FILTER_HW
+#error "THRESHOLDS: the hardware comparison has no per-tap terms"
+#endif
+#ifdef CASCADES
+#error "THRESHOLDS: one face per point (a cascade blend compares in two)"
+#endif
+#define COMPARED 1.0
+#define LIT_ANYWAY 0.0
+uniform ivec2 u_tap;                     // the tap whose stored depth is written, texels
+out vec4 out_terms;
+vec4 g_terms = vec4(0.0, 0.0, 0.0, LIT_ANYWAY);
+#else
 out float out_visibility;
+#endif
 
 #include "cube_face.glsl"
 #include "atlas.glsl"
@@ -54,7 +73,7 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
     vec3 c;
     if (!map_coordinates(f, Q, c)) return LIT;  // behind the light's centre of projection
     if (any(lessThan(c, vec3(0.0))) || any(greaterThan(c, vec3(1.0)))) return LIT;  // outside the map
-    float bias = u_bias;
+    float extra = 0.0;                   // the bias beyond u_bias at this point
     if (u_slope_scale > 0.0) {
         // Depth change across one texel on the receiver's plane, from two tangent points.
         vec3 t1 = normalize(abs(N.x) < 0.9 ? cross(N, vec3(1.0, 0.0, 0.0)) : cross(N, vec3(0.0, 1.0, 0.0)));
@@ -66,11 +85,12 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
         if (abs(det) > 0.0) {
             // dz/du, dz/dv of the receiver plane in map space (Cramer's rule).
             vec2 dz = vec2(a.z * b.y - b.z * a.y, a.x * b.z - b.x * a.z) / det;
-            bias += u_slope_scale * (abs(dz.x) * texel_uv.x + abs(dz.y) * texel_uv.y);
+            extra = u_slope_scale * (abs(dz.x) * texel_uv.x + abs(dz.y) * texel_uv.y);
         } else {
-            bias += u_slope_scale * max(abs(a.z), abs(b.z));  // edge-on to the light
+            extra = u_slope_scale * max(abs(a.z), abs(b.z));  // edge-on to the light
         }
     }
+    float bias = u_bias + extra;
     float ref = c.z - bias;
     vec2 atlas = atlas_texel(f, c.xy);
 #ifdef FILTER_HW
@@ -82,6 +102,10 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
 #else
     ivec2 lo = ivec2(u_face_rect[f].xy), hi = lo + ivec2(u_face_rect[f].zw) - 1;
     ivec2 t = clamp(ivec2(floor(atlas)), lo, hi);
+#ifdef THRESHOLDS
+    g_terms = vec4(c.z, texelFetch(u_map, clamp(t + u_tap, lo, hi), 0).r, extra, COMPARED);
+    return LIT;
+#endif
     float lit = 0.0, n = 0.0;
     for (int dy = -u_kernel_radius; dy <= u_kernel_radius; ++dy)
         for (int dx = -u_kernel_radius; dx <= u_kernel_radius; ++dx) {
@@ -94,28 +118,38 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
 }
 
 void main() {
+#ifdef THRESHOLDS
+    out_terms = g_terms;
+#else
     out_visibility = LIT;
+#endif
     vec3 P;
     if (!gbuffer_position(P)) return;
     vec3 N = gbuffer_normal_towards(light_dir_to(P));  // two-sided receivers: the side facing the light
+    float visibility;
 #ifdef CASCADES
     // The first cascade whose far split lies beyond P's view depth (the last one past the far split).
     float depth = dot(u_view_depth, vec4(P, 1.0));
     int f = 0;
     while (f < u_faces - 1 && depth > u_cascade_far[f]) ++f;
     float texel = u_cascade_texel[f];
-    out_visibility = face_visibility(f, P + N * (u_normal_offset * texel), N, texel);
+    visibility = face_visibility(f, P + N * (u_normal_offset * texel), N, texel);
     if (f < u_faces - 1 && depth > u_blend_start[f]) {
         // Linear blend into the next cascade across the end of this one's depth range.
         float w = (depth - u_blend_start[f]) / (u_cascade_far[f] - u_blend_start[f]);
         float next_texel = u_cascade_texel[f + 1];
         float next = face_visibility(f + 1, P + N * (u_normal_offset * next_texel), N, next_texel);
-        out_visibility = mix(out_visibility, next, w);
+        visibility = mix(visibility, next, w);
     }
 #else
     float texel = u_texel_world > 0.0 ? u_texel_world : u_texel_angle * length(P - light_position);
     vec3 Q = P + N * (u_normal_offset * texel);
-    out_visibility = face_visibility(face_of(Q), Q, N, texel);
+    visibility = face_visibility(face_of(Q), Q, N, texel);
+#endif
+#ifdef THRESHOLDS
+    out_terms = g_terms;
+#else
+    out_visibility = visibility;
 #endif
 }
 #endif

@@ -376,6 +376,39 @@ class DepthMapTechnique(TexelMapping, Technique):
             if self.sampler is not None:
                 self.sampler.clear(2)
 
+    def comparison_terms(self, taps: list[tuple[int, int]], uniforms: dict | None = None) -> np.ndarray:
+        """Float32 (len(taps), height, width, 4): per pixel the terms of the lookup's depth
+        comparison ``receiver − (u_bias + extra) <= stored`` for each tap offset (dx, dy) of
+        ``taps``, as the lookup computes them (``shadow_lookup.glsl`` with ``THRESHOLDS``):
+        (receiver depth, stored depth at the tap, extra bias, 1), or w = 0 where the point is lit
+        whatever the bias. ``uniforms`` override the comparison's (another ``u_slope_scale`` or
+        ``u_normal_offset``). Valid after :meth:`render` (the map holds the casters' depth); for
+        the exact bias optimiser (:mod:`shadowlab.tuning.exact_bias`). No hardware filter, no
+        cascades: their comparison is not one depth test per tap."""
+        if FILTERS[self.filter] is None or self.lookup_defines().get("CASCADES"):
+            raise TechniqueError(f"{self.name}: the {self.filter} lookup has no per-tap comparison terms")
+        ctx = self.frame.ctx
+        prog = self.program("shadow_lookup.glsl", defines={**ATLAS_DEFINES, **self.lookup_defines(), "THRESHOLDS": 1})
+        gl.set_uniforms(prog, self.light.uniforms())
+        self.atlas.write_uniforms(prog)
+        gl.set_uniforms(prog, {"u_position": 0, "u_normal": 1, "u_map": 2, **self.comparison_uniforms(),
+                               **(uniforms or {})})
+        quad = self.fullscreen_quad(prog)
+        size = (self.frame.width, self.frame.height)
+        tex = self.own(ctx.texture(size, 4, dtype="f4"))
+        fbo = self.own(ctx.framebuffer(color_attachments=[tex]))
+        out = np.empty((len(taps), size[1], size[0], 4), np.float32)
+        for k, tap in enumerate(taps):
+            prog["u_tap"].value = tuple(int(v) for v in tap)
+            fbo.use()
+            glstate.apply(PassState())
+            self.frame.tex_position.use(0)
+            self.frame.tex_normal.use(1)
+            self.map.texture.use(2)
+            quad.render()
+            out[k] = gl.read_texture(tex, 4)
+        return out
+
     def stats(self) -> dict:
         """Map memory (every layer), faces, passes per frame, the first face's depth range and
         world texel size."""

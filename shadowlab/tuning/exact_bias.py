@@ -1,0 +1,392 @@
+"""The shadow-map bias family optimised exactly from one render (DESIGN §15, issue 24).
+
+A nearest-sample depth comparison lights pixel i when ``receiver_i − (b + extra_i) <= stored_i``
+(``shaders/shadow_lookup.glsl``: ``extra`` is the slope-scaled term, 0 for the constant
+variant). The comparison is monotone in the constant bias b, so each tap of each pixel has one
+*threshold* T: the smallest bias that lights it. The truth says whether the pixel is lit, so a
+truly lit pixel is right for b >= T and a truly shadowed one for b < T. One render gives every
+T (:meth:`~shadowlab.techniques.maps.DepthMapTechnique.comparison_terms` writes each tap's
+terms with the lookup's own arithmetic); sorting them gives the error of **every** constant
+bias at once — the exact optimum and the whole acne-versus-leak curve (:class:`BiasCurve`).
+
+Exactness, stated:
+
+- The thresholds are exact in float32: T is found by bisection over the float32 values of b
+  (ordered as integers), evaluating ``fl(receiver − fl(b + extra)) <= stored`` in float32 as
+  the shader does (IEEE round to nearest). Every run checks this: the visibility emulated at
+  the render's own bias must equal the rendered visibility bit for bit
+  (:attr:`ExactBiasTune.emulation_mismatch`, 0 on every scene we ran; a driver that fused
+  ``u_bias + u_slope_scale · k`` into one rounding could differ by one ulp on a few pixels, and
+  the check would say so).
+- PCF (``pcf3``, ``pcf5``): visibility is the lit fraction of (2r+1)² taps, each with its own
+  threshold; thresholded at 0.5 a pixel is lit once the ⌈n/2⌉-th smallest tap threshold is
+  passed, and mean |V − G| is piecewise constant between tap thresholds. Both are exact.
+- ``slope_scale`` (variant ``slope``) and ``normal_offset`` (variant ``normal_offset``) enter
+  the comparison non-linearly, so they are optimised on a stated grid, the constant part exact
+  for each grid value (one extra lookup pass per grid value and tap: the map is rendered once).
+  The hardware polygon offset (``hardware_offset=true``) acts while the map is rendered, so it
+  is not here: it is tuned by rendering (:mod:`shadowlab.tuning.search`).
+- Decomposable objectives (a sum over pixels: ``error_rate``, ``false_shadow_rate``,
+  ``false_lit_rate``, ``visibility_mae``) are exact for every bias. Any other metric column is
+  evaluated exactly (the full metrics row of the emulated visibility) at the candidate biases of
+  :func:`candidate_biases`, and the optimum is the best of those.
+
+The **per-pixel oracle** gives each pixel its own best bias within the tuned range: the lower
+bound of any adaptive bias scheme over this map. Pixels wrong even for the oracle are wrong for
+every bias in the range: undersampling (a shadowed point whose texel saw no caster in front of
+it, which no non-negative bias can darken) rather than acne.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .. import metrics
+from ..pipeline import Evaluator, Measurement, measure
+from ..techniques import Technique, from_spec
+from ..techniques.maps import FILTERS, DepthMapTechnique
+
+#: The objectives :class:`BiasCurve` computes for every bias (sums over the evaluated pixels).
+EXACT_OBJECTIVES = ("error_rate", "false_shadow_rate", "false_lit_rate", "visibility_mae")
+#: The variants whose comparison takes a constant bias the optimiser can sweep, and the grid
+#: parameter each adds (None: bias only).
+BIAS_VARIANTS = {"constant": None, "slope": "slope_scale", "normal_offset": "normal_offset"}
+#: The shader uniform each grid parameter overrides in the lookup's comparison.
+GRID_UNIFORMS = {"slope_scale": "u_slope_scale", "normal_offset": "u_normal_offset"}
+#: Bisection bracket for the thresholds: no window depth or bias term leaves (−BRACKET, BRACKET);
+#: a tap lit already at −BRACKET has threshold −inf, one still shadowed at +BRACKET +inf.
+BRACKET = np.float32(1e6)
+#: Log-spaced candidate biases written to candidates.csv besides the optima and the default.
+CANDIDATE_POINTS = 48
+
+
+class ExactBiasError(ValueError):
+    """The spec or the parameters are not a bias family the optimiser handles exactly."""
+
+
+# --------------------------------------------------------------------------- thresholds
+
+def _ordered(x: np.ndarray) -> np.ndarray:
+    """Int64 keys ordered as the float32 values ``x`` (−0 and +0 adjacent, NaN excluded)."""
+    bits = x.astype(np.float32).view(np.int32).astype(np.int64)
+    return np.where(bits < 0, -(bits & 0x7FFFFFFF), bits)
+
+
+def _from_ordered(k: np.ndarray) -> np.ndarray:
+    """Float32 values of ordered keys (:func:`_ordered`'s inverse)."""
+    k = np.asarray(k, np.int64)
+    bits = np.where(k < 0, (-k) | np.int64(-0x80000000), k)
+    return bits.astype(np.int32).view(np.float32)
+
+
+def lit_at(bias, receiver: np.ndarray, stored: np.ndarray, extra: np.ndarray) -> np.ndarray:
+    """Bool: the lookup's comparison ``receiver − (bias + extra) <= stored`` in float32, as
+    ``shadow_lookup.glsl`` computes it (``bias`` a scalar or an array broadcasting)."""
+    b = np.asarray(bias, np.float32)
+    return (receiver - (b + extra)) <= stored
+
+
+def tap_thresholds(receiver: np.ndarray, stored: np.ndarray, extra: np.ndarray,
+                   compared: np.ndarray) -> np.ndarray:
+    """Float32 (same shape): per tap the smallest float32 bias that lights it (−inf where it is
+    lit whatever the bias: ``compared`` false, or lit at −:data:`BRACKET`; +inf where no bias up
+    to :data:`BRACKET` lights it). Exact: bisection over the ordered float32 values of the bias,
+    the comparison evaluated as the shader does (:func:`lit_at`)."""
+    receiver, stored, extra = (np.asarray(a, np.float32) for a in (receiver, stored, extra))
+    lo = np.full(receiver.shape, _ordered(np.array(-BRACKET))[()], np.int64)  # never lit here (or always)
+    hi = np.full(receiver.shape, _ordered(np.array(BRACKET))[()], np.int64)   # lit here (or never)
+    always = lit_at(-BRACKET, receiver, stored, extra) | ~compared.astype(bool)
+    never = ~lit_at(BRACKET, receiver, stored, extra) & ~always
+    active = ~(always | never)
+    while True:
+        open_ = active & (hi - lo > 1)
+        if not open_.any():
+            break
+        mid = (lo + hi) // 2
+        lit = lit_at(_from_ordered(mid), receiver, stored, extra)
+        hi = np.where(open_ & lit, mid, hi)
+        lo = np.where(open_ & ~lit, mid, lo)
+    out = _from_ordered(hi)
+    out[always] = -np.inf
+    out[never] = np.inf
+    return out
+
+
+# --------------------------------------------------------------------------- the curve
+
+def _losses(truth: np.ndarray, taps: int) -> dict[str, np.ndarray]:
+    """Per objective the per-pixel loss of having j = 0..taps lit taps: float64 (M, taps+1)."""
+    v = (np.arange(taps + 1, dtype=np.float32) / np.float32(taps))[None, :]  # the shader's lit / n
+    g = truth.astype(np.float32)[:, None]
+    v_sh, g_sh = v < metrics.THRESHOLD, g < metrics.THRESHOLD
+    return {"error_rate": (v_sh != g_sh).astype(np.float64),
+            "false_shadow_rate": (v_sh & ~g_sh).astype(np.float64),
+            "false_lit_rate": (~v_sh & g_sh).astype(np.float64),
+            "visibility_mae": np.abs(v.astype(np.float64) - g.astype(np.float64))}
+
+
+def _denominators(truth: np.ndarray) -> dict[str, int]:
+    """Each exact objective's denominator (metrics.py's): evaluated, truly lit, truly shadowed."""
+    g_sh = truth < metrics.THRESHOLD
+    return {"error_rate": len(truth), "false_shadow_rate": int((~g_sh).sum()),
+            "false_lit_rate": int(g_sh.sum()), "visibility_mae": len(truth)}
+
+
+@dataclass
+class BiasCurve:
+    """Every exact objective as a step function of the constant bias over [``lo``, ``hi``].
+
+    ``breaks`` (K,) float64 ascending, ``breaks[0] = lo``: the objective takes ``values[obj][k]``
+    for b in [breaks[k], breaks[k+1]) (the last step up to ``hi`` included). ``sums`` are the
+    numerators (pixel counts; the sum of |V − G|), ``denominators`` what metrics.py divides by.
+    ``oracle`` per objective: the per-pixel oracle's value (each pixel its own best bias in the
+    range)."""
+
+    lo: float
+    hi: float
+    breaks: np.ndarray
+    sums: dict[str, np.ndarray]
+    denominators: dict[str, int]
+    oracle: dict[str, float]
+
+    @classmethod
+    def build(cls, thresholds: np.ndarray, truth: np.ndarray, lo: float, hi: float) -> "BiasCurve":
+        """The curve of the evaluated pixels' tap ``thresholds`` (taps, M) against ``truth`` (M,)."""
+        taps, m = thresholds.shape
+        losses = _losses(truth, taps)
+        ts = np.sort(thresholds, axis=0)
+        lo32, hi32 = np.float32(lo), np.float32(hi)
+        count_lo = (ts <= lo32).sum(axis=0)
+        count_hi = (ts <= hi32).sum(axis=0)
+        rows = np.arange(m)
+        # events: tap j of pixel i (sorted order) lights at ts[j, i] inside (lo, hi]: count j -> j+1
+        inside = (ts > lo32) & (ts <= hi32)
+        j_idx, i_idx = np.nonzero(inside)
+        at = ts[j_idx, i_idx].astype(np.float64)
+        order = np.argsort(at, kind="stable")
+        at, j_idx, i_idx = at[order], j_idx[order], i_idx[order]
+        breaks, first = np.unique(at, return_index=True)
+        sums, oracle = {}, {}
+        denominators = _denominators(truth)
+        for name, loss in losses.items():
+            start = loss[rows, count_lo].sum()
+            delta = loss[i_idx, j_idx + 1] - loss[i_idx, j_idx]
+            after = start + np.cumsum(delta)
+            # the value after every event at one bias: the last event of each group
+            last = np.r_[first[1:], len(at)] - 1
+            sums[name] = np.r_[start, after[last]] if len(at) else np.array([start])
+            # per-pixel oracle: the best count each pixel can reach with a bias in [lo, hi]
+            j = np.arange(taps + 1)[None, :]
+            reachable = (j >= count_lo[:, None]) & (j <= count_hi[:, None])
+            oracle[name] = float(np.where(reachable, loss, np.inf).min(axis=1).sum())
+        return cls(float(lo), float(hi), np.r_[float(lo), breaks], sums,
+                   denominators, {k: _rate(v, denominators[k]) for k, v in oracle.items()})
+
+    def values(self, objective: str) -> np.ndarray:
+        """Float64 (K,): the objective (a rate, as metrics.py reports it) on each step."""
+        return np.array([_rate(s, self.denominators[objective]) for s in self.sums[objective]])
+
+    def step_of(self, bias: float) -> int:
+        """Index of the step holding ``bias`` (float32, as the shader receives it)."""
+        b = float(np.float32(bias))
+        return int(np.searchsorted(self.breaks, b, side="right") - 1) if b >= self.breaks[0] else 0
+
+    def at(self, bias: float) -> dict[str, float]:
+        """Every exact objective at ``bias``."""
+        k = self.step_of(bias)
+        return {name: _rate(s[k], self.denominators[name]) for name, s in self.sums.items()}
+
+    def optimum(self, objective: str) -> "Optimum":
+        """The best bias for ``objective``: the middle of the widest run of optimal steps (the
+        optimum is a set of intervals; its middle keeps the most margin either way), with the
+        run's ends and the number of separate optimal runs."""
+        sums = self.sums[objective]
+        best = sums.min()
+        optimal = np.isclose(sums, best, rtol=0, atol=1e-9 * max(1.0, abs(best)))
+        ends = np.r_[self.breaks[1:], self.hi]
+        runs, k = [], 0
+        while k < len(sums):
+            if optimal[k]:
+                start = k
+                while k + 1 < len(sums) and optimal[k + 1]:
+                    k += 1
+                runs.append((start, k))
+            k += 1
+        start, stop = max(runs, key=lambda r: (ends[r[1]] - self.breaks[r[0]], -r[0]))
+        lo, hi = float(self.breaks[start]), float(ends[stop])
+        bias = _inside(lo, hi, closed_right=stop == len(sums) - 1)
+        return Optimum(bias, _rate(best, self.denominators[objective]), lo, hi, len(runs))
+
+    def frontier(self) -> tuple[np.ndarray, np.ndarray]:
+        """(false-lit rate, false-shadow rate) per step: the acne-versus-leak curve as b runs."""
+        return self.values("false_lit_rate"), self.values("false_shadow_rate")
+
+
+def _rate(num: float, den: int) -> float:
+    """num / den, or 0 when the denominator is empty (metrics._ratio's rule)."""
+    return float(num) / float(den) if den else 0.0
+
+
+def _inside(lo: float, hi: float, closed_right: bool) -> float:
+    """A float32-representable bias in [lo, hi) (or [lo, hi] when ``closed_right``), as near the
+    middle as float32 allows, returned as the float64 whose float32 is that value (so the spec
+    ``bias=<repr>`` reaches the shader as exactly it)."""
+    mid = np.float32((lo + hi) / 2.0)
+    if not (lo <= float(mid) and (float(mid) < hi or (closed_right and float(mid) <= hi))):
+        mid = np.float32(lo)
+        if float(mid) < lo:
+            mid = np.nextafter(mid, np.float32(np.inf))
+    return float(mid)
+
+
+@dataclass(frozen=True)
+class Optimum:
+    """The optimiser's answer for one objective: ``bias`` (inside the optimal run), ``value``,
+    the optimal run [``lo``, ``hi``) and how many separate optimal runs there are."""
+
+    bias: float
+    value: float
+    lo: float
+    hi: float
+    runs: int
+
+
+# --------------------------------------------------------------------------- one render
+
+@dataclass
+class GridPoint:
+    """One value of the grid parameter (slope_scale or normal_offset; {} for the constant
+    variant): its thresholds (taps, H·W) and the curve of its evaluated pixels."""
+
+    params: dict
+    thresholds: np.ndarray
+    curve: BiasCurve
+
+
+@dataclass
+class ExactBiasTune:
+    """What :func:`exact_bias_tune` found: the base measurement (the spec as given, rendered and
+    timed once), the grid points, the emulation self-check and the time it all took."""
+
+    spec: str
+    base: Measurement
+    points: list[GridPoint]
+    taps: int
+    evaluated: np.ndarray
+    #: Pixels where the visibility emulated at the spec's own bias differs from the render's.
+    emulation_mismatch: int
+    #: Wall time of the render, the terms passes and the curves, seconds (the figures' cost).
+    seconds: dict = field(default_factory=dict)
+
+    def best(self, objective: str) -> tuple[GridPoint, Optimum]:
+        """The grid point and bias with the best ``objective`` (the earliest grid point on ties)."""
+        scored = [(p, p.curve.optimum(objective)) for p in self.points]
+        return min(scored, key=lambda s: s[1].value)
+
+    def visibility(self, point: GridPoint, bias: float) -> np.ndarray:
+        """Float32 (H, W): the visibility the lookup renders with ``bias`` at ``point``
+        (lit taps / taps, as the shader divides)."""
+        lit = (point.thresholds <= np.float32(bias)).sum(axis=0).astype(np.float32)
+        h, w = self.evaluated.shape
+        return (lit / np.float32(self.taps)).reshape(h, w)
+
+
+def check_spec(tech: Technique, grid_param: str | None = None) -> None:
+    """ExactBiasError unless ``tech`` is a depth-map comparison with a constant bias the
+    optimiser can sweep exactly (and ``grid_param`` is the one its variant adds)."""
+    if not isinstance(tech, DepthMapTechnique) or not hasattr(tech, "variant") or not hasattr(tech, "bias"):
+        raise ExactBiasError(f"{tech.name}: the exact bias optimiser handles shadow_map and lispsm; "
+                             f"tune {tech.name}'s bias by rendering")
+    if tech.variant not in BIAS_VARIANTS:
+        raise ExactBiasError(f"{tech.spec()}: variant={tech.variant} has no constant bias to sweep; "
+                             f"use one of {', '.join(BIAS_VARIANTS)}")
+    if FILTERS[tech.filter] is None:
+        raise ExactBiasError(f"{tech.spec()}: filter=hw2x2 compares in the texture unit, at a precision the "
+                             f"driver chooses; use nearest, pcf3 or pcf5, or tune by rendering")
+    if getattr(tech, "hardware_offset", False):
+        raise ExactBiasError(f"{tech.spec()}: hardware_offset acts while the map is rendered; tune it by rendering")
+    if tech.lookup_defines().get("CASCADES"):
+        raise ExactBiasError(f"{tech.name}: cascade blending compares in two maps; tune it by rendering")
+    if grid_param is not None and BIAS_VARIANTS[tech.variant] != grid_param:
+        need = [v for v, p in BIAS_VARIANTS.items() if p == grid_param]
+        hint = f"; it acts with variant={need[0]}" if need else ""
+        raise ExactBiasError(f"{tech.spec()}: {grid_param} cannot be tuned with variant={tech.variant}{hint}")
+
+
+def exact_bias_tune(evaluator: Evaluator, spec: str, light: int = 0, lo: float = 0.0, hi: float = 1.0,
+                    grid: dict[str, list] | None = None, repeat: int = 3, warmup: int = 1,
+                    on_step: Callable[[str], None] | None = None) -> ExactBiasTune:
+    """Render ``spec`` once on ``light`` of the evaluator's frame (timed like any measurement),
+    read every tap's comparison terms — for each value of the one ``grid`` parameter, if any —
+    and build the exact curve of every constant bias in [``lo``, ``hi``] against the truth."""
+    tech = from_spec(spec)
+    grid = dict(grid or {})
+    if len(grid) > 1:
+        raise ExactBiasError(f"{spec}: at most one of {', '.join(GRID_UNIFORMS)} besides bias")
+    grid_param = next(iter(grid), None)
+    check_spec(tech, grid_param)
+    frame = evaluator.frame
+    slot = frame.slot(light)
+    truth = evaluator.truth(slot).visibility
+    ev = frame.evaluated_image(slot)
+    radius = FILTERS[tech.filter]
+    taps = [(dx, dy) for dy in range(-radius, radius + 1) for dx in range(-radius, radius + 1)]
+    seconds = {}
+    t0 = time.perf_counter()
+    base = measure(tech, frame, slot, repeat, warmup, release=False)
+    seconds["render"] = time.perf_counter() - t0
+    values = grid[grid_param] if grid_param else [None]
+    points = []
+    try:
+        for value in values:
+            t0 = time.perf_counter()
+            uniforms = {GRID_UNIFORMS[grid_param]: float(value)} if grid_param else {}
+            terms = tech.comparison_terms(taps, uniforms)
+            seconds["terms"] = seconds.get("terms", 0.0) + time.perf_counter() - t0
+            t0 = time.perf_counter()
+            flat = terms.reshape(len(taps), -1, 4)
+            th = tap_thresholds(flat[..., 0], flat[..., 1], flat[..., 2], flat[..., 3] != 0)
+            curve = BiasCurve.build(th[:, ev.ravel()], truth[ev], lo, hi)
+            seconds["curves"] = seconds.get("curves", 0.0) + time.perf_counter() - t0
+            points.append(GridPoint({grid_param: value} if grid_param else {}, th, curve))
+            if on_step is not None:
+                on_step(f"{grid_param}={value}" if grid_param else "bias")
+    finally:
+        tech.release()
+    result = ExactBiasTune(tech.spec(), base, points, len(taps), ev, 0, seconds)
+    own = next((p for p in points if not grid_param or p.params[grid_param] == getattr(tech, grid_param)), None)
+    if own is not None:
+        emulated = result.visibility(own, tech.bias)
+        result.emulation_mismatch = int((emulated != base.visibility).sum())
+    else:
+        result.emulation_mismatch = -1  # the spec's own grid value was not among the grid's
+    return result
+
+
+def candidate_biases(tune: ExactBiasTune, point: GridPoint, objective: str, lo: float, hi: float,
+                     default: float, n: int = CANDIDATE_POINTS) -> list[float]:
+    """The biases written as candidate rows for one grid point: ``n`` log-spaced across the
+    range (from max(lo, 1e-7)), the default, and each exact objective's optimum — sorted,
+    distinct as float32."""
+    start = max(lo, 1e-7)
+    biases = list(np.geomspace(start, hi, n)) if hi > start else [lo]
+    if lo == 0.0:
+        biases.append(0.0)
+    biases.append(default)
+    biases.extend(point.curve.optimum(o).bias for o in EXACT_OBJECTIVES)
+    out = sorted({float(np.float32(b)) for b in biases if lo <= b <= hi})
+    return out
+
+
+def candidate_row(evaluator: Evaluator, tune: ExactBiasTune, point: GridPoint, spec: str) -> dict:
+    """The metrics row (every column, as ``compare`` writes it) of the configuration ``spec`` —
+    the tuned spec with one bias — from the emulated visibility: no render. Time and cost
+    columns are the base render's: the bias family costs the same at every bias."""
+    tech = from_spec(spec)
+    m = dataclasses.replace(tune.base, technique=tech, visibility=tune.visibility(point, tech.bias),
+                            notes=list(tune.base.notes))
+    return evaluator.row(m)

@@ -201,29 +201,31 @@ class BiasCurve:
         return {name: _rate(s[k], self.denominators[name]) for name, s in self.sums.items()}
 
     def optimum(self, objective: str) -> "Optimum":
-        """The best bias for ``objective``: the middle of the widest run of optimal steps (the
-        optimum is a set of intervals; its middle keeps the most margin either way), with the
-        run's ends and the number of separate optimal runs."""
-        sums = self.sums[objective]
-        best = sums.min()
-        optimal = np.isclose(sums, best, rtol=0, atol=1e-9 * max(1.0, abs(best)))
-        ends = np.r_[self.breaks[1:], self.hi]
-        runs, k = [], 0
-        while k < len(sums):
-            if optimal[k]:
-                start = k
-                while k + 1 < len(sums) and optimal[k + 1]:
-                    k += 1
-                runs.append((start, k))
-            k += 1
-        start, stop = max(runs, key=lambda r: (ends[r[1]] - self.breaks[r[0]], -r[0]))
-        lo, hi = float(self.breaks[start]), float(ends[stop])
-        bias = _inside(lo, hi, closed_right=stop == len(sums) - 1)
-        return Optimum(bias, _rate(best, self.denominators[objective]), lo, hi, len(runs))
+        """The best bias for ``objective`` (:func:`best_run`)."""
+        opt = best_run(self.breaks, self.sums[objective], self.hi)
+        return dataclasses.replace(opt, value=_rate(opt.value, self.denominators[objective]))
 
     def frontier(self) -> tuple[np.ndarray, np.ndarray]:
         """(false-lit rate, false-shadow rate) per step: the acne-versus-leak curve as b runs."""
         return self.values("false_lit_rate"), self.values("false_shadow_rate")
+
+
+def best_run(breaks: np.ndarray, values: np.ndarray, hi: float) -> "Optimum":
+    """The minimum of a step function (``values[k]`` on [breaks[k], breaks[k+1]), the last step
+    up to ``hi``): the middle of the widest run of optimal steps — the optimum is a set of
+    intervals, and its middle keeps the most margin either way — with the run's ends and the
+    number of separate optimal runs. ``value`` is the minimum of ``values``."""
+    values = np.asarray(values, np.float64)
+    best = values.min()
+    optimal = np.isclose(values, best, rtol=0, atol=1e-9 * max(1.0, abs(best)))
+    ends = np.r_[breaks[1:], hi]
+    edges = np.diff(np.r_[0, optimal.astype(np.int8), 0])
+    starts, stops = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0] - 1
+    widths = ends[stops] - breaks[starts]
+    k = int(np.argmax(widths))  # the first of the widest
+    lo, top = float(breaks[starts[k]]), float(ends[stops[k]])
+    bias = _inside(lo, top, closed_right=stops[k] == len(values) - 1)
+    return Optimum(bias, float(best), lo, top, len(starts))
 
 
 def _rate(num: float, den: int) -> float:

@@ -12,7 +12,7 @@ import importlib
 import pkgutil
 
 from ..validation import did_you_mean
-from .base import REGISTRY, Param, PlotStyle, Technique, TechniqueError, parse_spec
+from .base import REGISTRY, Param, PlotStyle, Technique, TechniqueError, TuneRange, parse_spec
 
 for _module in sorted(m.name for m in pkgutil.iter_modules(__path__)):
     importlib.import_module(f"{__name__}.{_module}")
@@ -38,4 +38,4 @@ def from_spec(spec: str) -> Technique:
 
 
 __all__ = ["REGISTRY", "from_spec", "technique_class", "Technique", "TechniqueError", "Param", "PlotStyle",
-           "parse_spec"]
+           "TuneRange", "parse_spec"]

@@ -60,8 +60,22 @@ _TRUE, _FALSE = {"1", "true", "yes", "on"}, {"0", "false", "no", "off"}
 
 
 @dataclass(frozen=True)
+class TuneRange:
+    """The range a tuner searches by default for a numeric parameter (``shadowlab tune``,
+    :mod:`shadowlab.tuning.space`): ``lo`` < ``hi``, geometric spacing when ``log`` (then
+    ``lo`` > 0). It lies inside the parameter's ``min``/``max`` (checked when the :class:`Param`
+    is made) and is usually much narrower: the values worth trying, not every legal one."""
+
+    lo: float
+    hi: float
+    log: bool = False
+
+
+@dataclass(frozen=True)
 class Param:
-    """One declared parameter: default (its type is the parameter's type), doc, and limits."""
+    """One declared parameter: default (its type is the parameter's type), doc, limits, and
+    (numeric parameters) the range a tuner searches by default (``tune``; choice and bool
+    parameters need none: their values are the dimension)."""
 
     default: Any
     doc: str
@@ -69,6 +83,28 @@ class Param:
     min: float | None = None
     max: float | None = None
     min_open: bool = False  # the lower bound itself is excluded
+    tune: TuneRange | None = None
+
+    def __post_init__(self):
+        """A declared ``tune`` range must be numeric, ordered, positive when ``log``, and inside
+        ``min``/``max`` (TypeError when the class is made: a declaration error)."""
+        t = self.tune
+        if t is None:
+            return
+        kind = type(self.default)
+        where = f"Param({self.default!r}, {self.doc[:40]!r}...): tune={t}"
+        if kind not in (int, float) or self.choices is not None:
+            raise TypeError(f"{where}: only int and float parameters without choices take a tune range")
+        if kind is int and not (float(t.lo).is_integer() and float(t.hi).is_integer()):
+            raise TypeError(f"{where}: an int parameter's range has int bounds")
+        if not t.lo < t.hi:
+            raise TypeError(f"{where}: lo must be < hi")
+        if t.log and t.lo <= 0:
+            raise TypeError(f"{where}: a log range needs lo > 0")
+        if self.min is not None and (t.lo <= self.min if self.min_open else t.lo < self.min):
+            raise TypeError(f"{where}: lo is below the parameter's min {self.min}")
+        if self.max is not None and t.hi > self.max:
+            raise TypeError(f"{where}: hi is above the parameter's max {self.max}")
 
     def parse(self, owner: str, key: str, value: Any) -> Any:
         """Convert ``value`` (a string from the command line, or a Python value) and check it."""

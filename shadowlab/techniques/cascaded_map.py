@@ -40,7 +40,7 @@ import numpy as np
 from ..geometry import transforms as tf
 from ..geometry.bounds import box_corners
 from ..geometry.frusta import MIN_EXTENT, PAD, LightView
-from .base import FIRST, Param, PlotStyle, TechniqueError
+from .base import FIRST, Param, PlotStyle, TechniqueError, TuneRange
 from .maps import DEPTH_MAP_STATS, FILTERS, MAX_FACES, DepthMapTechnique
 
 #: Most cascades: one per face of the map toolkit's atlas.
@@ -185,20 +185,28 @@ class CascadedShadowMap(DepthMapTechnique):
     STATS = {**DEPTH_MAP_STATS, "cascades": FIRST, "splits": FIRST, "cascade_texel_world": FIRST}
     PARAMS = {
         "cascades": Param(4, "number of cascades (view-depth slices, one map each)", min=1, max=MAX_CASCADES),
-        "resolution": Param(1024, "width and height of each cascade's map in texels", min=16, max=16384),
+        "resolution": Param(1024, "width and height of each cascade's map in texels", min=16, max=16384,
+                            # powers of two; four 4096 cascades side by side fill a 16384-wide atlas
+                            tune=TuneRange(256, 4096, log=True)),
         "split_lambda": Param(0.5, "split scheme: 0 uniform, 1 logarithmic, between a mix (Zhang et al. 2006)",
-                              min=0.0, max=1.0),
+                              # the whole scheme: every mix from uniform to logarithmic
+                              min=0.0, max=1.0, tune=TuneRange(0.0, 1.0)),
         "fit": Param("frustum", "frustum: splits over the camera's near..far, boxes around the frustum slices; "
                                 "sdsm: splits and boxes fitted to the evaluated G-buffer points",
                      choices=("frustum", "sdsm")),
         "blend": Param(False, "blend linearly into the next cascade at the end of each cascade"),
         "blend_width": Param(0.1, "blend: fraction of a cascade's depth range over which it blends", min=0.0,
-                             max=1.0, min_open=True),
+                             # below 2 % the seam stays visible; past half a cascade two maps blur most of it
+                             max=1.0, min_open=True, tune=TuneRange(0.02, 0.5)),
         "stabilize": Param(True, "fit=frustum: bounding-sphere boxes snapped to whole texels (Valient 2008); "
                                  "ignored with a note under sdsm"),
-        "bias": Param(0.0005, "constant depth bias in window-depth units [0, 1] of each cascade", min=0.0, max=1.0),
+        "bias": Param(0.0005, "constant depth bias in window-depth units [0, 1] of each cascade", min=0.0, max=1.0,
+                      # orders of magnitude from acne to detached contacts, as shadow_map's bias
+                      tune=TuneRange(1e-5, 0.05, log=True)),
         "slope_scale": Param(2.0, "multiple of the receiver's depth change over one texel added to the bias "
-                                  "(shader-side slope-scaled bias; 0: constant only)", min=0.0, max=1e4),
+                                  "(shader-side slope-scaled bias; 0: constant only)", min=0.0, max=1e4,
+                             # 1-2 texels' slope is usual; 8 already pushes grazing shadows off
+                             tune=TuneRange(0.0, 8.0)),
         "depth_bits": Param(24, "depth format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
         "filter": Param("nearest", "nearest, pcf3, pcf5 (texel-exact percentage-closer filtering)",
                         choices=("nearest", "pcf3", "pcf5")),

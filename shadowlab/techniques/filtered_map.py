@@ -66,7 +66,7 @@ import numpy as np
 
 from .. import gl, glstate
 from ..glstate import PassState
-from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError
+from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
 from .maps import ATLAS_DEFINES, Atlas, TexelMapping, fit_light_views
 
 VARIANTS = ("vsm", "esm", "evsm2", "evsm4", "msm")
@@ -185,24 +185,34 @@ class FilteredShadowMap(TexelMapping, Technique):
         "variant": Param("vsm", "vsm (two moments, Chebyshev bound), esm (exp(c z)), evsm2 / evsm4 (Chebyshev on "
                                 "exp-warped depth: positive, positive and negative), msm (Hamburger 4 moments)",
                          choices=VARIANTS),
-        "resolution": Param(1024, "map width and height in texels (per cube face)", min=16, max=16384),
-        "kernel": Param(5, "box blur width in texels (odd; 1 = no blur)", min=1, max=63),
+        "resolution": Param(1024, "map width and height in texels (per cube face)", min=16, max=16384,
+                            # powers of two; the blur's cost grows with the area, 4096 is already costly
+                            tune=TuneRange(256, 4096, log=True)),
+        "kernel": Param(5, "box blur width in texels (odd; 1 = no blur)", min=1, max=63,
+                        # from no blur to a wide one; even widths are refused (and cost the search nothing)
+                        tune=TuneRange(1, 15)),
         "min_variance": Param(1e-6, "vsm: the variance never goes below this (linear depth units squared)",
-                              min=0.0, max=1.0),
+                              # from float32 noise (acne) to a floor that lights every contact
+                              min=0.0, max=1.0, tune=TuneRange(1e-8, 1e-3, log=True)),
         "bleed_reduction": Param(0.2, "vsm: p_max mapped through linstep(this, 1, p_max) against light bleeding",
-                                 min=0.0, max=0.99),
+                                 # off to near-binary: past 0.9 the soft edge is all but gone
+                                 min=0.0, max=0.99, tune=TuneRange(0.0, 0.9)),
         "exponent": Param(80.0, f"esm: c in exp(c z); float32 overflows for c > 88.7, so c <= {MAX_EXPONENT:g}",
-                          min=0.0, min_open=True),
+                          # below 5 the exponential test barely darkens (light leaks); 85 stays under the 88 cap
+                          min=0.0, min_open=True, tune=TuneRange(5.0, 85.0)),
         "projection": Param("auto", "point lights: cube (six faces), frustum (one), auto",
                             choices=("auto", "cube", "frustum")),
         "positive_exponent": Param(40.0, f"evsm: c+ in exp(c+ z'), z' = 2z - 1; c+ <= ln(max)/2 of the storage "
                                          f"({max_evsm_exponent(32):.2f} float32, {max_evsm_exponent(16):.3f} float16)",
-                                   min=0.0, min_open=True),
+                                   # 42 stays under the float32 bound 44.36 (float16: 5.54, refused above)
+                                   min=0.0, min_open=True, tune=TuneRange(5.0, 42.0)),
         "negative_exponent": Param(5.0, "evsm4: c- in -exp(-c- z'); the same bound as positive_exponent",
-                                   min=0.0, min_open=True),
+                                   # evsm4 refuses c- above 35.69 (subnormal arithmetic at the far end)
+                                   min=0.0, min_open=True, tune=TuneRange(1.0, 35.0)),
         "moment_bias": Param(3e-5, "msm: alpha in b' = (1 - alpha) b + alpha (1/2, 1/2, 1/2, 1/2) (Peters & Klein 2015); "
                                    "alpha = 1 leaves only the target's singular Hankel matrix",
-                             min=0.0, max=0.99, min_open=True),
+                             # from float32 round-off to a bias that visibly lightens the shadows
+                             min=0.0, max=0.99, min_open=True, tune=TuneRange(1e-6, 1e-2, log=True)),
         "precision": Param(32, "bits per stored moment: 32 (float) or 16 (half float; msm: the paper's quantised "
                                "16-bit unsigned normalised storage)", choices=PRECISIONS),
     }

@@ -56,7 +56,7 @@ import numpy as np
 from .. import gl
 from ..scene.area_lights import AreaLight, DiscLight, RectLight, SphereLight, basis, concentric_disc, strata
 from ..geometry.transforms import BIAS
-from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError
+from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
 from .maps import CLEAR_DEPTH, Atlas, TexelMapping, depth_pass, fit_light_views, lookup_pass
 
 #: Depth format of the map (24-bit fixed point, as the shadow map's default).
@@ -159,15 +159,21 @@ class PCSS(TexelMapping, Technique):
     STATS = {"memory_bytes": MAX, "faces": FIRST, "passes": SUM, "depth_range": FIRST, "light_size": FIRST,
              "texel_world": FIRST}
     PARAMS = {
-        "resolution": Param(2048, "shadow map width and height in texels", min=16, max=16384),
+        "resolution": Param(2048, "shadow map width and height in texels", min=16, max=16384,
+                            # powers of two; the taps' cost does not grow with it, the map's memory does
+                            tune=TuneRange(256, 4096, log=True)),
         "bias": Param(0.002, "constant depth bias in window-depth units [0, 1], subtracted from the "
-                             "receiver's depth at every tap (as shadow_map's constant variant)", min=0.0, max=1.0),
+                             "receiver's depth at every tap (as shadow_map's constant variant)", min=0.0, max=1.0,
+                      # orders of magnitude from acne to detached contacts, as shadow_map's bias
+                      tune=TuneRange(1e-5, 0.05, log=True)),
         "blocker_samples": Param(16, "taps of the blocker search (fixed stratified pattern)", min=1, max=256),
         "filter_samples": Param(32, "taps of the PCF (fixed stratified pattern): visibility steps of 1/N",
                                 min=1, max=256),
         "blocker_search": Param(True, "false: skip the blocker search and penumbra estimate, PCF every pixel "
                                       "over a fixed kernel of fixed_filter texels (classic PCF)"),
-        "fixed_filter": Param(8.0, "blocker_search=false: the kernel's larger extent, in texels", min=0.0, max=4096.0),
+        "fixed_filter": Param(8.0, "blocker_search=false: the kernel's larger extent, in texels", min=0.0, max=4096.0,
+                              # one texel (hard) to a penumbra 32 texels wide
+                              tune=TuneRange(1.0, 32.0)),
         "receiver_plane": Param(True, "compare each tap with the receiver's plane extrapolated to it "
                                       "(Isidoro 2006) instead of the centre's depth"),
     }

@@ -47,7 +47,7 @@ a too-close near plane does to depth precision); far planes just past the farthe
 from __future__ import annotations
 
 from ..geometry.frusta import LightView
-from .base import Param, PlotStyle
+from .base import Param, PlotStyle, TuneRange
 from .maps import FILTERS, DepthMapTechnique, fit_light_views
 
 VARIANTS = ("none", "constant", "slope", "normal_offset", "second_depth", "midpoint", "dual")
@@ -58,17 +58,24 @@ UNBIASED_VARIANTS = ("none", "second_depth", "midpoint", "dual")
 
 #: The parameters of the depth comparison that shadow_map and lispsm share.
 COMPARISON_PARAMS = {
-    "resolution": Param(2048, "shadow map width and height in texels (per cube face)", min=16, max=16384),
+    "resolution": Param(2048, "shadow map width and height in texels (per cube face)", min=16, max=16384,
+                        # powers of two from coarse to a cube atlas's practical limit (3 x 8192 wide)
+                        tune=TuneRange(256, 8192, log=True)),
     "bias": Param(0.002, "constant depth bias in window-depth units [0, 1] (dual: the offset cap)",
-                  min=0.0, max=1.0),
+                  # acne below ~1e-6 of the depth range even at 32 bits; 0.05 already detaches every contact
+                  min=0.0, max=1.0, tune=TuneRange(1e-6, 0.05, log=True)),
     "depth_bits": Param(24, "depth format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
     "variant": Param("constant", "depth comparison", choices=VARIANTS),
     "slope_scale": Param(2.0, "slope variant: multiple of the receiver's depth change over one texel",
-                         min=0.0, max=1e4),
+                         # 1-2 texels' slope is the usual setting; 16 already pushes grazing shadows off
+                         min=0.0, max=1e4, tune=TuneRange(0.0, 16.0)),
     "normal_offset": Param(1.0, "normal_offset variant: lookup point moved along the normal, in texels",
-                           min=0.0, max=1e3),
+                           # about one texel is typical; past a few texels the shadow visibly shifts
+                           min=0.0, max=1e3, tune=TuneRange(0.0, 4.0)),
     "hardware_offset": Param(False, "slope variant: glPolygonOffset in the depth pass instead of the shader form"),
-    "offset_units": Param(4.0, "hardware_offset: glPolygonOffset units", min=0.0, max=1e6),
+    "offset_units": Param(4.0, "hardware_offset: glPolygonOffset units", min=0.0, max=1e6,
+                          # units of the depth format's resolution: a few to tens of them is the usual range
+                          tune=TuneRange(0.0, 64.0)),
     "filter": Param("nearest", "nearest, hw2x2 (hardware bilinear comparison), pcf3, pcf5",
                     choices=tuple(FILTERS)),
 }

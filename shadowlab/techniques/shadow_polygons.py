@@ -45,7 +45,7 @@ from ..geometry.frusta import side_planes
 from ..geometry.triangles import triangle_normals, triangle_planes
 from ..geometry.vectors import dot3
 from ..glstate import PassState
-from .base import FIRST, SUM, Param, PlotStyle, Technique, TechniqueError
+from .base import FIRST, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
 
 #: Receiver/caster pair tests of the bulk culling per step (bounds its temporaries, ~200 MB).
 PAIR_TESTS_PER_STEP = 1 << 22
@@ -75,7 +75,8 @@ class ShadowPolygons(Technique):
     LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.light_sampling)
     PARAMS = {
         "epsilon": Param(1e-9, "geometric tolerance of every predicate, relative to the scene's size",
-                         min=0.0, max=1e-1),
+                         # from near float64 round-off to a tolerance that merges visible features
+                         min=0.0, max=1e-1, tune=TuneRange(1e-12, 1e-4, log=True)),
         "max_lights": Param(8, "per receiver face, the lights that get shadows (largest contribution first)",
                             min=1, max=8),
     }

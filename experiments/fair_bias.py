@@ -288,6 +288,9 @@ def plot_scaling(df: pd.DataFrame, path: Path) -> None:
         ax.set_yscale("log")
         if axis in ("resolution", "n_dot_l"):
             ax.set_xscale("log")
+        if axis == "resolution":
+            ax.set_xticks(RESOLUTIONS, [str(r) for r in RESOLUTIONS], fontsize=7)
+            ax.minorticks_off()
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
     axes[0].set_ylabel("smallest optimal bias (window depth)")

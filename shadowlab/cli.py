@@ -152,6 +152,26 @@ def _parser() -> argparse.ArgumentParser:
     an.add_argument("--out", default=None, help="run directory (default results/<scene>_animate_<date-time>)")
     an.add_argument("--repeat", type=int, default=1, help="timed runs per configuration and frame (default 1)")
     an.add_argument("--warmup", type=int, default=0, help="untimed warm-up runs per frame (default 0)")
+    tu = sub.add_parser("tune", help="find a configuration's best settings on a scene against the truth "
+                        "(the shadow-map bias exactly from one render; anything else by a search over renders)")
+    tu.add_argument("scene", help="a shipped scene's name or a path to a scene file")
+    tu.add_argument("--technique", "-t", required=True, metavar="SPEC", help="the configuration to tune: name or "
+                    "name:key=value,... (the other parameters stay as given)")
+    tu.add_argument("--param", action="append", default=None, metavar="NAME[=RANGE]",
+                    help="a parameter to tune (repeatable): NAME (its declared range), NAME=LO:HI, NAME=LO:HI:log "
+                         "or NAME=a,b,c (default: bias, where the technique has one)")
+    tu.add_argument("--objective", default="error_rate", help="the metric column to minimise (default error_rate)")
+    tu.add_argument("--time-budget", type=float, default=None, metavar="MS",
+                    help="only candidates at most this many ms per frame (median) count")
+    tu.add_argument("--budget", type=int, default=24, help="renders the search may spend (default 24; the exact "
+                    "bias route renders once)")
+    tu.add_argument("--light", type=int, default=0, help="the scene light to tune for (default 0)")
+    tu.add_argument("--size", default="800x600", help="image size WIDTHxHEIGHT (default 800x600, as compare)")
+    tu.add_argument("--out", default=None, help="run directory (default results/<scene>_tune_<technique>)")
+    tu.add_argument("--cache", default=None, metavar="DIR", help="a study's cache directory (e.g. "
+                    "results/study-quick/cache) to reuse its renders and keep this search's")
+    tu.add_argument("--repeat", type=int, default=3, help="timed runs per rendered candidate (default 3)")
+    tu.add_argument("--warmup", type=int, default=1, help="untimed warm-up runs (default 1)")
     ch = sub.add_parser("check", help="compare a study's artefact metrics with a baseline; exit 1 on regressions")
     ch.add_argument("study_dir", help="a study directory (holds results.csv)")
     ch.add_argument("baseline", help="baseline CSV (scene, light, config, label, held metrics)")
@@ -322,11 +342,42 @@ def _cmd_animate(args) -> int:
     return 0
 
 
+def _cmd_tune(args) -> int:
+    import json
+
+    from .commands.tune import tune
+    from .gl import GLContextError
+
+    size = parse_size(args.size)
+    bar = Progress(unit="step")
+    try:
+        out = tune(args.scene, args.technique, args.param or [], objective=args.objective, size=size, out=args.out,
+                   light=args.light, budget=args.budget, time_budget_ms=args.time_budget, repeat=args.repeat,
+                   warmup=args.warmup, cache_dir=args.cache, on_step=bar.step)
+    except GLContextError as exc:
+        print(f"shadowlab: {exc}", file=sys.stderr)
+        return EXIT_NO_GL
+    finally:
+        bar.close()
+    best = json.loads((out / "best.json").read_text())
+    from .output.pages import fmt_num
+
+    print(f"best:    {best['spec']}")
+    print(f"         {best['objective']} = {fmt_num(best['value'], 6)} (as given: {fmt_num(best['default']['value'], 6)}, "
+          f"regret {fmt_num(best['regret_of_default'], 3)}); route: {best['route']}")
+    if best["route"] == "exact":
+        print(f"         per-pixel oracle {fmt_num(best['oracle'], 3)}; render equals prediction: {best['verified']}")
+    print(f"run directory: {out.resolve()}")
+    print(f"page: {(out / 'tune.html').resolve()}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the process exit status."""
     from .commands.compare import RunError
     from .study.suite import SuiteError
     from .techniques import TechniqueError
+    from .tuning.space import TuneError
 
     args = _parser().parse_args(argv)
     try:
@@ -343,8 +394,10 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_check(args)
         if args.command == "animate":
             return _cmd_animate(args)
+        if args.command == "tune":
+            return _cmd_tune(args)
         return _cmd_compare(args)
-    except (SceneError, TechniqueError, RunError, SuiteError) as exc:
+    except (SceneError, TechniqueError, RunError, SuiteError, TuneError) as exc:
         print(f"shadowlab: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
 

@@ -99,6 +99,23 @@ def verdict_markdown(results: pd.DataFrame, meta: dict | None = None) -> list[st
     return lines + [""]
 
 
+def tuned_markdown(meta: dict) -> list[str]:
+    """summary.md's section on the ``[[tuned]]`` entries (:func:`tuned_tables`); [] without any."""
+    lines = []
+    for t in tuned_tables(meta):
+        lines += [f"## {t['name']}: tuned against the spec as given", "",
+                  f"Objective: {t['objective']}, light 0, each scene tuned on its own.", ""]
+        lines += _md_table(["scene", "as given", "tuned", "regret of the default", "tuned parameters",
+                            "per-pixel oracle"],
+                           [[r["scene"], "failed: " + r["failed"], "", "", "", ""] if r["failed"] else
+                            [r["scene"], r["default"], r["tuned"], r["regret"], r["params"], r["oracle"]]
+                            for r in t["rows"]]).splitlines()
+        lines.append("")
+        if t["global"]:
+            lines += [t["global"], ""]
+    return lines
+
+
 def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> Path:
     """Write ``summary.md``: the study at a glance, readable as plain text.
 
@@ -123,6 +140,7 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> P
     if meta.get("description"):
         lines += [str(meta["description"]), ""]
     lines += verdict_markdown(results, meta)
+    lines += tuned_markdown(meta)
     lines += [f"- {k}: {v}" for k, v in _meta_lines(meta)]
     n_scenes = len(scenes_in_order(results)) if len(results) else 0
     lines += [f"- {n_scenes} scenes, {len(table)} configurations, {len(fails)} failed runs", ""]
@@ -219,6 +237,50 @@ def _error_text(metric: str, value) -> str:
     if is_missing(value):
         return ""
     return _metric_text("error_rate", value) if metric == "error_rate" else f"{float(value):.4f}"
+
+
+def tuned_tables(meta: dict) -> list[dict]:
+    """study.json's ``tuned`` (:func:`shadowlab.study.runner.tuning_summary`) as the page and
+    summary.md show it: per ``[[tuned]]`` entry its name, objective, one row per scene (the
+    objective as given and tuned, the regret of the default, the tuned parameters, the per-pixel
+    oracle; or the failure) and, on the exact bias route, the sentence on one global bias."""
+    out = []
+    for t in meta.get("tuned") or []:
+        metric = t["objective"]
+        rows = []
+        for sc in t["scenes"]:
+            if sc["status"] != "ok":
+                rows.append({"scene": sc["scene"], "failed": sc.get("error") or "failed"})
+                continue
+            params = ", ".join(f"{k}={fmt_num(v, 4) if isinstance(v, float) else v}" for k, v in sc["params"].items())
+            rows.append({"scene": sc["scene"], "failed": "", "default": _metric_text(metric, sc["default_value"]),
+                         "tuned": _metric_text(metric, sc["value"]), "regret": _metric_text(metric, sc["regret"]),
+                         "params": params, "oracle": _metric_text(metric, sc.get("oracle")), "route": sc["route"]})
+        out.append({"name": t["name"], "spec": t["written"], "objective": metric, "rows": rows,
+                    "global": global_sentence(t)})
+    return out
+
+
+def global_sentence(entry: dict) -> str:
+    """One sentence on whether one bias serves every scene of a tuned entry (leave-one-out: the
+    bias tuned on the other scenes, judged on the held-out one), or '' without the exact curves."""
+    g = entry.get("global")
+    if not g:
+        return ""
+    metric = entry["objective"]
+    held = g["held_out"]
+    worst = max(held, key=lambda h: h["regret"])
+    regrets = sorted(h["regret"] for h in held)
+    median = regrets[len(regrets) // 2]
+    lo = max(v[0] for v in g["optima"].values())
+    hi = min(v[1] for v in g["optima"].values())
+    common = (f"one bias, {fmt_num((lo + hi) / 2, 3)}, lies in every scene's optimal interval"
+              if lo < hi else "no single bias lies in every scene's optimal interval")
+    return (f"One bias for every scene? {common[0].upper() + common[1:]}. Tuned on the other scenes and judged on "
+            f"the one held out, a single bias misses that scene's own optimum by a median of "
+            f"{_metric_text(metric, median)} (worst: {_metric_text(metric, worst['regret'])} on {worst['scene']}); "
+            f"the default bias {fmt_num(g['default_bias'], 3)} by a median of "
+            f"{_metric_text(metric, sorted(h['default_regret'] for h in held)[len(held) // 2])}.")
 
 
 def verdict_grid(verdicts: pd.DataFrame, scenes_meta: dict) -> dict:
@@ -369,7 +431,7 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
         pareto=_rel(study_dir, pareto_png) or quote(Path(pareto_png).as_posix()),
         summary=_summary_rows(results),
         failed=[[as_text(r["scene"]), as_text(r["label"]), as_text(r["error"])] for _, r in fails.iterrows()],
-        scenes=sections, error_colors=error_legend())
+        scenes=sections, error_colors=error_legend(), tuned=tuned_tables(meta))
 
 
 def write_study_report(study_dir, results: pd.DataFrame, meta: dict) -> dict:

@@ -117,6 +117,10 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
     try:
         device = _probe(executor)
         renderer = device["renderer"]
+        tuned = []
+        if suite.tuned:  # each [[tuned]] entry's per-scene optimum joins the scene's configurations
+            tuned = _tuning_phase(executor, suite, cache, revision, device["device"], force, workers, log)
+            suite = _with_tuned(suite, tuned)
         runs = _plan(suite, revision, device["device"])
         todo_truth = [r for r in runs if r.reference and (force or not cache.has_result(r.acc_key))]
         todo_config = [r for r in runs if not r.reference and (force or not cache.has_result(r.acc_key))]
@@ -183,12 +187,154 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
             "elapsed_s": elapsed, "runs": len(runs), "cached": 2 * len(runs) - n_tasks,
             "failed": len(problems), "suite_file": suite.file, "phases_s": phases,
             "scenes": {e.name: {"family": e.family, "metric": e.metric, "purpose": scene_purpose(e.path)}
-                       for e in suite.scenes}}
+                       for e in suite.scenes},
+            "tuned": tuning_summary(suite, tuned, results)}
     report_files = _write_study_files(out, results, meta, record)
     failures = [f"{scene} / {spec}: {err}" for (scene, spec), err in problems.items()]
     phases["report_s"] = time.perf_counter() - t_start - elapsed
     return StudyOutcome(out, results, n_tasks, 2 * len(runs) - n_tasks, failures, time.perf_counter() - t_start,
                         report_files, phases)
+
+
+@dataclass
+class _Tuned:
+    """One ``[[tuned]]`` entry on one scene: its cache key and the tune task's result (None
+    until run; ``ok`` False with ``error`` when it failed)."""
+
+    entry: object   # TunedEntry
+    scene: object   # SceneEntry
+    scene_hash: str
+    key: str
+    result: dict | None = None
+
+
+def _tuning_phase(executor, suite: Suite, cache: Cache, revision: str, device: str, force: bool, workers: int,
+                  log) -> list[_Tuned]:
+    """Run (or take from the cache) every ``[[tuned]]`` entry on each of its scenes, in parallel:
+    before the accuracy phase, which then runs the tuned configurations like any other."""
+    from .tasks import run_task
+
+    jobs = []
+    for entry in suite.tuned:
+        for scene in suite.scenes:
+            if entry.applies_to(scene.name):
+                h = scene_content_hash(scene.path)
+                key = run_key(h, f"tune:{entry.spec}", suite.size, revision, device, params=list(entry.params),
+                              objective=entry.objective, budget=entry.budget, truth=suite.truth)
+                job = _Tuned(entry, scene, h, key)
+                job.result = None if force else cache.load_result(key)
+                jobs.append(job)
+    todo = [j for j in jobs if j.result is None]
+    if not todo:
+        return jobs
+    ex = executor or LocalExecutor(min(workers, len(todo)))
+    log(f"tuning phase: {len(todo)} tune task(s) ({len(jobs) - len(todo)} cached) on {ex.description}")
+    try:
+        pending = {}
+        for j in todo:
+            task = {"kind": "tune", "scene_path": str(j.scene.path), "scene_hash": j.scene_hash,
+                    "size": list(suite.size), "spec": j.entry.spec, "params": list(j.entry.params),
+                    "objective": j.entry.objective, "budget": j.entry.budget, "truth_spec": suite.truth}
+            pending[ex.submit(run_task, task)] = j
+        while pending:
+            for fut in ex.wait_first(pending.keys()):
+                j = pending.pop(fut)
+                try:
+                    j.result = fut.result()
+                except Exception as exc:  # noqa: BLE001 - run_task never raises: the worker died
+                    j.result = _lost(exc)
+                if j.result["ok"]:
+                    cache.store_result(j.key, j.result)
+                    log(f"  tuned {j.entry.name} on {j.scene.name}: {j.result['meta']['best']}")
+                else:
+                    log(f"  tuning {j.entry.name} on {j.scene.name} FAILED: {j.result['error']}")
+    except BaseException:
+        if hasattr(ex, "kill"):
+            ex.kill()
+        raise
+    finally:
+        if ex is not executor:
+            ex.close()
+    return jobs
+
+
+def _with_tuned(suite: Suite, tuned: list[_Tuned]) -> Suite:
+    """The suite with each tuned optimum added to its scene's configurations, named
+    ``<spec> [tuned <params>]`` (a spec the suite already runs keeps its own name)."""
+    import dataclasses
+
+    configurations = {k: list(v) for k, v in suite.configurations.items()}
+    written = dict(suite.written)
+    for j in tuned:
+        if j.result is None or not j.result.get("ok", True) or "best" not in j.result.get("meta", {}):
+            continue
+        spec = from_spec(j.result["meta"]["best"]).spec()
+        written.setdefault(spec, j.entry.name)
+        if spec not in configurations[j.scene.name]:
+            configurations[j.scene.name].append(spec)
+    return dataclasses.replace(suite, configurations=configurations, written=written)
+
+
+def tuning_summary(suite: Suite, tuned: list, results: pd.DataFrame) -> list[dict]:
+    """study.json's ``tuned``: per ``[[tuned]]`` entry and scene, the spec as given and its
+    optimum, each with its objective as the study measured it (light 0), the regret of the
+    default, the per-pixel oracle (exact route); per entry, on the exact route, one global bias
+    tuned leave-one-out (:func:`shadowlab.tuning.global_setting.leave_one_out`)."""
+    from ..tuning.global_setting import SceneCurve, leave_one_out
+
+    def measured(scene: str, spec: str, objective: str):
+        rows = results[(results["scene"] == scene) & (results["label"] == spec) & (results["light"] == 0)]
+        if not len(rows) or objective not in rows or rows.iloc[0].get("status") != "ok":
+            return None
+        return float(rows.iloc[0][objective])
+
+    out = []
+    for entry in suite.tuned:
+        scenes, curves = [], {}
+        for j in (j for j in tuned if j.entry is entry):
+            r = j.result or {"ok": False, "error": "not run"}
+            item = {"scene": j.scene.name, "status": "ok" if r.get("ok", True) and "best" in r.get("meta", {})
+                    else "failed", "error": r.get("error", "")}
+            if item["status"] == "ok":
+                m = r["meta"]
+                best = from_spec(m["best"]).spec()
+                default_value, value = measured(j.scene.name, entry.spec, entry.objective), \
+                    measured(j.scene.name, best, entry.objective)
+                item.update(best=best, best_name=suite.config_name(best), params=m["params"], route=m["route"],
+                            oracle=m.get("oracle"), default_value=default_value, value=value,
+                            regret=(default_value - value) if None not in (default_value, value) else None,
+                            renders=m.get("renders"))
+                own = _own_grid_point(m, entry.spec)
+                if own is not None and np.isfinite(r["arrays"][f"{own}_values"]).all():
+                    curves[j.scene.name] = SceneCurve(j.scene.name, r["arrays"][f"{own}_breaks"],
+                                                      r["arrays"][f"{own}_values"], float(m["bias_range"][1]))
+            scenes.append(item)
+        summary = {"name": entry.name, "spec": entry.spec, "written": entry.written, "params": list(entry.params),
+                   "objective": entry.objective, "scenes": scenes, "global": None}
+        if len(curves) >= 2 and len(curves) == len(scenes):
+            default_bias = float(from_spec(entry.spec).bias)
+            loo = leave_one_out(curves, default_bias)
+            summary["global"] = {
+                "held_out": [{"scene": h.test[0], "bias": h.bias, "value": h.test_values[h.test[0]],
+                              "own_optimum": h.test_optima[h.test[0]], "regret": h.regret[h.test[0]],
+                              "default_value": h.default_values[h.test[0]],
+                              "default_regret": h.default_regret[h.test[0]]} for h in loo],
+                "optima": {s: [c.optimum().lo, c.optimum().hi] for s, c in curves.items()},
+                "default_bias": default_bias}
+        out.append(summary)
+    return out
+
+
+def _own_grid_point(meta: dict, spec: str) -> int | None:
+    """Index of the grid point holding the spec's own value of the grid parameter (0 without a grid)."""
+    grid = meta.get("grid") or []
+    if not grid:
+        return None
+    tech = from_spec(spec)
+    for k, params in enumerate(grid):
+        if all(getattr(tech, name) == value for name, value in params.items()):
+            return k
+    return None
 
 
 def _probe(executor) -> dict:

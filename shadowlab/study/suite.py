@@ -70,6 +70,30 @@ class SceneEntry:
     metric: str | None = None
 
 
+@dataclass(frozen=True)
+class TunedEntry:
+    """A ``[[tuned]]`` table: the configuration ``spec`` (canonical; ``written`` as the suite
+    wrote it) is run at its defaults and, on each of its scenes, at its optimum for ``objective``
+    over ``params`` (``shadowlab tune``'s routes, ``budget`` renders for the search route).
+    ``scenes``: the scenes it is limited to (None: all)."""
+
+    spec: str
+    written: str
+    params: tuple[str, ...]
+    objective: str
+    budget: int
+    scenes: tuple[str, ...] | None = None
+
+    @property
+    def name(self) -> str:
+        """The tuned configurations' name in results.csv's ``config`` column."""
+        return f"{self.written} [tuned {'+'.join(p.split('=')[0] for p in self.params) or 'bias'}]"
+
+    def applies_to(self, scene: str) -> bool:
+        """Whether the entry runs on ``scene``."""
+        return self.scenes is None or scene in self.scenes
+
+
 @dataclass
 class Suite:
     """A validated suite. ``configurations`` maps each scene name to the canonical technique
@@ -89,6 +113,8 @@ class Suite:
     #: a sweep's ``"shadow_map:resolution=256"``): a name that survives a change of defaults, so
     #: a baseline keyed by it sees a changed default as a change of metrics, not a missing run.
     written: dict[str, str] = field(default_factory=dict)
+    #: The ``[[tuned]]`` tables: configurations run at their per-scene optimum beside their defaults.
+    tuned: list[TunedEntry] = field(default_factory=list)
 
     def config_name(self, spec: str) -> str:
         """The configuration ``spec`` as written in the suite (the truth: its technique name)."""
@@ -208,6 +234,39 @@ def _sweep_specs(table, where: str, file: str, scene_names: set[str],
     return specs, scenes
 
 
+#: The default render budget of a ``[[tuned]]`` table's search route.
+TUNED_BUDGET = 12
+
+
+def _tuned_entry(table, where: str, file: str, scene_names: set[str], written: dict[str, str]) -> TunedEntry:
+    """A ``[[tuned]]`` table → :class:`TunedEntry`, checked as ``shadowlab tune`` checks its
+    arguments (before anything runs)."""
+    from ..tuning.space import TuneError
+    from ..tuning.tuner import plan_tune
+
+    rd = TableReader(table, where, file)
+    spec = rd.string("technique")
+    params = _string_list(rd, "params", [])
+    objective = rd.string("objective", default="error_rate")
+    budget = rd.number("budget", TUNED_BUDGET, min=1, integer=True)
+    scenes = rd.raw("scenes", None)
+    rd.finish()
+    if scenes is not None:
+        if not isinstance(scenes, list) or not all(isinstance(x, str) for x in scenes):
+            raise SuiteError(f"{file}: {where}.scenes: must be a list of scene names")
+        unknown = [x for x in scenes if x not in scene_names]
+        if unknown:
+            raise SuiteError(f"{file}: {where}.scenes: {unknown[0]!r} is not one of the suite's scenes"
+                             f"{did_you_mean(unknown[0], sorted(scene_names))}")
+    canonical = _spec(spec, f"{where}.technique", file, written)
+    try:
+        plan_tune(canonical, params, objective)
+    except (TuneError, TechniqueError) as exc:
+        raise SuiteError(f"{file}: {where}: {exc}") from None
+    return TunedEntry(canonical, spec.strip(), tuple(params), objective, int(budget),
+                      tuple(scenes) if scenes is not None else None)
+
+
 def _check_lights(scenes: list[SceneEntry], configurations: dict[str, list[str]], written: dict[str, str],
                   file: str) -> None:
     """SuiteError, at plan time, for a configuration planned on a scene with a light its
@@ -257,6 +316,8 @@ def parse_suite(data: dict, file: str = "<suite>", base: Path | None = None) -> 
                   for i, s in enumerate(_string_list(rd, "techniques", []))]
     sweeps = [_sweep_specs(t, f"sweeps[{i}]", file, {s.name for s in scenes}, written)
               for i, t in enumerate(rd.table_list("sweeps", []))]
+    tuned = [_tuned_entry(t, f"tuned[{i}]", file, {s.name for s in scenes}, written)
+             for i, t in enumerate(rd.table_list("tuned", []))]
     rd.finish()
     truth = RayTraced().spec()
     configurations = {}
@@ -265,9 +326,11 @@ def parse_suite(data: dict, file: str = "<suite>", base: Path | None = None) -> 
         for sweep_specs, only in sweeps:
             if only is None or s.name in only:
                 specs.extend(sweep_specs)
+        specs.extend(t.spec for t in tuned if t.applies_to(s.name))  # the defaults, beside the optimum
         configurations[s.name] = [sp for sp in dict.fromkeys(specs) if sp != truth]
     if not any(configurations.values()):
         raise SuiteError(f"{file}: no technique configurations (give techniques or [[sweeps]])")
     _check_lights(scenes, configurations, written, file)
-    return Suite(name, description, size, repeat, warmup, pass_timing, scenes, configurations, truth, file, written)
+    return Suite(name, description, size, repeat, warmup, pass_timing, scenes, configurations, truth, file, written,
+                 tuned)
 

@@ -62,7 +62,7 @@ def run_task(task: dict) -> dict:
 def _run_here(task: dict) -> dict:
     t0 = time.perf_counter()
     try:
-        result = {"truth": _truth, "config": _config, "timing": _timing}[task["kind"]](task)
+        result = {"truth": _truth, "config": _config, "timing": _timing, "tune": _tune}[task["kind"]](task)
         result.update(ok=True, error="")
     except Exception as exc:  # noqa: BLE001 - recorded as the run's error, the study goes on
         where = traceback.extract_tb(exc.__traceback__)[-1]
@@ -203,6 +203,37 @@ def _timing(task: dict) -> dict:
                         **{k: v for k, v in m.stats.items() if _is_time_column(k)}})
     return {"meta": {"columns": columns, "lp_num_threads": os.environ.get("LP_NUM_THREADS")},
             "arrays": {}, "files": {}}
+
+
+def _tune(task: dict) -> dict:
+    """One ``[[tuned]]`` entry on one scene, light 0 (:func:`shadowlab.tuning.tuner.find_best`):
+    the best spec and its value, the spec's own value, and — on the exact bias route — each grid
+    point's exact curve of the objective (``k_breaks``, ``k_values``), for the global-setting
+    analysis (:mod:`shadowlab.tuning.global_setting`). Renders untimed (repeat 1, no warm-up):
+    the timing phase times the tuned configuration like any other."""
+    from ..pipeline import Evaluator
+    from ..techniques import from_spec
+    from ..tuning.tuner import find_best, plan_tune
+
+    frame = _frame(task)
+    evaluator = Evaluator(frame, from_spec(task["truth_spec"]), repeat=1, warmup=0)
+    plan = plan_tune(task["spec"], task["params"], task["objective"])
+    outcome = find_best(evaluator, plan, light=0, budget=task["budget"], repeat=1, warmup=0)
+    meta = {"best": outcome.spec, "params": outcome.params, "value": outcome.value, "route": plan.route,
+            "objective": plan.objective, "oracle": outcome.facts.get("oracle"),
+            "default_value": (outcome.facts.get("default_exact") if plan.route == "exact"
+                              else (outcome.trials[0].value if outcome.trials else None)),
+            "renders": outcome.facts.get("renders"), "grid": [], "default_bias": None}
+    arrays = {}
+    if outcome.exact is not None:
+        meta["default_bias"] = float(from_spec(plan.spec).bias)
+        for k, point in enumerate(outcome.exact.points):
+            meta["grid"].append(point.params)
+            arrays[f"{k}_breaks"] = point.curve.breaks
+            arrays[f"{k}_values"] = point.curve.values(plan.objective) if plan.objective in point.curve.sums \
+                else np.full(len(point.curve.breaks), np.nan)
+        meta["bias_range"] = list(plan.bias_range)
+    return {"meta": meta, "arrays": arrays, "files": {}}
 
 
 def probe_here() -> dict:

@@ -205,6 +205,19 @@ def _spec(spec: str, where: str, file: str, written: dict[str, str]) -> str:
     return canonical
 
 
+def _scene_subset(scenes, where: str, file: str, scene_names: set[str]) -> list[str] | None:
+    """A table's optional ``scenes`` list, checked against the suite's scenes (None: all)."""
+    if scenes is None:
+        return None
+    if not isinstance(scenes, list) or not all(isinstance(x, str) for x in scenes):
+        raise SuiteError(f"{file}: {where}.scenes: must be a list of scene names")
+    unknown = [x for x in scenes if x not in scene_names]
+    if unknown:
+        raise SuiteError(f"{file}: {where}.scenes: {unknown[0]!r} is not one of the suite's scenes"
+                         f"{did_you_mean(unknown[0], sorted(scene_names))}")
+    return scenes
+
+
 def _sweep_specs(table, where: str, file: str, scene_names: set[str],
                  written: dict[str, str]) -> tuple[list[str], list[str] | None]:
     """A ``[[sweeps]]`` table → (canonical specs of its grid, the scenes it is limited to or None)."""
@@ -213,14 +226,7 @@ def _sweep_specs(table, where: str, file: str, scene_names: set[str],
     if "technique" not in table or not isinstance(table["technique"], str):
         raise SuiteError(f"{file}: {where}.technique: required, the name of a technique")
     name = table["technique"]
-    scenes = table.get("scenes")
-    if scenes is not None:
-        if not isinstance(scenes, list) or not all(isinstance(s, str) for s in scenes):
-            raise SuiteError(f"{file}: {where}.scenes: must be a list of scene names")
-        unknown = [s for s in scenes if s not in scene_names]
-        if unknown:
-            raise SuiteError(f"{file}: {where}.scenes: {unknown[0]!r} is not one of the suite's scenes"
-                             f"{did_you_mean(unknown[0], sorted(scene_names))}")
+    scenes = _scene_subset(table.get("scenes"), where, file, scene_names)
     axes = {k: (v if isinstance(v, list) else [v]) for k, v in table.items() if k not in ("technique", "scenes")}
     for key, values in axes.items():
         if not values:
@@ -249,15 +255,8 @@ def _tuned_entry(table, where: str, file: str, scene_names: set[str], written: d
     params = _string_list(rd, "params", [])
     objective = rd.string("objective", default="error_rate")
     budget = rd.number("budget", TUNED_BUDGET, min=1, integer=True)
-    scenes = rd.raw("scenes", None)
+    scenes = _scene_subset(rd.raw("scenes", None), where, file, scene_names)
     rd.finish()
-    if scenes is not None:
-        if not isinstance(scenes, list) or not all(isinstance(x, str) for x in scenes):
-            raise SuiteError(f"{file}: {where}.scenes: must be a list of scene names")
-        unknown = [x for x in scenes if x not in scene_names]
-        if unknown:
-            raise SuiteError(f"{file}: {where}.scenes: {unknown[0]!r} is not one of the suite's scenes"
-                             f"{did_you_mean(unknown[0], sorted(scene_names))}")
     canonical = _spec(spec, f"{where}.technique", file, written)
     try:
         plan_tune(canonical, params, objective)

@@ -15,6 +15,18 @@ import numpy as np
 
 from . import gl
 
+#: The metrics columns a timing fills (:meth:`Timing.columns`); with every ``*_ms`` figure they are
+#: what a study's timing phase measures alone on the host and what accuracy comparisons leave out.
+TIMING_COLUMNS = ("time_ms_median", "time_ms_iqr", "time_repeats", "gpu_time_ms_median")
+
+
+def is_time_column(name: str) -> bool:
+    """Whether a metrics column is a time: the frame times and every ``*_ms`` cost figure
+    (``preprocess_ms``, ``pass_<name>_ms``). Studies measure those apart from accuracy, and
+    comparisons of two runs' accuracy skip them."""
+    return name in TIMING_COLUMNS or name.endswith("_ms")
+
+
 WALL_CLOCK = "wall clock around ctx.finish() (perf_counter), median and IQR over repeats after warm-up"
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from conftest import SMALL
 from shadowlab.study.cache import Cache
-from shadowlab.study.tasks import _is_time_column
+from shadowlab.timing import is_time_column
 from shadowlab.techniques import REGISTRY, from_spec
 from shadowlab.techniques.base import Param, TuneRange
 from shadowlab.tuning.search import (OBJECTIVES, RenderedCandidates, Rejected, Trial, best_trial, check_objective,
@@ -334,8 +334,8 @@ def test_rendered_candidates_with_the_study_cache(lab, tmp_path):
     assert again.renders == 0 and again.hits == 6
     assert [t.params for t in replay] == [t.params for t in history]
     for a, b in zip(history, replay):
-        assert {k: v for k, v in a.row.items() if not _is_time_column(k)} == \
-            {k: v for k, v in b.row.items() if not _is_time_column(k)}
+        assert {k: v for k, v in a.row.items() if not is_time_column(k)} == \
+            {k: v for k, v in b.row.items() if not is_time_column(k)}
         assert a.row["time_ms_median"] == b.row["time_ms_median"]  # the cached timing
         assert list(a.row) == list(b.row)  # in the same column order
 

@@ -22,13 +22,14 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from ..timing import is_time_column
+
 #: Frames kept per worker (each holds a G-buffer and the scene's geometry).
 FRAMES_KEPT = 2
 #: The study's signed difference maps V − G share this fixed scale (±, visibility units): tasks
 #: run apart, so no run-wide maximum is known when each map is drawn; beyond it the colours clip.
 STUDY_SIGNED_LIMIT = 0.5
 
-_TIMING_COLUMNS = ("time_ms_median", "time_ms_iqr", "time_repeats", "gpu_time_ms_median")
 _gl_thread: ThreadPoolExecutor | None = None
 _gl_thread_lock = threading.Lock()
 _frames: OrderedDict = OrderedDict()
@@ -107,15 +108,9 @@ def _forget_frames() -> None:
             pass
 
 
-def _is_time_column(name: str) -> bool:
-    """Whether a metrics column is a time (the timing phase measures those, alone on the host):
-    the frame times and every ``*_ms`` cost figure (``preprocess_ms``, ``pass_<name>_ms``)."""
-    return name in _TIMING_COLUMNS or name.endswith("_ms")
-
-
 def _accuracy_row(row: dict) -> dict:
     """A metrics row without its time columns (the timing phase supplies those)."""
-    return {k: v for k, v in row.items() if not _is_time_column(k)}
+    return {k: v for k, v in row.items() if not is_time_column(k)}
 
 
 def _images(frame, visibilities, truth0, footprint=None) -> dict:
@@ -200,7 +195,7 @@ def _timing(task: dict) -> dict:
         m = measure(tech, frame, li, repeat=task["repeat"], warmup=task["warmup"],
                     pass_timing=task.get("pass_timing", False))
         columns.append({**m.timing.columns(), "setup_ms": m.setup_ms, **m.pass_times,
-                        **{k: v for k, v in m.stats.items() if _is_time_column(k)}})
+                        **{k: v for k, v in m.stats.items() if is_time_column(k)}})
     return {"meta": {"columns": columns, "lp_num_threads": os.environ.get("LP_NUM_THREADS")},
             "arrays": {}, "files": {}}
 

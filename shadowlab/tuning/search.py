@@ -45,8 +45,8 @@ from typing import Any, Callable, Sequence
 from .. import gl, metrics, provenance
 from ..pipeline import Evaluator, measure
 from ..study.cache import Cache, run_key, scene_content_hash
-from ..study.tasks import _is_time_column as is_time_column
 from ..techniques import TechniqueError, from_spec
+from ..timing import is_time_column
 from ..validation import did_you_mean
 from .space import FLOAT_DIGITS, Dimension, TuneError, with_params
 

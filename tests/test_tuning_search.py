@@ -346,3 +346,12 @@ def test_rendered_candidates_with_the_study_cache(lab, tmp_path):
     # a candidate the technique refuses is rejected before anything renders
     with pytest.raises(Rejected, match="bias must be <= 1.0"):
         strict({"bias": 2.0})
+
+
+def test_a_small_budget_tries_every_dimension():
+    """Six evaluations over two dimensions: the first sweep must not spend them all on the first."""
+    dims = [Dimension("a", "float", 0.0, 1.0), Dimension("b", "float", 0.0, 1.0)]
+    history = coordinate_search(dims, {"a": 0.5, "b": 0.5}, lambda p: (p["a"] - 0.2) ** 2 + (p["b"] - 0.9) ** 2,
+                                budget=6)
+    assert len(history) == 6
+    assert len({t.params["b"] for t in history}) > 1

@@ -113,10 +113,20 @@ def search_plot(trials, dimensions, objective: str, path: Path) -> None:
             ax.plot([x], [best.value], ls="none", ms=MARKER_SIZE + 3, markeredgecolor="white", **BEST_STYLE)
         if not numeric:
             ax.set_xticks(range(len(d.choices)), [str(c) for c in d.choices])
-        elif d.log:
-            ax.set_xscale("log")
+        else:
+            if d.log:
+                ax.set_xscale("log")
+            if d.lo is not None and d.hi is not None and d.hi > d.lo:
+                # the whole searched range, also where the search tried one value only
+                pad = (d.hi / d.lo) ** 0.05 if d.log and d.lo > 0 else None
+                ax.set_xlim(*((d.lo / pad, d.hi * pad) if pad else
+                              (d.lo - 0.05 * (d.hi - d.lo), d.hi + 0.05 * (d.hi - d.lo))))
         ax.set_xlabel(d.name)
-        ax.set_ylabel(objective)
+        ax.set_ylabel(objective + (", %" if objective.endswith("_rate") else ""))
+        if objective.endswith("_rate"):
+            from matplotlib.ticker import PercentFormatter
+
+            ax.yaxis.set_major_formatter(PercentFormatter(xmax=1.0, decimals=None, symbol=""))
         ax.grid(alpha=0.3)
     axes[0].set_title(f"{len(trials)} rendered candidates (colour: order; x: over the time budget)", fontsize=9,
                       loc="left")

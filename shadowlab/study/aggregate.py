@@ -49,6 +49,17 @@ _RATE_WEIGHTS = {"error_rate": "evaluated_pixels", "false_shadow_rate": "truth_l
                  "false_lit_rate": "truth_shadowed_pixels"}
 
 
+#: How results.csv's ``config`` names a tuned configuration: ``<spec as written> [tuned <params>]``
+#: (:attr:`shadowlab.study.suite.TunedEntry.name`). Its spec differs from scene to scene (each
+#: scene's own optimum), so the study's tables and plots group its rows by this name instead.
+TUNED_MARK = " [tuned "
+
+
+def is_tuned_name(config: str) -> bool:
+    """Whether a ``config`` name is a tuned configuration's (:data:`TUNED_MARK`)."""
+    return TUNED_MARK in config and config.endswith("]")
+
+
 _IMAGE_COLUMNS = ["run_dir", "shaded_image", "error_image", "signed_image", "footprint_image"]
 
 
@@ -81,7 +92,8 @@ def truthy(series: pd.Series) -> pd.Series:
 
 def normalised(results: pd.DataFrame) -> pd.DataFrame:
     """``results`` with ``reference`` as bool and ``status`` filled ('ok' where the column is
-    absent or empty), ``scene_family`` and ``short_label`` present."""
+    absent or empty), ``scene_family`` and ``short_label`` present, and a tuned configuration's
+    rows labelled by its ``config`` name (:func:`is_tuned_name`)."""
     df = results.copy()
     df["reference"] = truthy(df["reference"]) if "reference" in df.columns else False
     if "status" not in df.columns:
@@ -93,6 +105,11 @@ def normalised(results: pd.DataFrame) -> pd.DataFrame:
         df["short_label"] = df["label"]
     if "error" not in df.columns:
         df["error"] = ""
+    if "config" in df.columns:
+        # a tuned configuration runs a different spec on each scene: one name across the study
+        tuned = df["config"].map(lambda c: is_tuned_name(as_text(c)))
+        df.loc[tuned, "label"] = df.loc[tuned, "config"]
+        df.loc[tuned, "short_label"] = df.loc[tuned, "config"]
     return df
 
 

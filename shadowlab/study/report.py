@@ -255,7 +255,10 @@ def tuned_tables(meta: dict) -> list[dict]:
             params = ", ".join(f"{k}={fmt_num(v, 4) if isinstance(v, float) else v}" for k, v in sc["params"].items())
             rows.append({"scene": sc["scene"], "failed": "", "default": _metric_text(metric, sc["default_value"]),
                          "tuned": _metric_text(metric, sc["value"]), "regret": _metric_text(metric, sc["regret"]),
-                         "params": params, "oracle": _metric_text(metric, sc.get("oracle")), "route": sc["route"]})
+                         "params": params, "route": sc["route"],
+                         # only the exact bias route knows each pixel's own best value
+                         "oracle": (_metric_text(metric, sc["oracle"]) if sc.get("oracle") is not None
+                                    else f"— ({sc['route']} route)")})
         out.append({"name": t["name"], "spec": t["written"], "objective": metric, "rows": rows,
                     "global": global_sentence(t)})
     return out
@@ -276,7 +279,9 @@ def global_sentence(entry: dict) -> str:
     hi = min(v[1] for v in g["optima"].values())
     common = (f"one bias, {fmt_num((lo + hi) / 2, 3)}, lies in every scene's optimal interval"
               if lo < hi else "no single bias lies in every scene's optimal interval")
-    return (f"One bias for every scene? {common[0].upper() + common[1:]}. Tuned on the other scenes and judged on "
+    fixed = ", ".join(f"{k}={fmt_num(v, 3)}" for k, v in (g.get("held") or {}).items())
+    question = f"One bias for every scene ({fixed} held, as the spec gives it)?" if fixed else "One bias for every scene?"
+    return (f"{question} {common[0].upper() + common[1:]}. Tuned on the other scenes and judged on "
             f"the one held out, a single bias misses that scene's own optimum by a median of "
             f"{_metric_text(metric, median)} (worst: {_metric_text(metric, worst['regret'])} on {worst['scene']}); "
             f"the default bias {fmt_num(g['default_bias'], 3)} by a median of "

@@ -290,7 +290,7 @@ def tuning_summary(suite: Suite, tuned: list, results: pd.DataFrame) -> list[dic
 
     out = []
     for entry in suite.tuned:
-        scenes, curves = [], {}
+        scenes, curves, held = [], {}, {}
         for j in (j for j in tuned if j.entry is entry):
             r = j.result or {"ok": False, "error": "not run"}
             item = {"scene": j.scene.name, "status": "ok" if r.get("ok", True) and "best" in r.get("meta", {})
@@ -306,6 +306,7 @@ def tuning_summary(suite: Suite, tuned: list, results: pd.DataFrame) -> list[dic
                             renders=m.get("renders"))
                 own = _own_grid_point(m, entry.spec)
                 if own is not None and np.isfinite(r["arrays"][f"{own}_values"]).all():
+                    held = (m.get("grid") or [{}])[own]
                     curves[j.scene.name] = SceneCurve(j.scene.name, r["arrays"][f"{own}_breaks"],
                                                       r["arrays"][f"{own}_values"], float(m["bias_range"][1]))
             scenes.append(item)
@@ -320,7 +321,9 @@ def tuning_summary(suite: Suite, tuned: list, results: pd.DataFrame) -> list[dic
                               "default_value": h.default_values[h.test[0]],
                               "default_regret": h.default_regret[h.test[0]]} for h in loo],
                 "optima": {s: [c.optimum().lo, c.optimum().hi] for s, c in curves.items()},
-                "default_bias": default_bias}
+                "default_bias": default_bias,
+                # the grid parameters the global bias is chosen at: the spec's own values
+                "held": {k: v for k, v in held.items()}}
         out.append(summary)
     return out
 

@@ -36,6 +36,7 @@ from ..techniques import TechniqueError, from_spec
 from ..techniques.base import format_value
 from ..techniques.raytrace import RayTraced
 from ..validation import SceneError, TableReader, did_you_mean
+from .aggregate import TUNED_MARK
 
 #: Scene-name prefixes → hard-case family (HARD_CASES.md), for the study's summary.
 FAMILIES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps", "pa_": "perspective aliasing",
@@ -87,7 +88,7 @@ class TunedEntry:
     @property
     def name(self) -> str:
         """The tuned configurations' name in results.csv's ``config`` column."""
-        return f"{self.written} [tuned {'+'.join(p.split('=')[0] for p in self.params) or 'bias'}]"
+        return f"{self.written}{TUNED_MARK}{'+'.join(p.split('=')[0] for p in self.params) or 'bias'}]"
 
     def applies_to(self, scene: str) -> bool:
         """Whether the entry runs on ``scene``."""

@@ -6,7 +6,8 @@ a grid that is refined around the best value round after round:
 
 - round 0 tries ``points`` values across each dimension's whole range (geometric for ``log``
   dimensions, every choice for a choice dimension), dimension by dimension, starting from the
-  spec's own values;
+  spec's own values; with a budget too small for that, (budget − 1) / dimensions values each
+  (at least 3), so every dimension is tried;
 - each later round tries ``points`` values across a window ``shrink`` times the previous one
   (never narrower than the previous spacing, so the window covers the gaps beside the best),
   centred on the best value; choice dimensions are tried again only when another dimension
@@ -236,6 +237,9 @@ def coordinate_search(dimensions: Sequence[Dimension], start: dict,
     if not 0 < shrink < 1:
         raise ValueError(f"shrink must be in (0, 1), got {shrink}")
 
+    # The first sweep shares the budget between the dimensions (a small budget must not be spent
+    # on the first parameter alone), with at least 3 points each so the windows have a middle.
+    first_points = max(3, min(points, (budget - 1) // len(dims)))
     s = _Search(dims, evaluate, budget)
     first = {d.name: d.clip(start[d.name]) for d in dims}
     clipped = [f"{n} clipped from {start[n]!r}" for n in names if first[n] != start[n]]
@@ -254,7 +258,7 @@ def coordinate_search(dimensions: Sequence[Dimension], start: dict,
                 values = d.grid(points)
                 stale[d.name] = False
             elif rnd == 0:
-                values = d.grid(points)
+                values = d.grid(first_points)
             else:
                 if d.kind == "int" and s.settled(d, width[d.name], points):
                     continue

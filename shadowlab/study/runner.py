@@ -245,7 +245,9 @@ def _tuning_phase(executor, suite: Suite, cache: Cache, revision: str, device: s
                     j.result = _lost(exc)
                 if j.result["ok"]:
                     cache.store_result(j.key, j.result)
-                    log(f"  tuned {j.entry.name} on {j.scene.name}: {j.result['meta']['best']}")
+                    found = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
+                                      for k, v in j.result["meta"]["params"].items())
+                    log(f"  tuned {j.entry.name} on {j.scene.name}: {found}")
                 else:
                     log(f"  tuning {j.entry.name} on {j.scene.name} FAILED: {j.result['error']}")
     except BaseException:

@@ -298,6 +298,12 @@ def plot_scaling(df: pd.DataFrame, path: Path) -> None:
     fig.savefig(path)
 
 
+def show(table: pd.DataFrame) -> None:
+    """Print a result table whole (wide, every column) on the terminal."""
+    with pd.option_context("display.width", 220, "display.max_columns", 20):
+        print(table.to_string(index=False))
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="results/fair_bias", help="output folder")
@@ -316,15 +322,13 @@ def main(argv=None) -> None:
             regret.to_csv(out / "regret.csv", index=False)
             plot_regret(regret, out / "regret.png")
             written += ["regret.csv", "regret.png"]
-            with pd.option_context("display.width", 220, "display.max_columns", 20):
-                print(regret[["scene", "fit", "variant", "default_error", "tuned_error", "tuned_bias", "tuned_grid",
-                              "constant_oracle", "emulation_mismatch"]].to_string(index=False))
+            show(regret[["scene", "fit", "variant", "default_error", "tuned_error", "tuned_bias", "tuned_grid",
+                          "constant_oracle", "emulation_mismatch"]])
         if "global" in parts:
             g = global_table(curves)
             g.to_csv(out / "global.csv", index=False)
             written.append("global.csv")
-            with pd.option_context("display.width", 220, "display.max_columns", 20):
-                print(g.to_string(index=False))
+            show(g)
     if "scaling" in parts:
         s = scaling_table(size)
         s.to_csv(out / "scaling.csv", index=False)
@@ -332,16 +336,14 @@ def main(argv=None) -> None:
         fits.to_csv(out / "scaling_fits.csv", index=False)
         plot_scaling(s, out / "scaling.png")
         written += ["scaling.csv", "scaling_fits.csv", "scaling.png"]
-        with pd.option_context("display.width", 220, "display.max_columns", 20):
-            print(s[["scene", "axis", "x", "optimum_lo", "optimum_hi", "error_at_optimum",
-                     "error_at_default", "depth_range"]].to_string(index=False))
-            print(fits.to_string(index=False))
+        show(s[["scene", "axis", "x", "optimum_lo", "optimum_hi", "error_at_optimum", "error_at_default",
+                 "depth_range"]])
+        show(fits)
     if "cost" in parts:
         c = cost_table(size)
         c.to_csv(out / "cost.csv", index=False)
         written.append("cost.csv")
-        with pd.option_context("display.width", 220, "display.max_columns", 20):
-            print(c.to_string(index=False))
+        show(c)
     provenance.write_record(out / "fair_bias", {"size": list(size), "parts": sorted(parts),
                                                 "seconds": time.perf_counter() - t_start})
     print(f"wrote {', '.join(str(out / w) for w in written)} and {out / 'fair_bias.json'}")

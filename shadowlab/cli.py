@@ -75,6 +75,22 @@ class StudyProgress:
             self.bar = None
 
 
+def _with_progress(unit: str, work):
+    """Run ``work(on_step)`` under a :class:`Progress` bar of ``unit``s (the single-run commands:
+    compare, animate, tune): its result, or None after printing why when no GL context could be
+    made (the caller exits with :data:`EXIT_NO_GL`)."""
+    from .gl import GLContextError
+
+    bar = Progress(unit=unit)
+    try:
+        return work(bar.step)
+    except GLContextError as exc:
+        print(f"shadowlab: {exc}", file=sys.stderr)
+        return None
+    finally:
+        bar.close()
+
+
 def technique_listing(name: str | None = None) -> str:
     """Registered techniques with their parameters and defaults, for ``shadowlab techniques``;
     with ``name``, only that technique's block (TechniqueError, with a hint, if there is none)."""
@@ -285,20 +301,14 @@ def _cmd_scenes() -> int:
 
 def _cmd_compare(args) -> int:
     from .commands import compare as runmod
-    from .gl import GLContextError
     from .metrics import format_table
 
     size = parse_size(args.size)
-    bar = Progress()
-    try:
-        out = runmod.compare(args.scene, args.technique or ["shadow_map"], size=size, out=args.out,
-                             repeat=args.repeat, warmup=args.warmup, on_step=bar.step,
-                             pass_timing=args.pass_timing)
-    except GLContextError as exc:
-        print(f"shadowlab: {exc}", file=sys.stderr)
+    out = _with_progress("pass", lambda step: runmod.compare(
+        args.scene, args.technique or ["shadow_map"], size=size, out=args.out, repeat=args.repeat,
+        warmup=args.warmup, on_step=step, pass_timing=args.pass_timing))
+    if out is None:
         return EXIT_NO_GL
-    finally:
-        bar.close()
     import pandas as pd
 
     table = format_table(pd.read_csv(out / "metrics.csv"), "summary")
@@ -313,18 +323,13 @@ def _cmd_animate(args) -> int:
     import pandas as pd
 
     from .commands.animate import animate
-    from .gl import GLContextError
 
     size = parse_size(args.size)
-    bar = Progress(unit="render")
-    try:
-        out = animate(args.scene, args.technique or ["shadow_map"], frames=args.frames, size=size, out=args.out,
-                      repeat=args.repeat, warmup=args.warmup, on_step=bar.step)
-    except GLContextError as exc:
-        print(f"shadowlab: {exc}", file=sys.stderr)
+    out = _with_progress("render", lambda step: animate(
+        args.scene, args.technique or ["shadow_map"], frames=args.frames, size=size, out=args.out,
+        repeat=args.repeat, warmup=args.warmup, on_step=step))
+    if out is None:
         return EXIT_NO_GL
-    finally:
-        bar.close()
     from .output.pages import fmt_ms, fmt_pct
 
     summary = pd.read_csv(out / "summary.csv")
@@ -346,19 +351,14 @@ def _cmd_tune(args) -> int:
     import json
 
     from .commands.tune import tune
-    from .gl import GLContextError
 
     size = parse_size(args.size)
-    bar = Progress(unit="step")
-    try:
-        out = tune(args.scene, args.technique, args.param or [], objective=args.objective, size=size, out=args.out,
-                   light=args.light, budget=args.budget, time_budget_ms=args.time_budget, repeat=args.repeat,
-                   warmup=args.warmup, cache_dir=args.cache, on_step=bar.step)
-    except GLContextError as exc:
-        print(f"shadowlab: {exc}", file=sys.stderr)
+    out = _with_progress("step", lambda step: tune(
+        args.scene, args.technique, args.param or [], objective=args.objective, size=size, out=args.out,
+        light=args.light, budget=args.budget, time_budget_ms=args.time_budget, repeat=args.repeat,
+        warmup=args.warmup, cache_dir=args.cache, on_step=step))
+    if out is None:
         return EXIT_NO_GL
-    finally:
-        bar.close()
     best = json.loads((out / "best.json").read_text())
     from .output.pages import fmt_num
 

@@ -364,7 +364,9 @@ def _cmd_tune(args) -> int:
 
     print(f"best:    {best['spec']}")
     print(f"         {best['objective']} = {fmt_num(best['value'], 6)} (as given: {fmt_num(best['default']['value'], 6)}, "
-          f"regret {fmt_num(best['regret_of_default'], 3)}); route: {best['route']}")
+          + (f"regret {fmt_num(best['regret_of_default'], 3)}" if best["regret_of_default"] is not None else
+             f"{fmt_num(best['default']['time_ms'], 3)} ms: over the time budget")
+          + f"); route: {best['route']}")
     if best["route"] == "exact":
         print(f"         per-pixel oracle {fmt_num(best['oracle'], 3)}; render equals prediction: {best['verified']}")
     print(f"run directory: {out.resolve()}")

@@ -105,14 +105,21 @@ def _best_record(outcome: TuneOutcome, rows: pd.DataFrame, scene: str, light: in
     the best spec) first, then the default's value, the regret and the route's facts."""
     plan, objective = outcome.plan, outcome.plan.objective
 
-    def value_of(spec: str) -> float:
-        row = rows[(rows["label"] == from_spec(spec).spec()) & (rows["light"] == light)].iloc[0]
-        return float(row[objective])
+    def row_of(spec: str) -> pd.Series:
+        return rows[(rows["label"] == from_spec(spec).spec()) & (rows["light"] == light)].iloc[0]
 
-    value, default_value = value_of(outcome.spec), value_of(plan.spec)
+    value, default_value = float(row_of(outcome.spec)[objective]), float(row_of(plan.spec)[objective])
+    default = {"spec": plan.spec, "value": default_value, "time_ms": float(row_of(plan.spec)["time_ms_median"])}
+    regret = default_value - value
+    if time_budget_ms is not None:
+        # a default slower than the budget is no candidate: its value is shown, but no regret
+        default["within_time_budget"] = bool(default["time_ms"] <= time_budget_ms)
+        if not default["within_time_budget"]:
+            regret = None
     best = {"spec": from_spec(outcome.spec).spec(), "params": outcome.params, "objective": objective, "value": value,
             "scene": scene, "light": light, "size": list(size), "route": plan.route, "route_reason": plan.reason,
-            "default": {"spec": plan.spec, "value": default_value}, "regret_of_default": default_value - value,
+            "time_ms": float(row_of(outcome.spec)["time_ms_median"]),
+            "default": default, "regret_of_default": regret,
             "time_budget_ms": time_budget_ms, "seconds": seconds, **outcome.facts}
     if plan.route == "exact":
         # the optimiser's prediction against the compare run of the best spec, bit for bit
@@ -149,8 +156,16 @@ def top_candidates(candidates: pd.DataFrame, objective: str, n: int = TOP_CANDID
         return []
     cols = [c for c in candidates.columns if c.startswith("param_")]
     varying = [c for c in cols if candidates[c].nunique() > 1] or cols[:1]
-    top = candidates.sort_values(objective, kind="stable").head(n)
-    return [{"params": {c[len("param_"):]: r[c] for c in varying}, "value": r[objective],
+    # the search's own value: infinite for a candidate over the time budget, which ranks last
+    rank = "objective_value" if "objective_value" in candidates else objective
+    top = candidates.sort_values(rank, kind="stable").head(n)
+
+    def shown(value):
+        # CSV round trips turn ints (a resolution) into floats: show them as ints again
+        return int(value) if isinstance(value, float) and value.is_integer() else value
+
+    return [{"params": {c[len("param_"):]: shown(r[c]) for c in varying}, "value": r[objective],
              "error_rate": r.get("error_rate"), "false_shadow_rate": r.get("false_shadow_rate"),
              "false_lit_rate": r.get("false_lit_rate"), "time_ms_median": r.get("time_ms_median"),
-             "source": r.get("source")} for _, r in top.iterrows()]
+             "source": r.get("source"), "note": r.get("note") if isinstance(r.get("note"), str) else ""}
+            for _, r in top.iterrows()]

@@ -115,7 +115,10 @@ def search_plot(trials, dimensions, objective: str, path: Path) -> None:
             ax.set_xticks(range(len(d.choices)), [str(c) for c in d.choices])
         else:
             if d.log:
-                ax.set_xscale("log")
+                from matplotlib.ticker import NullFormatter
+
+                ax.set_xscale("log", base=2 if d.powers_of_two else 10)
+                ax.xaxis.set_minor_formatter(NullFormatter())  # labelled minor ticks overlap
             if d.lo is not None and d.hi is not None and d.hi > d.lo:
                 # the whole searched range, also where the search tried one value only
                 pad = (d.hi / d.lo) ** 0.05 if d.log and d.lo > 0 else None
@@ -128,7 +131,6 @@ def search_plot(trials, dimensions, objective: str, path: Path) -> None:
 
             ax.yaxis.set_major_formatter(PercentFormatter(xmax=1.0, decimals=None, symbol=""))
         ax.grid(alpha=0.3)
-    axes[0].set_title(f"{len(trials)} rendered candidates (colour: order; x: over the time budget)", fontsize=9,
-                      loc="left")
+    fig.suptitle(f"{len(trials)} rendered candidates (colour: order; ×: over the time budget)", fontsize=9)
     fig.tight_layout()
     fig.savefig(path)

@@ -139,6 +139,14 @@ class Atlas:
         ``u_light_matrix[MAX_FACES]`` uniform."""
         return self._padded([BIAS @ f.view_proj for f in self.faces])
 
+    def inverse_light_matrices(self) -> np.ndarray:
+        """Float32 (MAX_FACES, 16): per face the inverse of BIAS · projection · view (map uv and
+        window depth → world, inverted in float64), column-major as GLSL's mat4, padded with
+        identities: the ``u_light_matrix_inverse[MAX_FACES]`` uniform."""
+        mats = [np.linalg.inv(BIAS @ f.view_proj) for f in self.faces]
+        mats += [np.eye(4)] * (MAX_FACES - len(mats))
+        return np.stack([np.asarray(m, np.float64).T.ravel() for m in mats]).astype(np.float32)
+
     def view_matrices(self) -> bytes:
         """Per face the world → view matrix, padded: the ``u_light_view[MAX_FACES]`` uniform."""
         return self._padded([f.view for f in self.faces])

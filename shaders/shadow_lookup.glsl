@@ -23,7 +23,9 @@
 // or, with FILTER_HW, the hardware 2x2 bilinear comparison (sampler2DShadow).
 // With THRESHOLDS defined (the exact bias optimiser, shadowlab/tuning/exact_bias.py) the pass
 // writes, instead of the visibility, the terms of one tap's comparison ref = receiver - bias <=
-// stored with bias = u_bias + extra: (receiver, stored depth at tap u_tap, extra, COMPARED), or
+// stored with bias = u_bias + extra: (receiver, stored depth at tap u_tap, extra, COMPARED) —
+// receiver and extra are the tap's own with the per-tap comparisons (the receiver plane's depth
+// at the tap's texel centre; the adaptive bias of that texel) — or
 // w = LIT_ANYWAY where the point is lit whatever the bias (no G-buffer point, behind the light's
 // centre of projection, outside the map). Every term is computed by the same code as the lookup.
 // With CASCADES defined (cascaded shadow maps, shadowlab/techniques/cascaded_map.py) the faces

@@ -34,13 +34,21 @@ Variants (``variant=``), tuned by ``bias`` (window depth), ``slope_scale``, ``no
   ``adaptive_epsilon`` × the scene's extent (the diagonal of its bounds), a world distance
   along the ray converted to window depth at the intersection (so it follows a perspective
   map's depth compression). Differences from the paper: ``bias`` is added on top (``bias=0`` is
-  the paper's form; the exact bias optimiser sweeps it); the paper's epsilon is a user constant
-  times a scene scale in its depth metric (its eq. 3), ours is stated in world units along the
-  ray and converted exactly; PCF compares every tap against its own texel's bound (the paper
-  describes the nearest texel); where the ray misses the tangent plane in front of the light
-  (an edge-on receiver) the offset is 0 and only the epsilon applies. Both per-tap variants need
-  a depth test per texel, so ``filter=hw2x2`` (one reference depth for the 2x2 footprint) is
-  refused with them.
+  the paper's form; the exact bias optimiser sweeps it); the paper derives its epsilon (its
+  eq. 3) from a user constant scaled by the scene's scale and by the depth buffer's compression
+  at the fragment's depth — we worked from summaries of that equation, not its text, so ours is
+  our own form of the same idea: a world distance (constant × the scene's diagonal) mapped
+  exactly to window depth at the intersection, which is where the depth dependence comes from;
+  PCF compares every tap against its own texel's bound (the paper describes the texel the point
+  falls in); where the ray misses the tangent plane in front of the light (an edge-on
+  receiver) the offset is 0 and only the epsilon applies. The two intersections are the same
+  plane — a projective map keeps planes planar, so ``receiver_plane``'s extrapolation and
+  ``adaptive``'s ray intersection agree up to float32 round-off — and the variants differ in
+  the epsilon: ``receiver_plane`` needs a constant ``bias`` above the depth format's step and
+  the rasteriser's round-off (at ``bias=0`` acne remains, 160x120: sm_grazing, fit=receivers 0.33;
+  16-bit depth on sm_contact 0.22), ``adaptive``'s epsilon scales with the scene. Both per-tap
+  variants need a depth test per texel, so ``filter=hw2x2`` (one reference depth for the 2x2
+  footprint) is refused with them.
 
 Filters (``filter=``): ``nearest``; ``hw2x2`` (sampler2DShadow with linear filtering: hardware
 bilinear PCF); ``pcf3`` / ``pcf5`` (texel-exact percentage-closer filtering, Reeves et al. 1987).

@@ -4,11 +4,28 @@
 // Cebenoyan 2001) and occupies u_face_rect[f] = (x0, y0, width, height) of the atlas, in texels.
 // Depth offsets: constant u_bias (window depth), slope-scaled u_slope_scale · (depth change over
 // one texel on the receiver's plane), and normal offset (the lookup point moved along the normal
-// by u_normal_offset texels). Filtering: texel-exact PCF over (2r+1)² texels (r = 0: nearest),
+// by u_normal_offset texels). u_depth_comparison chooses what each tap compares against:
+// - DEPTH_COMPARISON_POINT: the point's own window depth (every variant but the two below);
+// - DEPTH_COMPARISON_RECEIVER_PLANE (Isidoro 2006, "Shadow mapping: GPU-based tips and
+//   techniques", GDC: receiver plane depth bias): the receiver's window depth extrapolated along
+//   its plane (dz/du, dz/dv in map space, receiver_plane_gradient) to the centre of the tap's
+//   texel, where the stored depth was rasterised; then u_bias subtracted;
+// - DEPTH_COMPARISON_ADAPTIVE (Dou, Yan, Kerzner, Dai & Wyman 2014, "Adaptive depth bias for
+//   shadow maps", I3D / JCGT 3(4)): the ray from the light through the centre of the tap's texel
+//   is intersected with the receiver's tangent plane (in world space, through the inverse light
+//   matrix); that point's window depth bounds the depth of a false occluder in the texel, and
+//   the adaptive bias is the point's depth minus it plus the adaptive epsilon: u_adaptive_epsilon
+//   × u_scene_extent (world units) moved along the ray towards the light, converted to window
+//   depth at the intersection (so it follows a perspective map's depth compression); u_bias is
+//   added on top (0 gives the paper's form).
+// The two per-tap comparisons need a depth test per texel: not with FILTER_HW (the Python side
+// refuses the combination). Filtering: texel-exact PCF over (2r+1)² texels (r = 0: nearest),
 // or, with FILTER_HW, the hardware 2x2 bilinear comparison (sampler2DShadow).
 // With THRESHOLDS defined (the exact bias optimiser, shadowlab/tuning/exact_bias.py) the pass
 // writes, instead of the visibility, the terms of one tap's comparison ref = receiver - bias <=
-// stored with bias = u_bias + extra: (receiver, stored depth at tap u_tap, extra, COMPARED), or
+// stored with bias = u_bias + extra: (receiver, stored depth at tap u_tap, extra, COMPARED) —
+// receiver and extra are the tap's own with the per-tap comparisons (the receiver plane's depth
+// at the tap's texel centre; the adaptive bias of that texel) — or
 // w = LIT_ANYWAY where the point is lit whatever the bias (no G-buffer point, behind the light's
 // centre of projection, outside the map). Every term is computed by the same code as the lookup.
 // With CASCADES defined (cascaded shadow maps, shadowlab/techniques/cascaded_map.py) the faces
@@ -22,6 +39,12 @@
 #include "lights.glsl"
 #define LIT 1.0
 #define SHADOWED 0.0
+#define DEPTH_COMPARISON_POINT 0
+#define DEPTH_COMPARISON_RECEIVER_PLANE 1
+#define DEPTH_COMPARISON_ADAPTIVE 2
+#define BASIS_SWITCH 0.9                 // tangent t1 = N × x while |N.x| < this, else N × y
+#define NEAR_DEPTH 0.0                   // window depths of a face's near and far planes
+#define FAR_DEPTH 1.0
 #ifndef MAX_FACES
 #error "MAX_FACES: the map toolkit's atlas size (shadowlab.techniques.maps.ATLAS_DEFINES)"
 #endif
@@ -42,6 +65,10 @@ uniform float u_normal_offset;           // texels
 uniform float u_texel_world;             // orthographic maps: world size of a texel
 uniform float u_texel_angle;             // perspective maps: world size of a texel per unit distance
 uniform int u_kernel_radius;
+uniform int u_depth_comparison;          // DEPTH_COMPARISON_*
+uniform mat4 u_light_matrix_inverse[MAX_FACES];  // adaptive: map (u, v, window depth) -> world
+uniform float u_adaptive_epsilon;        // adaptive: epsilon as a fraction of the scene's extent
+uniform float u_scene_extent;            // adaptive: the diagonal of the scene's bounds, world
 #ifdef CASCADES
 uniform vec4 u_view_depth;               // camera view depth of P = dot(u_view_depth, vec4(P, 1))
 uniform float u_cascade_far[MAX_FACES];  // far split of each cascade (view depth)
@@ -67,6 +94,64 @@ out float out_visibility;
 #include "cube_face.glsl"
 #include "atlas.glsl"
 
+// dz/du, dz/dv of the receiver plane at Q (normal N, map coordinates c in face f) in map space,
+// from two tangent points `texel` apart (Cramer's rule): true, or false when the plane is edge-on
+// to the light (then `edge` holds the two tangent points' depth changes).
+bool receiver_plane_gradient(int f, vec3 Q, vec3 N, vec3 c, float texel, out vec2 dz, out vec2 edge) {
+    vec3 t1 = normalize(abs(N.x) < BASIS_SWITCH ? cross(N, vec3(1.0, 0.0, 0.0)) : cross(N, vec3(0.0, 1.0, 0.0)));
+    vec3 t2 = cross(N, t1);
+    vec3 a = to_map(f, Q + t1 * texel) - c;
+    vec3 b = to_map(f, Q + t2 * texel) - c;
+    float det = a.x * b.y - a.y * b.x;
+    edge = vec2(a.z, b.z);
+    dz = vec2(0.0);
+    if (!(abs(det) > 0.0)) return false;
+    dz = vec2(a.z * b.y - b.z * a.y, a.x * b.z - b.x * a.z) / det;
+    return true;
+}
+
+// The uv of the centre of atlas texel t of face f.
+vec2 texel_centre_uv(int f, ivec2 t) {
+    return (vec2(t) + vec2(HALF_TEXEL) - u_face_rect[f].xy) / u_face_rect[f].zw;
+}
+
+// The world point of face f's map coordinates m = (u, v, window depth).
+vec3 from_map(int f, vec3 m) {
+    vec4 w = u_light_matrix_inverse[f] * vec4(m, 1.0);
+    return w.xyz / w.w;
+}
+
+// Adaptive depth bias (Dou et al. 2014) of the receiver point Q (normal N, map coordinates c)
+// at the tap whose texel centre is uv: the window depth of Q minus that of X, the intersection
+// of the light's ray through the texel centre with Q's tangent plane (the deepest a false
+// occluder in that texel can be: the receiver's own surface, rasterised at the centre), plus
+// the adaptive epsilon in window depth. Where the ray misses the plane in front of the light
+// (edge-on, or behind the centre of projection) X is Q itself: no offset, only the epsilon.
+float adaptive_bias(int f, vec3 Q, vec3 N, vec3 c, vec2 uv) {
+    vec3 A = from_map(f, vec3(uv, NEAR_DEPTH));
+    vec3 B = from_map(f, vec3(uv, FAR_DEPTH));
+    vec3 ray = B - A;                    // away from the light, through the texel centre
+    vec3 X = Q;
+    float depth = c.z;
+    float along = dot(ray, N);
+    if (abs(along) > 0.0) {
+        vec3 hit = A + ray * (dot(Q - A, N) / along);
+        vec4 h = u_light_matrix[f] * vec4(hit, 1.0);
+        if (h.w > 0.0) {
+            X = hit;
+            depth = h.z / h.w;
+        }
+    }
+    // Epsilon: X moved by eps (world) towards the light along the ray, as a window-depth change:
+    // d(X + δ) − d(X) = (m.z s.w − s.z m.w) / (s.w (s.w + m.w)), s = M X, m = M δ (exact, no
+    // cancellation between two nearly equal depths).
+    vec3 delta = -normalize(ray) * (u_adaptive_epsilon * u_scene_extent);
+    vec4 s = u_light_matrix[f] * vec4(X, 1.0);
+    vec4 m = u_light_matrix[f] * vec4(delta, 0.0);
+    float epsilon = -(m.z * s.w - s.z * m.w) / (s.w * (s.w + m.w));
+    return (c.z - depth) + epsilon;
+}
+
 // Visibility of the receiver point Q (normal N towards the light) in face f; texel: the world
 // size of a map texel at Q. Points outside the face's map are lit.
 float face_visibility(int f, vec3 Q, vec3 N, float texel) {
@@ -74,21 +159,17 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
     if (!map_coordinates(f, Q, c)) return LIT;  // behind the light's centre of projection
     if (any(lessThan(c, vec3(0.0))) || any(greaterThan(c, vec3(1.0)))) return LIT;  // outside the map
     float extra = 0.0;                   // the bias beyond u_bias at this point
+    vec2 dz = vec2(0.0), edge;           // the receiver plane's depth gradient in map space
+    bool plane = false;
+    if (u_slope_scale > 0.0 || u_depth_comparison == DEPTH_COMPARISON_RECEIVER_PLANE)
+        plane = receiver_plane_gradient(f, Q, N, c, texel, dz, edge);
     if (u_slope_scale > 0.0) {
-        // Depth change across one texel on the receiver's plane, from two tangent points.
-        vec3 t1 = normalize(abs(N.x) < 0.9 ? cross(N, vec3(1.0, 0.0, 0.0)) : cross(N, vec3(0.0, 1.0, 0.0)));
-        vec3 t2 = cross(N, t1);
-        vec3 a = to_map(f, Q + t1 * texel) - c;
-        vec3 b = to_map(f, Q + t2 * texel) - c;
-        float det = a.x * b.y - a.y * b.x;
+        // Depth change across one texel on the receiver's plane.
         vec2 texel_uv = 1.0 / u_face_rect[f].zw;
-        if (abs(det) > 0.0) {
-            // dz/du, dz/dv of the receiver plane in map space (Cramer's rule).
-            vec2 dz = vec2(a.z * b.y - b.z * a.y, a.x * b.z - b.x * a.z) / det;
+        if (plane)
             extra = u_slope_scale * (abs(dz.x) * texel_uv.x + abs(dz.y) * texel_uv.y);
-        } else {
-            extra = u_slope_scale * max(abs(a.z), abs(b.z));  // edge-on to the light
-        }
+        else
+            extra = u_slope_scale * max(abs(edge.x), abs(edge.y));  // edge-on to the light
     }
     float bias = u_bias + extra;
     float ref = c.z - bias;
@@ -97,20 +178,35 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
     // The 2x2 bilinear footprint kept inside this face of the atlas. textureLod at level 0: this
     // runs after non-uniform control flow (early returns, the cascade choice), where texture()'s
     // implicit derivatives are undefined (GLSL 4.50 §8.9); the map has one level, so level 0 is
-    // what texture() means here on any driver.
+    // what texture() means here on any driver. One reference depth for the four texels: the
+    // per-tap comparisons (receiver plane, adaptive) are refused with this filter.
     return textureLod(u_map, vec3(bilinear_inside_face(f, atlas) / u_atlas_size, ref), 0.0);
 #else
     ivec2 lo = ivec2(u_face_rect[f].xy), hi = lo + ivec2(u_face_rect[f].zw) - 1;
     ivec2 t = clamp(ivec2(floor(atlas)), lo, hi);
-#ifdef THRESHOLDS
-    g_terms = vec4(c.z, texelFetch(u_map, clamp(t + u_tap, lo, hi), 0).r, extra, COMPARED);
-    return LIT;
-#endif
     float lit = 0.0, n = 0.0;
     for (int dy = -u_kernel_radius; dy <= u_kernel_radius; ++dy)
         for (int dx = -u_kernel_radius; dx <= u_kernel_radius; ++dx) {
-            float stored = texelFetch(u_map, clamp(t + ivec2(dx, dy), lo, hi), 0).r;
-            lit += ref <= stored ? LIT : SHADOWED;
+#ifdef THRESHOLDS
+            ivec2 tap = clamp(t + u_tap, lo, hi);
+#else
+            ivec2 tap = clamp(t + ivec2(dx, dy), lo, hi);
+#endif
+            // The tap's receiver depth and bias beyond u_bias: ref = receiver - (u_bias + tap_extra).
+            float receiver = c.z, tap_extra = extra, tap_ref = ref;
+            if (u_depth_comparison == DEPTH_COMPARISON_RECEIVER_PLANE) {
+                receiver = c.z + dot(dz, texel_centre_uv(f, tap) - c.xy);
+                tap_ref = receiver - (u_bias + tap_extra);
+            } else if (u_depth_comparison == DEPTH_COMPARISON_ADAPTIVE) {
+                tap_extra = adaptive_bias(f, Q, N, c, texel_centre_uv(f, tap));
+                tap_ref = receiver - (u_bias + tap_extra);
+            }
+            float stored = texelFetch(u_map, tap, 0).r;
+#ifdef THRESHOLDS
+            g_terms = vec4(receiver, stored, tap_extra, COMPARED);
+            return LIT;
+#endif
+            lit += tap_ref <= stored ? LIT : SHADOWED;
             n += 1.0;
         }
     return lit / n;

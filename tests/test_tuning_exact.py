@@ -68,7 +68,13 @@ def test_pcf_pixel_lights_at_its_median_tap():
 
 @pytest.mark.parametrize("scene", ["sm_contact", "sm_grazing"])
 @pytest.mark.parametrize("spec", ["shadow_map", "shadow_map:filter=pcf3", "shadow_map:variant=slope",
-                                  "shadow_map:variant=normal_offset,filter=pcf5"])
+                                  "shadow_map:variant=normal_offset,filter=pcf5",
+                                  # per-tap comparisons: the receiver term (receiver plane) or the
+                                  # extra bias (adaptive) differs from tap to tap
+                                  "shadow_map:variant=receiver_plane,bias=1e-5",
+                                  "shadow_map:variant=receiver_plane,filter=pcf5,bias=1e-6",
+                                  "shadow_map:variant=adaptive,bias=0",
+                                  "shadow_map:variant=adaptive,filter=pcf3,bias=1e-6,adaptive_epsilon=1e-6"])
 def test_emulation_equals_the_render(lab, scene, spec):
     t = from_spec(spec)
     frame = lab.frame(scene, SMALL)
@@ -85,13 +91,23 @@ def test_emulation_equals_the_render(lab, scene, spec):
     assert int((vis != m.visibility).sum()) == 0
 
 
+#: The exact route on each bias variant with a per-tap comparison term besides the constant one:
+#: spec, grid (adaptive: adaptive_epsilon on a grid holding the spec's own value).
+EXACT_SPECS = {"constant": ("shadow_map", None),
+               "receiver_plane": ("shadow_map:variant=receiver_plane", None),
+               "adaptive": ("shadow_map:variant=adaptive", {"adaptive_epsilon": [1e-7, 1e-4]})}
+
+
 @pytest.mark.parametrize("scene", ["sm_contact", "sm_grazing"])
-def test_optimum_equals_a_render_at_that_bias_bit_for_bit(lab, scene):
+@pytest.mark.parametrize("variant", list(EXACT_SPECS))
+def test_optimum_equals_a_render_at_that_bias_bit_for_bit(lab, scene, variant):
+    base, grid = EXACT_SPECS[variant]
     ev = lab.evaluator(scene, MEDIUM)
-    tune = exact_bias_tune(ev, "shadow_map", repeat=1, warmup=0)
+    tune = exact_bias_tune(ev, base, grid=grid, repeat=1, warmup=0)
     assert tune.emulation_mismatch == 0
     point, opt = tune.best("error_rate")
-    spec = f"shadow_map:bias={opt.bias!r}"
+    spec = ",".join([f"{base}:bias={opt.bias!r}" if ":" not in base else f"{base},bias={opt.bias!r}"]
+                    + [f"{k}={v!r}" for k, v in point.params.items()])
     row = lab.rows(scene, [spec], MEDIUM).iloc[0]
     assert row["error_rate"] == opt.value  # bit for bit
     assert row["false_shadow_rate"] == point.curve.at(opt.bias)["false_shadow_rate"]
@@ -102,6 +118,13 @@ def test_optimum_equals_a_render_at_that_bias_bit_for_bit(lab, scene):
                 "contact_gap_px", "over_darkening_px"):
         assert cand[col] == row[col] or (np.isnan(cand[col]) and np.isnan(row[col])), col
     assert point.curve.oracle["error_rate"] <= opt.value
+
+
+def test_adaptive_epsilon_is_a_grid_parameter_of_the_adaptive_variant_only():
+    exact_bias.check_spec(from_spec("shadow_map:variant=adaptive"), "adaptive_epsilon")
+    exact_bias.check_spec(from_spec("shadow_map:variant=receiver_plane"))
+    with pytest.raises(exact_bias.ExactBiasError, match="acts with variant=adaptive"):
+        exact_bias.check_spec(from_spec("shadow_map:variant=constant"), "adaptive_epsilon")
 
 
 def _sweep(lab, scene, biases):

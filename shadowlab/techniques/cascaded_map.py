@@ -29,7 +29,9 @@ covers, clamped to the scene's bounds (as in shadow_map's fitting). The atlas ho
 side by side (tile i at x = i·resolution; the map toolkit's :class:`~shadowlab.techniques.maps.Atlas`
 row, at most :data:`~shadowlab.techniques.maps.MAX_FACES` cascades); the depth pass is the
 toolkit's; the lookup is ``shadow_lookup.glsl`` with ``CASCADES`` defined (the cascade chosen by the point's
-camera view depth against the splits) and shadow_map's constant and shader-side slope bias. With
+camera view depth against the splits) and shadow_map's constant and shader-side slope bias (not
+its other variants: no normal offset, and no receiver-plane or adaptive per-tap comparison —
+the lookup's ``u_depth_comparison`` stays at the point's own depth here). With
 ``blend`` the visibility blends linearly into the next cascade over the last ``blend_width`` of a
 cascade's depth range (the nearer cascade is the one :meth:`face_index` reports there).
 """

@@ -33,7 +33,9 @@ large far. ``slope`` (the default here) derives the offset from the map's own de
 one texel at the receiver (the lookup's plane-based form), which follows the warp; its constant
 part ``bias`` still applies. ``normal_offset`` uses one world texel size for the whole map
 (ShadowMap's uniform ``u_texel_world``), here the median texel size over the covered receivers:
-too large near the viewer and too small far away.
+too large near the viewer and too small far away. ``receiver_plane`` and ``adaptive`` compare
+each tap with the receiver's plane in the warped map itself (a plane stays a plane under the
+projective warp), so, like ``slope``, they follow the warp.
 """
 from __future__ import annotations
 

@@ -139,6 +139,14 @@ class Atlas:
         ``u_light_matrix[MAX_FACES]`` uniform."""
         return self._padded([BIAS @ f.view_proj for f in self.faces])
 
+    def inverse_light_matrices(self) -> np.ndarray:
+        """Float32 (MAX_FACES, 16): per face the inverse of BIAS · projection · view (map uv and
+        window depth → world, inverted in float64), column-major as GLSL's mat4, padded with
+        identities: the ``u_light_matrix_inverse[MAX_FACES]`` uniform."""
+        mats = [np.linalg.inv(BIAS @ f.view_proj) for f in self.faces]
+        mats += [np.eye(4)] * (MAX_FACES - len(mats))
+        return np.stack([np.asarray(m, np.float64).T.ravel() for m in mats]).astype(np.float32)
+
     def view_matrices(self) -> bytes:
         """Per face the world → view matrix, padded: the ``u_light_view[MAX_FACES]`` uniform."""
         return self._padded([f.view for f in self.faces])
@@ -301,7 +309,10 @@ class DepthMapTechnique(TexelMapping, Technique):
 
     def comparison_uniforms(self) -> dict:
         """The lookup's depth-comparison uniforms: ``u_bias``, ``u_slope_scale``,
-        ``u_normal_offset``, ``u_texel_world``, ``u_texel_angle``, ``u_kernel_radius``, ..."""
+        ``u_normal_offset``, ``u_texel_world``, ``u_texel_angle``, ``u_kernel_radius``, and
+        optionally ``u_depth_comparison`` (0: the point's own depth, the default) with what the
+        per-tap comparisons need (``u_light_matrix_inverse``, ``u_adaptive_epsilon``,
+        ``u_scene_extent``)..."""
         raise NotImplementedError
 
     def depth_state(self) -> tuple[bool, tuple[float, float] | None]:
@@ -380,9 +391,10 @@ class DepthMapTechnique(TexelMapping, Technique):
         """Float32 (len(taps), height, width, 4): per pixel the terms of the lookup's depth
         comparison ``receiver − (u_bias + extra) <= stored`` for each tap offset (dx, dy) of
         ``taps``, as the lookup computes them (``shadow_lookup.glsl`` with ``THRESHOLDS``):
-        (receiver depth, stored depth at the tap, extra bias, 1), or w = 0 where the point is lit
-        whatever the bias. ``uniforms`` override the comparison's (another ``u_slope_scale`` or
-        ``u_normal_offset``). Valid after :meth:`render` (the map holds the casters' depth); for
+        (receiver depth, stored depth at the tap, extra bias, 1) — the tap's own receiver depth
+        (receiver-plane comparison) or extra bias (adaptive) where the comparison is per tap — or
+        w = 0 where the point is lit whatever the bias. ``uniforms`` override the comparison's
+        (another ``u_slope_scale``, ``u_normal_offset`` or ``u_adaptive_epsilon``). Valid after :meth:`render` (the map holds the casters' depth); for
         the exact bias optimiser (:mod:`shadowlab.tuning.exact_bias`). No hardware filter, no
         cascades: their comparison is not one depth test per tap."""
         if FILTERS[self.filter] is None or self.lookup_defines().get("CASCADES"):

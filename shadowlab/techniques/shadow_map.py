@@ -5,8 +5,8 @@ frustum) or six (a point light's cube, 90° faces, chosen in the lookup by the m
 light-to-point vector). Passes: the casters' depth from the light (one per face and layer), an
 optional resolve, then one lookup pass over the shared G-buffer writing visibility.
 
-Variants (``variant=``), tuned by ``bias`` (window depth), ``slope_scale`` and ``normal_offset``
-(texels):
+Variants (``variant=``), tuned by ``bias`` (window depth), ``slope_scale``, ``normal_offset``
+(texels) and ``adaptive_epsilon`` (a fraction of the scene's extent):
 
 - ``none``: compare with no offset — shows acne;
 - ``constant``: subtract ``bias``;
@@ -19,7 +19,36 @@ Variants (``variant=``), tuned by ``bias`` (window depth), ``slope_scale`` and `
 - ``second_depth`` (Wang & Molnar 1994): the map holds the back faces only (front faces culled),
   no bias — single-sided casters vanish from it;
 - ``midpoint`` (Woo 1992): the average of the first and second depth layers (depth peeling);
-- ``dual`` (Weiskopf & Ertl 2003): the first layer plus min(half the gap to the second, ``bias``).
+- ``dual`` (Weiskopf & Ertl 2003): the first layer plus min(half the gap to the second, ``bias``);
+- ``receiver_plane`` (Isidoro 2006, "Shadow mapping: GPU-based tips and techniques", GDC: receiver
+  plane depth bias): each tap compares its stored depth with the receiver's window depth
+  extrapolated along the receiver's plane (dz/du, dz/dv in map space, from the normal) to the
+  centre of that tap's texel — where the stored depth was rasterised — minus ``bias``; with
+  ``filter=nearest`` the one tap is the texel holding the point, so the depth is extrapolated to
+  its centre;
+- ``adaptive`` (Dou, Yan, Kerzner, Dai & Wyman 2014, "Adaptive depth bias for shadow maps", I3D /
+  JCGT 3(4)): per tap, the ray from the light through the centre of the tap's texel is
+  intersected with the receiver's tangent plane; the window depth of that point bounds the depth
+  of a false occluder in the texel, and the bias is the receiver's depth minus it (signed: it
+  can also push the comparison away from the light) plus the *adaptive epsilon*
+  ``adaptive_epsilon`` × the scene's extent (the diagonal of its bounds), a world distance
+  along the ray converted to window depth at the intersection (so it follows a perspective
+  map's depth compression). Differences from the paper: ``bias`` is added on top (``bias=0`` is
+  the paper's form; the exact bias optimiser sweeps it); the paper derives its epsilon (its
+  eq. 3) from a user constant scaled by the scene's scale and by the depth buffer's compression
+  at the fragment's depth — we worked from summaries of that equation, not its text, so ours is
+  our own form of the same idea: a world distance (constant × the scene's diagonal) mapped
+  exactly to window depth at the intersection, which is where the depth dependence comes from;
+  PCF compares every tap against its own texel's bound (the paper describes the texel the point
+  falls in); where the ray misses the tangent plane in front of the light (an edge-on
+  receiver) the offset is 0 and only the epsilon applies. The two intersections are the same
+  plane — a projective map keeps planes planar, so ``receiver_plane``'s extrapolation and
+  ``adaptive``'s ray intersection agree up to float32 round-off — and the variants differ in
+  the epsilon: ``receiver_plane`` needs a constant ``bias`` above the depth format's step and
+  the rasteriser's round-off (at ``bias=0`` acne remains, 160x120: sm_grazing, fit=receivers 0.33;
+  16-bit depth on sm_contact 0.22), ``adaptive``'s epsilon scales with the scene. Both per-tap
+  variants need a depth test per texel, so ``filter=hw2x2`` (one reference depth for the 2x2
+  footprint) is refused with them.
 
 Filters (``filter=``): ``nearest``; ``hw2x2`` (sampler2DShadow with linear filtering: hardware
 bilinear PCF); ``pcf3`` / ``pcf5`` (texel-exact percentage-closer filtering, Reeves et al. 1987).
@@ -47,14 +76,19 @@ a too-close near plane does to depth precision); far planes just past the farthe
 from __future__ import annotations
 
 from ..geometry.frusta import LightView
-from .base import Param, PlotStyle, TuneRange
+from .base import Param, PlotStyle, TechniqueError, TuneRange
 from .maps import FILTERS, DepthMapTechnique, fit_light_views
 
-VARIANTS = ("none", "constant", "slope", "normal_offset", "second_depth", "midpoint", "dual")
+VARIANTS = ("none", "constant", "slope", "normal_offset", "second_depth", "midpoint", "dual",
+            "receiver_plane", "adaptive")
 #: The variants that compare against a resolved pair of layers (depth peeling).
 TWO_LAYER_VARIANTS = ("midpoint", "dual")
 #: The variants whose comparison applies no constant bias of its own.
 UNBIASED_VARIANTS = ("none", "second_depth", "midpoint", "dual")
+#: The variants that compare each PCF tap with its own receiver depth / bias (the lookup's
+#: ``u_depth_comparison``: shaders/shadow_lookup.glsl's DEPTH_COMPARISON_*); the others compare
+#: every tap with the point's own depth (0, DEPTH_COMPARISON_POINT).
+PER_TAP_VARIANTS = {"receiver_plane": 1, "adaptive": 2}
 
 #: The parameters of the depth comparison that shadow_map and lispsm share.
 COMPARISON_PARAMS = {
@@ -72,6 +106,11 @@ COMPARISON_PARAMS = {
     "normal_offset": Param(1.0, "normal_offset variant: lookup point moved along the normal, in texels",
                            # about one texel is typical; past a few texels the shadow visibly shifts
                            min=0.0, max=1e3, tune=TuneRange(0.0, 4.0)),
+    "adaptive_epsilon": Param(1e-4, "adaptive variant: the adaptive epsilon, a fraction of the scene's extent "
+                                     "(world distance along the light's ray, converted to window depth)",
+                              # float32 round-off of the plane intersection is ~1e-7 of the extent; 1e-2 of
+                              # the extent already lifts the receiver visibly off its contacts
+                              min=0.0, max=1.0, tune=TuneRange(1e-7, 1e-2, log=True)),
     "hardware_offset": Param(False, "slope variant: glPolygonOffset in the depth pass instead of the shader form"),
     "offset_units": Param(4.0, "hardware_offset: glPolygonOffset units", min=0.0, max=1e6,
                           # units of the depth format's resolution: a few to tens of them is the usual range
@@ -85,6 +124,13 @@ class ComparisonVariants:
     """The bias family and two-layer comparisons of a :class:`DepthMapTechnique` with the
     :data:`COMPARISON_PARAMS` (shadow_map, lispsm): which layers, the depth pass's state and
     the lookup's uniforms, per ``variant``."""
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        if self.variant in PER_TAP_VARIANTS and FILTERS[self.filter] is None:
+            raise TechniqueError(f"{self.name}: variant={self.variant} compares each texel with its own receiver "
+                                 f"depth; filter={self.filter} compares one depth in the texture unit; use nearest, "
+                                 f"pcf3 or pcf5")
 
     def two_layer(self) -> bool:
         """Midpoint and dual compare against the resolved pair of the first two layers."""
@@ -101,9 +147,15 @@ class ComparisonVariants:
                                                 if hardware else None)
 
     def comparison_uniforms(self) -> dict:
-        """The variant's bias terms, the first face's texel size, the PCF radius."""
+        """The variant's bias terms, the first face's texel size, the PCF radius, the per-tap
+        comparison (receiver plane, adaptive) and what the adaptive bias needs (the inverse light
+        matrices, the epsilon and the scene's extent)."""
         face = self.atlas.faces[0]
         return {
+            "u_depth_comparison": PER_TAP_VARIANTS.get(self.variant, 0),
+            "u_light_matrix_inverse": self.atlas.inverse_light_matrices(),
+            "u_adaptive_epsilon": float(self.adaptive_epsilon) if self.variant == "adaptive" else 0.0,
+            "u_scene_extent": float(self.frame.scene.extent()),
             "u_bias": 0.0 if self.variant in UNBIASED_VARIANTS else float(self.bias),
             "u_slope_scale": float(self.slope_scale) if self.variant == "slope" and not self.hardware_offset else 0.0,
             "u_normal_offset": float(self.normal_offset) if self.variant == "normal_offset" else 0.0,
@@ -116,7 +168,8 @@ class ShadowMap(ComparisonVariants, DepthMapTechnique):
     """Depth-buffer shadow maps: every light type, the bias family, two-layer variants, filters."""
 
     name = "shadow_map"
-    summary = "depth-buffer shadow maps (Williams 1978): bias variants, second-depth, midpoint, dual, PCF"
+    summary = ("depth-buffer shadow maps (Williams 1978): bias variants (receiver-plane and adaptive bias "
+               "among them), second-depth, midpoint, dual, PCF")
     STYLE = PlotStyle("#1f77b4", "o")
     LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.light_sampling)
     PARAMS = {

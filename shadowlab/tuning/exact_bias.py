@@ -1,8 +1,10 @@
 """The shadow-map bias family optimised exactly from one render (DESIGN §15, issue 24).
 
 A nearest-sample depth comparison lights pixel i when ``receiver_i − (b + extra_i) <= stored_i``
-(``shaders/shadow_lookup.glsl``: ``extra`` is the slope-scaled term, 0 for the constant
-variant). The comparison is monotone in the constant bias b, so each tap of each pixel has one
+(``shaders/shadow_lookup.glsl``: ``extra`` is the slope-scaled term, the adaptive bias of
+variant ``adaptive``, 0 for the constant variant; ``receiver`` is the point's window depth, or for
+variant ``receiver_plane`` its depth extrapolated along its plane to the tap's texel centre —
+both per tap). The comparison is monotone in the constant bias b, so each tap of each pixel has one
 *threshold* T: the smallest bias that lights it. The truth says whether the pixel is lit, so a
 truly lit pixel is right for b >= T and a truly shadowed one for b < T. One render gives every
 T (:meth:`~shadowlab.techniques.maps.DepthMapTechnique.comparison_terms` writes each tap's
@@ -21,8 +23,8 @@ Exactness, stated:
 - PCF (``pcf3``, ``pcf5``): visibility is the lit fraction of (2r+1)² taps, each with its own
   threshold; thresholded at 0.5 a pixel is lit once the ⌈n/2⌉-th smallest tap threshold is
   passed, and mean |V − G| is piecewise constant between tap thresholds. Both are exact.
-- ``slope_scale`` (variant ``slope``) and ``normal_offset`` (variant ``normal_offset``) enter
-  the comparison non-linearly, so they are optimised on a stated grid, the constant part exact
+- ``slope_scale`` (variant ``slope``), ``normal_offset`` (variant ``normal_offset``) and
+  ``adaptive_epsilon`` (variant ``adaptive``) enter the comparison non-linearly, so they are optimised on a stated grid, the constant part exact
   for each grid value (one extra lookup pass per grid value and tap: the map is rendered once).
   The hardware polygon offset (``hardware_offset=true``) acts while the map is rendered, so it
   is not here: it is tuned by rendering (:mod:`shadowlab.tuning.search`).
@@ -54,9 +56,11 @@ from ..techniques.maps import FILTERS, DepthMapTechnique
 EXACT_OBJECTIVES = ("error_rate", "false_shadow_rate", "false_lit_rate", "visibility_mae")
 #: The variants whose comparison takes a constant bias the optimiser can sweep, and the grid
 #: parameter each adds (None: bias only).
-BIAS_VARIANTS = {"constant": None, "slope": "slope_scale", "normal_offset": "normal_offset"}
+BIAS_VARIANTS = {"constant": None, "slope": "slope_scale", "normal_offset": "normal_offset",
+                 "receiver_plane": None, "adaptive": "adaptive_epsilon"}
 #: The shader uniform each grid parameter overrides in the lookup's comparison.
-GRID_UNIFORMS = {"slope_scale": "u_slope_scale", "normal_offset": "u_normal_offset"}
+GRID_UNIFORMS = {"slope_scale": "u_slope_scale", "normal_offset": "u_normal_offset",
+                 "adaptive_epsilon": "u_adaptive_epsilon"}
 #: Bisection bracket for the thresholds: no window depth or bias term leaves (−BRACKET, BRACKET);
 #: a tap lit already at −BRACKET has threshold −inf, one still shadowed at +BRACKET +inf.
 BRACKET = np.float32(1e6)
@@ -261,8 +265,8 @@ class Optimum:
 
 @dataclass
 class GridPoint:
-    """One value of the grid parameter (slope_scale or normal_offset; {} for the constant
-    variant): its thresholds (taps, H·W) and the curve of its evaluated pixels."""
+    """One value of the grid parameter (slope_scale, normal_offset or adaptive_epsilon; {} for
+    the constant and receiver_plane variants): its thresholds (taps, H·W) and the curve of its evaluated pixels."""
 
     params: dict
     thresholds: np.ndarray

@@ -7,10 +7,10 @@ render per configuration gives the error of every constant bias at once, so "the
 exact, not the best of a grid. Parts (each writes ``<out>/<part>.csv``; figures beside):
 
 1. ``regret``: on every shadow-map hard case (the shipped ``sm_*`` scenes) and each variant —
-   constant, slope (slope_scale on a grid), normal_offset (on a grid), and the adaptive
-   receiver_plane (Isidoro 2006) and adaptive (Dou et al. 2014) where this build has them —
-   the error at the variant's defaults, at its optimum, the constant-bias optimum and the
-   per-pixel oracle; the regret of each against the oracle.
+   constant, slope (slope_scale on a grid), normal_offset (on a grid), receiver_plane
+   (Isidoro 2006) and adaptive (Dou et al. 2014; adaptive_epsilon on a grid) — the error at the
+   variant's defaults, at constant bias 0 (the adaptive schemes' own form), at its optimum, the
+   constant-bias optimum and the per-pixel oracle; the regret of each against the oracle.
 2. ``global``: one constant bias for every hard case? Leave-one-out: tuned on the others,
    judged on the held-out scene, against its own optimum and the default.
 3. ``scaling``: the smallest optimal constant bias against map resolution,
@@ -43,12 +43,14 @@ from shadowlab.tuning.global_setting import SceneCurve, leave_one_out
 #: The grids of the non-constant parts (the constant part is exact on each).
 SLOPE_GRID = [0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0]
 NORMAL_GRID = [0.0, 0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0]
+#: adaptive_epsilon (a fraction of the scene's diagonal): 0 (the tangent plane alone) to far too much.
+ADAPTIVE_GRID = [0.0, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2]
 #: The bias range every optimum is sought in (window depth), the shadow_map parameter's own.
 BIAS_RANGE = (0.0, 1.0)
 #: The variants of the regret table and the grid parameter each brings.
 REGRET_VARIANTS = [("constant", None, None), ("slope", "slope_scale", SLOPE_GRID),
                    ("normal_offset", "normal_offset", NORMAL_GRID),
-                   ("receiver_plane", None, None), ("adaptive", None, None)]
+                   ("receiver_plane", None, None), ("adaptive", "adaptive_epsilon", ADAPTIVE_GRID)]
 #: The map fits of the regret table: the lab's default and the classic fit to every receiver.
 FITS = ["shadowable", "receivers"]
 RESOLUTIONS = [256, 512, 1024, 2048, 4096, 8192]
@@ -86,11 +88,13 @@ def regret_table(size, scenes) -> tuple[pd.DataFrame, dict]:
             own = next(p for p in tune.points if all(getattr(tune.base.technique, k) == v for k, v in p.params.items())) \
                 if grid_param and getattr(tune.base.technique, grid_param) in grid else tune.points[0]
             default = own.curve.at(tech_bias)["error_rate"]
+            zero_bias = own.curve.at(0.0)["error_rate"]  # the adaptive schemes' paper form: no constant bias
             point, opt = tune.best("error_rate")
             if variant == "constant":
                 oracle = point.curve.oracle["error_rate"]
                 curves.setdefault(fit, {})[scene] = SceneCurve.of(scene, point.curve, "error_rate")
-            rows.append({"scene": scene, "fit": fit, "variant": variant, "default_error": default, "tuned_error": opt.value,
+            rows.append({"scene": scene, "fit": fit, "variant": variant, "default_error": default,
+                         "zero_bias_error": zero_bias, "tuned_error": opt.value,
                          "tuned_bias": opt.bias, "tuned_interval_lo": opt.lo, "tuned_interval_hi": opt.hi,
                          "tuned_grid": ",".join(f"{k}={v:g}" for k, v in point.params.items()),
                          "variant_oracle": point.curve.oracle["error_rate"], "emulation_mismatch": tune.emulation_mismatch,

@@ -3,7 +3,8 @@
 On the grazing case (light 3 degrees above the floor) and the contact case (casters resting on
 the floor), with the classic fit over every visible receiver, 2048² maps: each biased variant
 is swept over its own parameter — constant ``bias``, ``slope_scale`` (bias 0), ``normal_offset``
-(bias 0), the ``dual`` offset cap — and second-depth and midpoint (no parameter) are drawn as
+(bias 0), the ``dual`` offset cap, ``receiver_plane``'s constant ``bias``, ``adaptive``'s
+``adaptive_epsilon`` (bias 0) — and second-depth and midpoint (no parameter) are drawn as
 reference lines. Reports false-shadow rate (acne), false-lit rate (leaks) and the contact gap.
 Writes results/sm_bias_sweep.csv (the rows plotted) and results/sm_bias_sweep.png.
 
@@ -27,7 +28,8 @@ from shadowlab.study.experiment import run_experiment_suite
 from shadowlab.techniques.shadow_map import ShadowMap
 
 SUITE = "sm_bias"
-SWEPT = ["constant", "slope", "normal_offset", "dual"]  # variants swept over an offset, in plot order
+# variants swept over an offset, in plot order
+SWEPT = ["constant", "slope", "normal_offset", "dual", "receiver_plane", "adaptive"]
 FIXED = ["second_depth", "midpoint"]                     # variants without one: reference lines
 SCENES = ["sm_grazing", "sm_contact"]
 PARAMS = [f"param_{k}" for k in ShadowMap.PARAMS]
@@ -87,7 +89,7 @@ def plot(df, held, path, resolution, size, renderer):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(SCENES), len(SWEPT), figsize=(16, 7.5), dpi=100, squeeze=False)
+    fig, axes = plt.subplots(len(SCENES), len(SWEPT), figsize=(4 * len(SWEPT), 7.5), dpi=100, squeeze=False)
     for r, scene in enumerate(SCENES):
         d = df[df["scene"] == scene]
         for c, variant in enumerate(SWEPT):
@@ -104,7 +106,9 @@ def plot(df, held, path, resolution, size, renderer):
                 ax.axhline(100 * row["false_shadow_rate"], color="tab:orange", ls=style, lw=0.8, label=f"{v}: false shadow")
             ax.set_yscale("symlog", linthresh=0.01)
             ax.set_ylim(bottom=0)
-            ax.set_xlabel(f"{param}" + (f"  ({fixed})" if fixed else "") + ("  [window depth]" if param == "bias" else "  [texels]" if param == "normal_offset" else ""))
+            unit = {"bias": "  [window depth]", "normal_offset": "  [texels]",
+                    "adaptive_epsilon": "  [of the scene's diagonal]"}.get(param, "")
+            ax.set_xlabel(f"{param}" + (f"  ({fixed})" if fixed else "") + unit)
             ax.set_ylabel("% of truly lit / truly shadowed pixels")
             ax.set_title(f"{scene}: variant={variant}", fontsize=10)
             ax.grid(alpha=0.3, which="both")

@@ -107,7 +107,7 @@ def plot(df, held, path, resolution, size, renderer):
             ax.set_yscale("symlog", linthresh=0.01)
             ax.set_ylim(bottom=0)
             unit = {"bias": "  [window depth]", "normal_offset": "  [texels]",
-                    "adaptive_epsilon": "  [of the scene's diagonal]"}.get(param, "")
+                    "adaptive_epsilon": "  [× scene diagonal]"}.get(param, "")
             ax.set_xlabel(f"{param}" + (f"  ({fixed})" if fixed else "") + unit)
             ax.set_ylabel("% of truly lit / truly shadowed pixels")
             ax.set_title(f"{scene}: variant={variant}", fontsize=10)

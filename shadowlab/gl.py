@@ -144,8 +144,13 @@ _ANY_INCLUDE = re.compile(r"^\s*#\s*include\b")
 _CONDITIONAL = re.compile(r"^\s*#\s*(if|ifdef|ifndef|elif|else|endif)\b")
 # A stage exists when the file has an `#ifdef <STAGE>_SHADER` line; the macro's name elsewhere
 # (a comment, an #ifndef) makes none.
-_STAGE_LINE = re.compile(r"^[ \t]*#[ \t]*ifdef[ \t]+(VERTEX_SHADER|GEOMETRY_SHADER|FRAGMENT_SHADER)\b", re.M)
-_STAGES = {"vertex": "VERTEX_SHADER", "geometry": "GEOMETRY_SHADER", "fragment": "FRAGMENT_SHADER"}
+_STAGE_LINE = re.compile(r"^[ \t]*#[ \t]*ifdef[ \t]+(VERTEX_SHADER|GEOMETRY_SHADER|FRAGMENT_SHADER|COMPUTE_SHADER)\b",
+                         re.M)
+_STAGES = {"vertex": "VERTEX_SHADER", "geometry": "GEOMETRY_SHADER", "fragment": "FRAGMENT_SHADER",
+           "compute": "COMPUTE_SHADER"}
+# `//! glsl 430`: a file (or an include) that needs a newer GLSL than GLSL_VERSION (storage
+# buffers, atomics and compute shaders are GLSL 4.30); the highest such line wins.
+_VERSION_LINE = re.compile(r"^[ \t]*//![ \t]*glsl[ \t]+(\d+)[ \t]*$", re.M)
 # `uniform <type> <name>[...], <name>...;` at the start of a line (block declarations are not used).
 _UNIFORM = re.compile(r"^[ \t]*(?:layout\s*\([^)]*\)\s*)?uniform\s+(?:(?:lowp|mediump|highp)\s+)?\w+\s+([^;{]+);", re.M)
 # A location in a driver's info log, at the start of a line after an optional "ERROR: ":
@@ -357,7 +362,9 @@ def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = 
 
     One file holds every stage of one program, each inside ``#ifdef VERTEX_SHADER`` /
     ``GEOMETRY_SHADER`` / ``FRAGMENT_SHADER``; a stage is built when the file (its includes
-    expanded) has that ``#ifdef`` line. ``defines`` become ``#define KEY VALUE`` lines
+    expanded) has that ``#ifdef`` line. A compute program (a moderngl ComputeShader) has one
+    ``#ifdef COMPUTE_SHADER`` section and nothing else. The #version is :data:`GLSL_VERSION`
+    unless the file or an include asks for more with a ``//! glsl 430`` line. ``defines`` become ``#define KEY VALUE`` lines
     (compile-time switches between variants of the program; numeric parameters are uniforms);
     ``varyings`` make a transform-feedback program (no fragment stage).
 
@@ -380,18 +387,26 @@ def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = 
             prog[uniform].write(data)
         return prog
     exp = _expansion(folder, name)
-    head = [GLSL_VERSION] + [f"#define {k} {v}" for k, v in canonical]
+    versions = [int(v) for v in _VERSION_LINE.findall(exp.text)]
+    version = f"#version {max(versions)} core" if versions else GLSL_VERSION
+    head = [version] + [f"#define {k} {v}" for k, v in canonical]
     macros = set(_STAGE_LINE.findall(exp.text))
     stages = {stage: "\n".join(head + [f"#define {macro} 1", exp.text])
               for stage, macro in _STAGES.items() if macro in macros}
     label = f"{name} {{{', '.join(f'{k}={v}' for k, v in canonical)}}}"
-    if "vertex" not in stages:
-        raise ShaderError(f"{label}: no '#ifdef VERTEX_SHADER' section (in the file or its includes)")
+    if "compute" in stages and len(stages) > 1:
+        raise ShaderError(f"{label}: a compute program has a '#ifdef COMPUTE_SHADER' section and no other stage")
+    if "vertex" not in stages and "compute" not in stages:
+        raise ShaderError(f"{label}: no '#ifdef VERTEX_SHADER' (or COMPUTE_SHADER) section (in the file or its "
+                          f"includes)")
     if varyings:
         stages.pop("fragment", None)  # transform feedback: vertex (and geometry) only
     try:
-        prog = context().program(vertex_shader=stages["vertex"], geometry_shader=stages.get("geometry"),
-                                 fragment_shader=stages.get("fragment"), varyings=tuple(varyings))
+        if "compute" in stages:
+            prog = context().compute_shader(stages["compute"])
+        else:
+            prog = context().program(vertex_shader=stages["vertex"], geometry_shader=stages.get("geometry"),
+                                     fragment_shader=stages.get("fragment"), varyings=tuple(varyings))
     except moderngl.Error as exc:
         raise ShaderError(f"{label} failed to build (locations as file:line):\n{exp.rewrite(str(exc)).strip()}"
                           ) from None

@@ -121,6 +121,18 @@ class SubpixelSamples:
             return np.where(counted > 0, lit_counted / np.maximum(counted, 1), 1.0)
 
 
+def sample_directions(frame, offset: tuple[float, float]) -> np.ndarray:
+    """Unnormalised float64 camera-ray directions (M, 3) through (col + ox, row + oy) of each of
+    ``frame``'s covered pixels (compact order), summed from the frame's own tables
+    (:func:`shadowlab.frame._pixel_ray_terms`) as the frame sums them: at the centre (½, ½),
+    bitwise the frame's pixel-centre rays."""
+    row, col = np.divmod(frame.pixel_index, frame.width)
+    col_term, row_term = _pixel_ray_terms(frame.camera, frame.width, frame.height, (float(offset[0]), float(offset[1])))
+    dirs = np.take(col_term, col, axis=0)  # (−back + x·right) + y·up, as the frame adds them
+    dirs += np.take(row_term, row, axis=0)
+    return dirs
+
+
 def subpixel_samples(frame, n: int) -> SubpixelSamples:
     """The :class:`SubpixelSamples` of ``frame`` at ``n`` samples per pixel
     (:func:`sample_pattern`), built once per (frame, n) and kept, weakly keyed by the frame."""
@@ -133,10 +145,7 @@ def subpixel_samples(frame, n: int) -> SubpixelSamples:
 
 def _build(frame, pattern: np.ndarray) -> SubpixelSamples:
     """Trace and intersect the camera rays of every (covered pixel, offset of ``pattern``)."""
-    w, h = frame.width, frame.height
-    idx = frame.pixel_index
-    row, col = np.divmod(idx, w)
-    m, n = len(idx), len(pattern)
+    m, n = len(frame.pixel_index), len(pattern)
     eye = np.asarray(frame.camera.eye, np.float64)
     numerator = plane_numerators(frame.triangles, frame.triangle_normals, eye)
     # Embree geometry k = object k, primitive f = its face f; the frame's triangle index is the
@@ -154,9 +163,7 @@ def _build(frame, pattern: np.ndarray) -> SubpixelSamples:
     triangle = np.full((m, n), -1, np.int64)
     origins = np.full((m, n, 3), np.nan, np.float32)
     for s, offset in enumerate(pattern):
-        col_term, row_term = _pixel_ray_terms(frame.camera, w, h, (float(offset[0]), float(offset[1])))
-        dirs = np.take(col_term, col, axis=0)  # (−back + x·right) + y·up, as the frame adds them
-        dirs += np.take(row_term, row, axis=0)
+        dirs = sample_directions(frame, offset)
         # fresh origin and tfar arrays per call: Embree writes the hit distances into tfar
         found = nearest_hits(scene, np.tile(eye32, (m, 1)), dirs.astype(np.float32), np.full(m, np.inf, np.float32))
         geom = np.asarray(found["geomID"], np.int64)

@@ -29,16 +29,75 @@ from .scene.lights import Light
 from .scene import Scene
 
 
-def _pixel_ray_terms(camera, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+#: Where the frame's camera rays cross a pixel: its centre, as a fraction of the pixel (x, y).
+PIXEL_CENTRE = (0.5, 0.5)
+
+
+def _pixel_ray_terms(camera, width: int, height: int, offset: tuple[float, float] = PIXEL_CENTRE
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """The two terms :meth:`Camera.pixel_rays` sums for pixel (row, col), as tables: per column
     ``−back + x·right`` (width, 3) and per row ``y·up`` (height, 3), each computed with the same
-    operations, so ``col_term[col] + row_term[row]`` is bitwise ``pixel_rays(...)[row, col]``."""
+    operations, so ``col_term[col] + row_term[row]`` is bitwise ``pixel_rays(...)[row, col]``.
+
+    ``offset`` (ox, oy) in [0, 1)²: the ray through (col + ox, row + oy) in pixel units, x right
+    and y down from the pixel's top-left corner (sub-pixel samples, :mod:`shadowlab.subpixel`);
+    the default, the centre, gives the pixel-centre rays bit for bit."""
+    ox, oy = offset
     view = camera.view()
     right, up, back = view[0, :3], view[1, :3], view[2, :3]
     t = np.tan(np.radians(camera.fov_y) / 2.0)
-    x = (2.0 * (np.arange(width) + 0.5) / width - 1.0) * t * width / height
-    y = (1.0 - 2.0 * (np.arange(height) + 0.5) / height) * t
+    x = (2.0 * (np.arange(width) + ox) / width - 1.0) * t * width / height
+    y = (1.0 - 2.0 * (np.arange(height) + oy) / height) * t
     return -back[None, :] + x[:, None] * right[None, :], y[:, None] * up[None, :]
+
+
+def plane_hits(eye: np.ndarray, dirs: np.ndarray, tri: np.ndarray, unit: np.ndarray, numerator: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Exact float64 hits of camera rays ``eye + t · dirs`` (M, 3) with the planes of triangles
+    ``tri`` (M,): ``unit`` the (T, 3) unit triangle normals (zero if degenerate), ``numerator``
+    the (T,) per-triangle (v0 − eye)·n (:func:`plane_numerators`). Returns (points (M, 3) — written
+    into ``dirs`` —, normals (M, 3) turned towards the camera, valid (M,): a point in front of
+    the eye on a non-degenerate triangle).
+
+    The same operations as :func:`shadowlab.geometry.rays.ray_plane_hits`, bit for bit (pinned
+    by tests/test_ground_truth.py), with fewer temporaries: N·d with the same ``einsum``, the
+    numerator gathered per triangle, eye + t·d a column at a time (1-D loops, no (M, 3)
+    broadcast)."""
+    normals = np.take(unit, tri, axis=0)  # (M, 3)
+    denom = np.einsum("ij,ij->i", dirs, normals)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.take(numerator, tri)
+        t /= denom
+    points = dirs
+    flip = denom > 0  # turn the normal towards the camera
+    for k in range(3):
+        np.multiply(points[:, k], t, out=points[:, k])
+        np.add(points[:, k], eye[k], out=points[:, k])
+        np.negative(normals[:, k], out=normals[:, k], where=flip)
+    valid = np.take(np.any(unit != 0, axis=1), tri)  # per triangle: negation keeps zero-ness
+    valid &= t > 0
+    valid &= t < np.inf  # with t > 0: isfinite(t)
+    return points, normals, valid
+
+
+def plane_numerators(triangles: np.ndarray, unit: np.ndarray, eye: np.ndarray) -> np.ndarray:
+    """Per triangle (T,): (v0 − eye)·n, the numerator of the ray parameter of :func:`plane_hits`
+    — the same ``einsum``, row by row, as on gathered (M, 3) arrays."""
+    return np.einsum("ij,ij->i", triangles[:, 0] - eye, unit)
+
+
+def evaluated_rule(light: Light, points: np.ndarray, normals: np.ndarray, valid: np.ndarray,
+                   receives: np.ndarray) -> np.ndarray:
+    """The evaluated points of DESIGN §7 for ``light``: bool (K,) for float64 ``points`` (K, 3)
+    with camera-facing unit ``normals`` (K, 3), ``valid`` (K,) (an exact point exists) and
+    ``receives`` (K,) (its object receives shadows) — receiving, valid, facing the light
+    (N·L > 0), inside its footprint (λ > 0) and not at the light (distance > 0). The one rule
+    behind :meth:`Frame.evaluated_mask` (pixel centres) and
+    :meth:`shadowlab.subpixel.SubpixelSamples.evaluated` (sub-pixel samples)."""
+    dirs, dist = light.to_light(points)
+    facing = np.einsum("ij,ij->i", dirs, normals) > 0
+    lam = light.footprint(points)
+    return receives & valid & facing & (lam > 0) & (dist > 0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -195,23 +254,8 @@ class Frame:
         dirs = np.take(col_term, col, axis=0)  # (M, 3): (−back + x·right) + y·up, as in pixel_rays
         dirs += np.repeat(row_term, per_row, axis=0)
         eye = np.asarray(self.camera.eye, np.float64)
-        unit = self.triangle_normals
-        # Per triangle: (v0 − eye)·n — the same einsum, row by row, as on the gathered (M, 3) arrays.
-        numerator = np.einsum("ij,ij->i", self.triangles[:, 0] - eye, unit)
-        normals = np.take(unit, tri, axis=0)  # (M, 3)
-        denom = np.einsum("ij,ij->i", dirs, normals)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.take(numerator, tri)
-            t /= denom
-        points = dirs  # eye + t·d, in place, a column at a time (1-D loops, no (M, 3) broadcast)
-        flip = denom > 0  # turn the normal towards the camera
-        for k in range(3):
-            np.multiply(points[:, k], t, out=points[:, k])
-            np.add(points[:, k], eye[k], out=points[:, k])
-            np.negative(normals[:, k], out=normals[:, k], where=flip)
-        valid = np.take(np.any(unit != 0, axis=1), tri)  # per triangle: negation keeps zero-ness
-        valid &= t > 0
-        valid &= t < np.inf  # with t > 0: isfinite(t)
+        numerator = plane_numerators(self.triangles, self.triangle_normals, eye)
+        points, normals, valid = plane_hits(eye, dirs, tri, self.triangle_normals, numerator)
         self.compact_position = points  # (M, 3) float64
         self.compact_normal = normals  # (M, 3) float64, unit, facing the camera (two-sided surfaces, DESIGN §7)
         self.compact_object = np.take(self.object_id.reshape(-1), idx)
@@ -258,10 +302,7 @@ class Frame:
     def _mask_for(self, light: Light) -> np.ndarray:
         """:meth:`evaluated_mask`, computed."""
         receives = np.array([o.receives for o in self.scene.objects])[self.compact_object]
-        dirs, dist = light.to_light(self.compact_position)
-        facing = np.einsum("ij,ij->i", dirs, self.compact_normal) > 0
-        lam = light.footprint(self.compact_position)
-        return receives & self.compact_valid & facing & (lam > 0) & (dist > 0)
+        return evaluated_rule(light, self.compact_position, self.compact_normal, self.compact_valid, receives)
 
     def slot(self, light_index: int) -> LightSlot:
         """The :class:`LightSlot` of the scene's light ``light_index`` (made once)."""

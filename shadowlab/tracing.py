@@ -29,6 +29,8 @@ DEFAULT_OFFSET_SCALE = 2.0 ** -18
 
 #: Per frame: the Embree scene of its casters (and the meshes that must outlive it).
 _CASTERS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+#: Per frame: the Embree scene of all its objects (camera rays; and the meshes it needs).
+_OBJECTS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 #: Per frame: {offset_scale: float32 origins (M, 3)}.
 _ORIGINS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
@@ -45,6 +47,15 @@ def mesh_scene(meshes) -> tuple[object, list]:
     return scene, keep
 
 
+def object_scene(frame):
+    """Every object of the frame (casters or not, in scene order) as one robust Embree scene,
+    built once per frame; geometry id k is object k and primitive id f its face f — the camera
+    rays of :mod:`shadowlab.subpixel` find the visible triangle with it."""
+    if frame not in _OBJECTS:
+        _OBJECTS[frame] = mesh_scene((o.vertices, o.faces) for o in frame.scene.objects)
+    return _OBJECTS[frame][0]
+
+
 def caster_scene(frame):
     """The frame's casters (objects with ``casts``, in scene order) as one robust Embree scene,
     built once per frame; geometry id k is the k-th caster."""
@@ -53,25 +64,34 @@ def caster_scene(frame):
     return _CASTERS[frame][0]
 
 
-def offset_origins(frame, offset_scale: float = DEFAULT_OFFSET_SCALE, cached: bool = True) -> np.ndarray:
-    """Shadow-ray origins of every covered pixel, float32 (M, 3) in compact order: the exact
-    point moved ``offset_scale · max(‖P‖∞, scene extent)`` along the camera-facing normal.
-    ``cached=False`` recomputes (for timing) without touching the cache."""
-    per_frame = _ORIGINS.setdefault(frame, {})
-    if cached and offset_scale in per_frame:
-        return per_frame[offset_scale]
-    p, n = frame.compact_position, frame.compact_normal
+def offset_points(points: np.ndarray, normals: np.ndarray, extent: float,
+                  offset_scale: float = DEFAULT_OFFSET_SCALE) -> np.ndarray:
+    """The truth's ray-origin rule (module docstring) for float64 ``points`` (K, 3) with unit
+    camera-facing ``normals`` (K, 3): float32 (K, 3) ``float32(P + offset_scale · max(‖P‖∞,
+    extent) · N)``. The one formula behind :func:`offset_origins` (pixel centres) and
+    :class:`shadowlab.subpixel.SubpixelSamples` (sub-pixel samples), so both round alike."""
+    p, n = points, normals
     # float32(p + (offset_scale · max(|p|∞, extent)) · n), bit for bit, with fewer temporaries:
     # the row maximum over the three columns (max is exact, in any order), the product and sum
     # in float64, rounded once to float32 on the way into ``origins``.
     scale = np.abs(p[:, 0])
     np.maximum(scale, np.abs(p[:, 1]), out=scale)
     np.maximum(scale, np.abs(p[:, 2]), out=scale)
-    np.maximum(scale, frame.scene.extent(), out=scale)
+    np.maximum(scale, extent, out=scale)
     scale *= offset_scale
     moved = np.multiply(n, scale[:, None])
     moved += p
-    origins = moved.astype(np.float32)
+    return moved.astype(np.float32)
+
+
+def offset_origins(frame, offset_scale: float = DEFAULT_OFFSET_SCALE, cached: bool = True) -> np.ndarray:
+    """Shadow-ray origins of every covered pixel, float32 (M, 3) in compact order: the exact
+    point moved ``offset_scale · max(‖P‖∞, scene extent)`` along the camera-facing normal
+    (:func:`offset_points`). ``cached=False`` recomputes (for timing) without touching the cache."""
+    per_frame = _ORIGINS.setdefault(frame, {})
+    if cached and offset_scale in per_frame:
+        return per_frame[offset_scale]
+    origins = offset_points(frame.compact_position, frame.compact_normal, frame.scene.extent(), offset_scale)
     if cached:
         per_frame[offset_scale] = origins
     return origins

@@ -22,6 +22,15 @@ The Embree scene and the offset origins depend only on the frame (and the offset
 are built once per frame by :mod:`shadowlab.tracing`, which blob shadows and the occluder-layer
 metric share.
 
+Sub-pixel samples (``pixel_samples`` = N > 1, hard lights only): the truth of a pixel's
+coverage rather than of its centre. Each covered pixel's N camera samples
+(:mod:`shadowlab.subpixel`: a stratified Hammersley pattern, exact float64 points, the same
+offset rule) that the frame's evaluated rule keeps get one shadow ray each, and an evaluated
+pixel's V is the fraction of its evaluated samples that reach the light (1 where none is
+evaluated); pixels the frame does not evaluate stay 1. It is what an exact rasteriser with N
+samples per pixel should produce, and resolves casters thinner than a pixel. N = 1 is the
+pixel-centre path below, unchanged.
+
 Area lights (:class:`shadowlab.scene.area_lights.AreaLight`; DESIGN §7, §9). The visibility of the
 light from P is the fraction, by area, of the emitting surface facing P that P sees
 unoccluded; samples below P's tangent plane (camera-facing geometric normal) count as occluded
@@ -65,8 +74,9 @@ import numpy as np
 
 from ..scene.area_lights import AreaLight, above_horizon
 from ..scene.lights import T_LIGHT
+from ..subpixel import MAX_SAMPLES, sample_visibility, subpixel_samples
 from ..tracing import DEFAULT_OFFSET_SCALE, caster_scene, occluded, offset_origins
-from .base import FIRST, SUM, Param, PlotStyle, Technique
+from .base import FIRST, SUM, Param, PlotStyle, Technique, TechniqueError
 
 #: Samples (shadow rays) per chunk of pixels of an area light.
 CHUNK_RAYS = 2 ** 20
@@ -172,8 +182,8 @@ def area_visibility(scene, light: AreaLight, points: np.ndarray, normals: np.nda
 
 
 class RayTraced(Technique):
-    """Exact hard shadows: one shadow ray per evaluated pixel from the float64 hit point; for
-    an area light, the stratified estimate of its visible fraction from ``samples`` rays per
+    """Exact hard shadows: one shadow ray per evaluated pixel from the float64 hit point (or per
+    evaluated sub-pixel sample, ``pixel_samples`` > 1); for an area light, the stratified estimate of its visible fraction from ``samples`` rays per
     pixel (module docstring)."""
 
     name = "raytrace"
@@ -188,6 +198,9 @@ class RayTraced(Technique):
         "seed": Param(0, "area lights: seed of the sample jitter (same seed, same bits)", min=0),
         "decorrelate": Param(True, "area lights: independent jitter per pixel (false: one jittered "
                                    "pattern shared by every pixel)"),
+        "pixel_samples": Param(1, "hard lights: camera samples per pixel (shadowlab.subpixel pattern); "
+                                  "V = fraction of a pixel's evaluated samples lit; 1 = the pixel centre only",
+                               min=1, max=MAX_SAMPLES),
     }
     #: Rays are work per render; the samples per pixel and the error bound describe the truth.
     STATS = {"rays": SUM, "samples": FIRST, "truth_stderr_max": FIRST}
@@ -195,8 +208,15 @@ class RayTraced(Technique):
     STYLE = PlotStyle("#000000", "*")
 
     def setup(self, frame, slot) -> None:
-        """Offset origins (per frame) and the evaluated pixels of this light."""
+        """Offset origins (per frame) and the evaluated pixels of this light; with
+        ``pixel_samples`` > 1 (hard lights only) the frame's sub-pixel samples."""
         self.is_area = isinstance(self.light, AreaLight)
+        if self.is_area and self.pixel_samples > 1:
+            raise TechniqueError(f"{self.name}: pixel_samples={self.pixel_samples} is for hard lights only; "
+                                 f"light {slot.index} is a {self.light.type_name} area light (use samples=..., "
+                                 f"pixel_samples=1)")
+        self.subpixel = subpixel_samples(frame, self.pixel_samples) if self.pixel_samples > 1 else None
+        self.sample_lit = None
         self.scene = caster_scene(frame) if frame.has_casters else None
         self.origins = offset_origins(frame, self.offset_scale)
         self.evaluated = slot.evaluated
@@ -208,12 +228,17 @@ class RayTraced(Technique):
         self.rays = 0 if self.is_area else len(self.eval_origins)
 
     def render(self) -> None:
-        """Trace one shadow ray per evaluated pixel (hard lights) or ``samples`` (area lights)."""
+        """Trace one shadow ray per evaluated pixel (hard lights; per evaluated sub-pixel sample
+        with ``pixel_samples`` > 1) or ``samples`` per pixel (area lights)."""
         with self.timed_pass("trace", cpu=True):
             if self.is_area:
                 self.fraction, self.rays = area_visibility(
                     self.scene, self.light, self.eval_points, self.eval_normals, self.eval_origins,
                     self.samples, self.seed, self.decorrelate)
+                return
+            if self.subpixel is not None:
+                self.sample_lit, self.sample_evaluated, self.rays = sample_visibility(
+                    self.subpixel, self.light, self.scene)
                 return
             if self.scene is None:  # nothing casts: every ray reaches the light
                 return
@@ -228,14 +253,31 @@ class RayTraced(Technique):
         idx = np.flatnonzero(self.evaluated)
         if self.is_area:
             vis[idx] = self.fraction
+        elif self.subpixel is not None:  # the frame's evaluated pixels: their samples' coverage
+            vis[idx] = self.subpixel.coverage(self.sample_lit, self.sample_evaluated)[idx]
         else:
             vis[idx[self.blocked]] = 0.0
         return self.frame.to_image(vis, fill=1.0)
+
+    def sample_visibility(self) -> np.ndarray:
+        """Bool (M, pixel_samples) after :meth:`render`: each sub-pixel sample lit (True also for
+        samples not evaluated); with ``pixel_samples=1`` the pixel-centre result as (M, 1)."""
+        if self.is_area:
+            raise TechniqueError(f"{self.name}: sample_visibility is for hard lights only")
+        if self.subpixel is not None:
+            if self.sample_lit is None:
+                raise RuntimeError(f"{self.name}: sample_visibility() before render()")
+            return self.sample_lit
+        lit = np.ones(len(self.evaluated), bool)
+        lit[np.flatnonzero(self.evaluated)[self.blocked]] = False
+        return lit[:, None]
 
     def stats(self) -> dict:
         """Shadow rays traced per render, samples per pixel (1 for hard lights) and the bound
         on the per-pixel standard error of the truth (0.5/√samples for area lights, 0 for hard
         lights: DESIGN §9)."""
+        if self.subpixel is not None:  # exact per sample: the coverage of the pattern, no estimate
+            return {"rays": int(self.rays), "samples": int(self.pixel_samples), "truth_stderr_max": 0.0}
         if not self.is_area:
             return {"rays": int(len(self.eval_origins)), "samples": 1, "truth_stderr_max": 0.0}
         return {"rays": int(self.rays), "samples": int(self.samples),

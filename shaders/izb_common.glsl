@@ -28,4 +28,9 @@ layout(std430, binding = 8) readonly buffer Triangles { vec4 triangle_vertex[]; 
 layout(std430, binding = 9) buffer Pairs { ivec2 pair[]; };             // (triangle, atlas texel)
 
 uniform int u_samples_per_pixel;
+
+// A compute invocation's index in a dispatch of (x, y) work groups laid out row by row: the
+// dispatches are split over y beyond the 65535 work groups GL guarantees in x (GL 4.6 core,
+// table 23.64). A macro, so that the programs without a compute stage never see it.
+#define INVOCATION_INDEX int(gl_GlobalInvocationID.y * gl_NumWorkGroups.x * uint(LOCAL_SIZE) + gl_GlobalInvocationID.x)
 uniform vec2 u_atlas_size;               // atlas width, height in texels (the map toolkit's name)

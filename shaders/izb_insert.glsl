@@ -23,7 +23,7 @@ uniform vec4 u_face_rect[MAX_FACES];
 #include "atlas.glsl"
 
 void main() {
-    int k = int(gl_GlobalInvocationID.x);
+    int k = INVOCATION_INDEX;
     if (k >= u_rays) return;
     ray_texel[k] = NO_NODE;
     vec4 o = ray_origin[k];

@@ -51,7 +51,7 @@ bool segment_hits(vec3 org, vec3 dir, float tfar, vec3 a, vec3 b, vec3 c) {
 }
 
 void main() {
-    int i = int(gl_GlobalInvocationID.x);
+    int i = INVOCATION_INDEX;
     if (i >= u_pairs) return;
     ivec2 work = pair[i];
     vec3 a = triangle_vertex[3 * work.x].xyz;

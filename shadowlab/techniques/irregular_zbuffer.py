@@ -27,7 +27,8 @@ fragment shader that walks a list costs about 1000× a compute shader per step (
 2 ns, measured on box_on_plane), so the fragments only append work.
 
 The grid is the shadow map's atlas (:class:`shadowlab.techniques.maps.Atlas`): one face, or a
-point light's six cube faces, fitted to every evaluated receiver (``fit=receivers``: every ray's
+point light's six cube faces, fitted as the shadow map fits its faces
+(:meth:`shadowlab.scene.lights.Light.shadow_views`) to every ray's surface point (every ray's
 origin must land in a face; one that does not is counted and the run fails loudly). With
 ``samples=N`` each pixel has N sub-pixel samples (:mod:`shadowlab.subpixel`), one bit each, and
 the visibility is the lit fraction of the pixel's evaluated samples: anti-aliased hard shadows,
@@ -53,7 +54,7 @@ from ..glstate import PassState
 from ..scene.lights import T_LIGHT
 from ..tracing import offset_origins
 from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
-from .maps import ATLAS_DEFINES, Atlas, fit_light_views
+from .maps import ATLAS_DEFINES, Atlas
 
 #: Storage-buffer bindings (``shaders/izb_common.glsl``).
 BINDING = {"origins": 0, "directions": 1, "samples": 2, "heads": 3, "nodes": 4, "blocked": 5, "counters": 6,
@@ -67,6 +68,17 @@ NO_NODE = -1
 NO_RAY = -1.0
 #: Compute invocations per work group of the insert and test passes.
 LOCAL_SIZE = 64
+#: Work groups GL guarantees in one dimension of a dispatch (GL 4.6 core, table 23.64): larger
+#: dispatches are split over y (izb_common.glsl: INVOCATION_INDEX).
+MAX_GROUPS_X = 65535
+
+
+def dispatch(prog, invocations: int) -> None:
+    """Run compute ``prog`` over at least ``invocations`` invocations of :data:`LOCAL_SIZE` each
+    group, as (x, y) groups within :data:`MAX_GROUPS_X`; the shader skips the surplus."""
+    groups = max(1, -(-invocations // LOCAL_SIZE))
+    rows = -(-groups // MAX_GROUPS_X)
+    prog.run(-(-groups // rows), rows)
 #: Texels each triangle's light-space bounding box is grown by: half a texel makes the box cover
 #: every texel centre the triangle's texels could hold; one more absorbs float32 rounding of the
 #: projection, so no covered texel is missed (extra texels only cost tests).
@@ -113,12 +125,16 @@ class IrregularZBuffer(Technique):
     def setup(self, frame, slot) -> None:
         """The grid (the atlas of the fitted faces), the rays, the buffers and the programs."""
         ctx = frame.ctx
-        faces, notes = fit_light_views(frame, slot, self.resolution, self.projection, 0.0, fit="receivers")
+        origins, directions, tfar, sample, points = self._rays(frame, slot)
+        # the grid covers every ray's surface point (the shadow map's classic fit to the receivers,
+        # here to the samples themselves: sub-pixel samples reach past the pixel centres)
+        covered = points if len(points) else frame.scene.bounds()
+        faces, notes = slot.light.shadow_views(covered, frame.caster_bounds(), self.resolution,
+                                               projection=self.projection, near=0.0)
         self.notes.extend(notes)
         self.notes.append("conservative coverage: geometry-shader bounding box grown by "
                           f"{COVERAGE_MARGIN:g} texels (no conservative-rasterisation extension used)")
         self.atlas = Atlas.grid(faces, self.resolution, self.name)
-        origins, directions, tfar, sample = self._rays(frame, slot)
         self.ray_count = len(origins)
         self.evaluated = slot.evaluated
         words = len(frame.pixel_index)
@@ -166,22 +182,24 @@ class IrregularZBuffer(Technique):
     # -- the rays ------------------------------------------------------------------
     def _rays(self, frame, slot):
         """The shadow rays of the evaluated samples, as the truth traces them: origins (K, 3),
-        directions (K, 3), tfar (K,) float32 and each ray's sample index (K,) int32 (pixel
-        ``i`` of the frame's compact order, sample ``k``: ``i · samples + k``)."""
+        directions (K, 3), tfar (K,) float32, each ray's sample index (K,) int32 (pixel ``i`` of
+        the frame's compact order, sample ``k``: ``i · samples + k``) and its exact surface point
+        (K, 3) float64."""
         if self.samples == 1:
             idx = np.flatnonzero(slot.evaluated)
             origins = offset_origins(frame)[idx]
-            directions, tfar = slot.light.shadow_rays(origins, frame.compact_position[idx])
-            return origins, directions, tfar, idx.astype(np.int32)
+            points = frame.compact_position[idx]
+            directions, tfar = slot.light.shadow_rays(origins, points)
+            return origins, directions, tfar, idx.astype(np.int32), points
         from ..subpixel import subpixel_samples
 
         sub = subpixel_samples(frame, self.samples)
         origins, directions, tfar, index = sub.rays(slot.light)
         # only the samples of pixels the frame evaluates: the others keep visibility 1
-        pixel = index // self.samples
-        keep = slot.evaluated[pixel]
+        keep = slot.evaluated[index // self.samples]
         self.subpixel = sub
-        return origins[keep], directions[keep], tfar[keep], index[keep].astype(np.int32)
+        points = sub.points.reshape(-1, 3)[index[keep]]
+        return origins[keep], directions[keep], tfar[keep], index[keep].astype(np.int32), points
 
     @staticmethod
     def _caster_triangles(frame) -> np.ndarray:
@@ -245,7 +263,7 @@ class IrregularZBuffer(Technique):
             b["heads"].write(self.empty_heads)
             b["blocked"].clear()
             b["counters"].clear()
-            self.insert_prog.run(max(1, -(-self.ray_count // LOCAL_SIZE)))
+            dispatch(self.insert_prog, self.ray_count)
             ctx.memory_barrier()
         with self.timed_pass("raster"):
             self.target.use()
@@ -263,7 +281,7 @@ class IrregularZBuffer(Technique):
             pairs = min(asked, self.pair_capacity)
             if asked <= self.pair_capacity and pairs:  # an overflowing list is rendered again first
                 self.test_prog["u_pairs"].value = pairs
-                self.test_prog.run(-(-pairs // LOCAL_SIZE))
+                dispatch(self.test_prog, pairs)
                 ctx.memory_barrier()
         self.counts = dict(zip(COUNTERS, np.frombuffer(b["counters"].read(), np.uint32).tolist()))
 

@@ -26,6 +26,9 @@ import numpy as np
 #: The truth's default ray-origin offset (× max(‖P‖∞, scene extent)): 2^-18, about 32 float32
 #: ulps — above the rounding of P and Embree's own error, below 1e-5 of the scene's size.
 DEFAULT_OFFSET_SCALE = 2.0 ** -18
+#: Two exact float32 ray/triangle tests may disagree on a ray that passes this close to an edge
+#: (× max(‖X‖∞, scene extent), X the crossing): about four float32 ulps, a tie either way.
+TIE_DISTANCE_SCALE = 2.0 ** -21
 
 #: Per frame: the Embree scene of its casters (and the meshes that must outlive it).
 _CASTERS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
@@ -111,3 +114,40 @@ def nearest_hits(scene, origins: np.ndarray, directions: np.ndarray, tfar: np.nd
     ``Ng`` (N, 3) (the hit triangle's unnormalised geometric normal)."""
     return scene.run(np.asarray(origins, np.float32), np.asarray(directions, np.float32),
                      dists=np.asarray(tfar, np.float32), query="INTERSECT", output=1)
+
+
+def edge_distances(origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray, corners: np.ndarray,
+                   chunk: int = 4096) -> np.ndarray:
+    """Per ray (K,), the world distance from where it crosses a triangle's plane to that
+    triangle's nearest edge, minimised over the triangles it crosses within (0, ``tfar``]:
+    float64 arithmetic on the float32 rays and the triangles' float32 corners (T, 3, 3), as the
+    tracers see them. Where two exact-in-float32 tests disagree about a ray (Embree's and the
+    irregular z-buffer's), this says whether it was a tie: a ray that passes within float32
+    resolution of an edge can fall either way. Inf where a ray crosses no triangle's plane in
+    range. Brute force over every triangle: for the few rays two tracers disagree on."""
+    corners = np.asarray(corners, np.float64)
+    a, e1, e2 = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    normal = np.cross(e1, e2)
+    twice_area = np.linalg.norm(normal, axis=1)
+    # the triangle's heights onto its edges opposite a, b, c (barycentric 1 = that height)
+    heights = np.stack([twice_area / np.linalg.norm(corners[:, 2] - corners[:, 1], axis=1),
+                        twice_area / np.linalg.norm(e2, axis=1), twice_area / np.linalg.norm(e1, axis=1)], axis=1)
+    out = np.full(len(origins), np.inf)
+    for k, (o, d, tf) in enumerate(zip(np.asarray(origins, np.float64), np.asarray(directions, np.float64),
+                                       np.asarray(tfar, np.float64))):
+        for s in range(0, len(corners), chunk):
+            sl = slice(s, s + chunk)
+            p = np.cross(d, e2[sl])
+            det = np.einsum("ij,ij->i", e1[sl], p)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                rel = o - a[sl]
+                u = np.einsum("ij,ij->i", rel, p) / det
+                q = np.cross(rel, e1[sl])
+                v = (q @ d) / det
+                t = np.einsum("ij,ij->i", e2[sl], q) / det
+            bary = np.stack([1.0 - u - v, u, v], axis=1) * heights[sl]  # signed distances to the edges
+            crossing = (t > 0) & (t <= tf) & (det != 0) & np.isfinite(t)
+            if crossing.any():
+                nearest = np.min(np.abs(bary[crossing]), axis=1)
+                out[k] = min(out[k], float(nearest.min()))
+    return out

@@ -222,17 +222,16 @@ def slope(x, y, points: int = SLOPE_POINTS) -> float:
 
 
 def slopes(df: pd.DataFrame, axis: str, group: str | None = None) -> list[dict]:
-    """Slopes of time against ``axis`` per technique (and per ``group``, e.g. scene)."""
+    """Log-log slopes against ``axis`` of each technique's time, and of the irregular z-buffer's
+    pairs and tests, per ``group`` (e.g. scene; None: one group)."""
     out = []
     groups = df.groupby(group, sort=False) if group else [("torus", df)]
     for key, g in groups:
         for tech, h in g.groupby("technique", sort=False):
-            out.append({"axis": axis, "scene": key, "technique": tech,
-                        "fitted_on": ",".join(str(v) for v in sorted(h[axis])[-SLOPE_POINTS:]),
-                        "time_slope": slope(h[axis], h["time_ms"])})
+            base = {"axis": axis, "scene": key, "fitted_on": ",".join(str(v) for v in sorted(h[axis])[-SLOPE_POINTS:])}
+            out.append({**base, "quantity": f"{tech} ms", "slope": slope(h[axis], h["time_ms"])})
             if tech == IZB:
-                for k in ("izb_pairs", "izb_tests"):
-                    out.append({**out[-1], "technique": f"{IZB} {k}", "time_slope": slope(h[axis], h[k])})
+                out += [{**base, "quantity": k, "slope": slope(h[axis], h[k])} for k in ("izb_pairs", "izb_tests")]
     return out
 
 

@@ -265,12 +265,13 @@ def plot(scenes: pd.DataFrame | None, tri: pd.DataFrame | None, pix: pd.DataFram
             g = g.sort_values(axis)
             dashed = axis == "pixels" and scene != PIXEL_SCENES[0]
             ax.loglog(g[axis], g["time_ms"], marker=style[t].marker, color=style[t].color, ls="--" if dashed else "-",
-                      label=t if axis == "triangles" else f"{t}, {scene}")
+                      label=None if dashed else t)
         ax.set_xlabel(label)
         ax.set_ylabel("render ms (median)")
-        ax.set_title(f"time vs {axis}", fontsize=10)
+        ax.set_title("time vs triangles (torus, one point light)" if axis == "triangles" else
+                     f"time vs pixels (solid: {PIXEL_SCENES[0]}, dashed: {PIXEL_SCENES[1]})", fontsize=10)
         ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=6.5 if axis == "pixels" else 8)
+        ax.legend(fontsize=8)
     fig.suptitle(f"Irregular z-buffer cost beside shadow volumes, a 2048² shadow map and the ray-traced truth\n"
                  f"{gl.renderer()}", fontsize=11)
     fig.tight_layout()

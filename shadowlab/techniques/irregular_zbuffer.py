@@ -16,8 +16,9 @@ and storage buffers):
    texel its origin projects to (head pointers by atomic exchange, nodes from a pool);
 2. ``raster``: the casters are rasterised in light space with conservative coverage (a geometry
    shader emits each triangle's bounding box grown by :data:`COVERAGE_MARGIN` texels: llvmpipe
-   has no conservative rasterisation extension); each fragment whose texel holds rays appends
-   the pair (triangle, texel) to a work list;
+   has no conservative rasterisation extension; the fragment stage keeps the texels whose square,
+   grown by :data:`EDGE_PAD`, overlaps the triangle's projection: Hasselgren et al. 2005); each
+   such fragment whose texel holds rays appends the pair (triangle, texel) to a work list;
 3. ``test`` (compute): each pair's triangle against every ray listed in its texel, with the
    watertight ray/triangle test (Woop et al. 2013), setting the sample's bit in a per-pixel
    mask.
@@ -83,6 +84,12 @@ def dispatch(prog, invocations: int) -> None:
 #: every texel centre the triangle's texels could hold; one more absorbs float32 rounding of the
 #: projection, so no covered texel is missed (extra texels only cost tests).
 COVERAGE_MARGIN = 1.5
+#: Texels around each texel's square in the fragment stage's polygon overlap test: float32
+#: edge functions of window coordinates err far below a texel, so one texel is ample.
+EDGE_PAD = 1.0
+#: Polygons with a corner further than this (texels) from the atlas origin skip the overlap test
+#: (their edge functions lose the precision the pad covers) and keep their whole box.
+EDGE_TEST_LIMIT = 2.0 ** 20
 #: Perspective faces are clipped at w = this × the smallest w of any ray's end (rays stop at
 #: T_LIGHT of the way to the light, so their ends have w >= (1 - T_LIGHT) × their origin's w).
 W_MIN_FRACTION = 0.5 * (1.0 - T_LIGHT)
@@ -170,6 +177,7 @@ class IrregularZBuffer(Technique):
         for prog in (self.raster_prog, self.test_prog):
             gl.set_uniforms(prog, {"u_samples_per_pixel": self.samples,
                                    "u_atlas_size": tuple(map(float, self.atlas.size))})
+        gl.set_uniforms(self.raster_prog, {"u_edge_pad": EDGE_PAD, "u_edge_test_limit": EDGE_TEST_LIMIT})
         tri_vbo = self.own(ctx.buffer(np.ascontiguousarray(corners[:, :3]).tobytes()))
         self.caster_vao = self.own(ctx.vertex_array(self.raster_prog, [(tri_vbo, "3f", "in_position")]))
         self.target = self.own(ctx.framebuffer(color_attachments=[self.own(ctx.renderbuffer(self.atlas.size, 1,
@@ -273,7 +281,8 @@ class IrregularZBuffer(Technique):
                 ctx.viewport = rect
                 self.raster_prog["u_face_view_proj"].write(gl.mat_bytes(face.view_proj))
                 margin = 2.0 * COVERAGE_MARGIN / np.array(rect[2:], np.float64)
-                gl.set_uniforms(self.raster_prog, {"u_w_min": w_min, "u_margin_ndc": tuple(map(float, margin))})
+                gl.set_uniforms(self.raster_prog, {"u_w_min": w_min, "u_margin_ndc": tuple(map(float, margin)),
+                                                   "u_viewport": tuple(map(float, rect))})
                 self.caster_vao.render(ctx.TRIANGLES)
             ctx.memory_barrier()
             asked = int(np.frombuffer(b["counters"].read(4, offset=4 * COUNTERS.index("pairs")), np.uint32)[0])

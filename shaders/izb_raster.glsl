@@ -23,11 +23,11 @@ void main() {
 }
 #endif
 
-// Where the driver gives no conservative rasterisation, the quad is the box; the fragment stage
-// then keeps only the texels whose square, grown by u_edge_pad texels, overlaps the clipped
-// polygon (the separating-axis test on the polygon's edges: the box's own axes are the quad's),
-// as in Hasselgren, Akenine-Möller & Ohlsson 2005 (GPU Gems 2 ch. 42): long thin triangles
-// across the grid (wires) would otherwise test every texel of their box.
+// With COVERAGE_POLYGON the fragment stage keeps only the texels whose square, grown by
+// u_edge_pad texels, overlaps the clipped polygon (the separating-axis test on the polygon's
+// edges: the box's own axes are the quad's), as in Hasselgren, Akenine-Möller & Ohlsson 2005
+// (GPU Gems 2 ch. 42): fewer pairs for long thin triangles across the grid (wires), but on
+// llvmpipe the per-fragment test costs more than the pairs it saves on dense meshes.
 #define MAX_CORNERS 4                    // a triangle clipped by one plane: at most 4 corners
 
 #ifdef GEOMETRY_SHADER
@@ -113,8 +113,10 @@ void main() {
     ivec2 texel = ivec2(gl_FragCoord.xy);  // the framebuffer is the atlas
     int index = texel.y * int(u_atlas_size.x) + texel.x;
     if (head[index] == NO_NODE) return;    // no sample here: nothing to test
+#ifdef COVERAGE_POLYGON
     vec2 corner = vec2(texel);
     if (!overlaps(corner - vec2(u_edge_pad), corner + vec2(TEXEL + u_edge_pad))) return;
+#endif
     uint i = atomicAdd(counter[COUNTER_PAIRS], 1u);
     if (i < uint(u_pair_capacity)) pair[i] = ivec2(g_triangle, index);
 }

@@ -70,26 +70,12 @@ SLOPE_POINTS = 3
 #: The irregular z-buffer's counters kept in the tables.
 IZB_STATS = ("izb_rays", "izb_pairs", "izb_tests", "izb_hits", "izb_retries", "izb_list_mean", "izb_list_p99",
              "izb_list_max")
-#: Bytes per component of moderngl dtypes (textures and renderbuffers owned by a technique).
-DTYPE_BYTES = {"f1": 1, "u1": 1, "i1": 1, "f2": 2, "u2": 2, "i2": 2, "f4": 4, "u4": 4, "i4": 4}
 
 
 def parse_size(text: str) -> tuple[int, int]:
     """``"320x240"`` → (320, 240)."""
     w, h = (int(v) for v in text.lower().split("x"))
     return w, h
-
-
-def gl_bytes(tech) -> int:
-    """Bytes of the GL buffers, textures and renderbuffers ``tech`` owns now (its ``own()``
-    registry; the frame's shared G-buffer and depth-stencil are not counted)."""
-    total = 0
-    for obj in tech._owned:
-        if hasattr(obj, "components"):  # texture or renderbuffer
-            total += obj.width * obj.height * obj.components * DTYPE_BYTES.get(obj.dtype, 4)
-        elif isinstance(getattr(obj, "size", None), int):  # buffer
-            total += obj.size
-    return total
 
 
 def measure_light(ev: Evaluator, li: int, repeat: int) -> list[dict]:
@@ -109,7 +95,7 @@ def measure_light(ev: Evaluator, li: int, repeat: int) -> list[dict]:
             else:
                 tech = from_spec(name)
                 m = measure(tech, frame, li, repeat, WARMUP, release=False)
-                owned = gl_bytes(tech)
+                owned = tech.owned_bytes()
                 tech.release()
         except (TechniqueError, RuntimeError) as exc:
             rows.append({**row, "failure": str(exc)})

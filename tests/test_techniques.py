@@ -95,3 +95,17 @@ def test_planning_refuses_a_light_a_technique_does_not_render_for(tmp_path):
     with pytest.raises(SuiteError, match=r"lispsm does not render for light 0 of scene box_on_plane"):
         load_suite(suite)
     assert not (tmp_path / "run").exists() and not (tmp_path / "anim").exists()
+
+
+def test_owned_bytes_counts_every_gl_object(lab):
+    """owned_bytes: a 512² 24-bit shadow map owns at least its depth texture (4 bytes a texel)."""
+    from conftest import SMALL
+    from shadowlab.techniques import from_spec
+
+    tech = from_spec("shadow_map:resolution=512")
+    tech.prepare(lab.frame("box_on_plane", SMALL), 0)
+    try:
+        assert tech.owned_bytes() >= 512 * 512 * 4
+    finally:
+        tech.release()
+    assert tech.owned_bytes() == 0

@@ -57,6 +57,9 @@ class TechniqueError(ValueError):
 
 
 _TRUE, _FALSE = {"1", "true", "yes", "on"}, {"0", "false", "no", "off"}
+#: Bytes per component of moderngl's texture and renderbuffer dtypes (depth formats by their
+#: storage: "f4" depth is 4 bytes).
+_DTYPE_BYTES = {"f1": 1, "u1": 1, "i1": 1, "f2": 2, "u2": 2, "i2": 2, "f4": 4, "u4": 4, "i4": 4}
 
 
 @dataclass(frozen=True)
@@ -374,6 +377,20 @@ class Technique:
         for obj in objs:
             self._owned.remove(obj)
             obj.release()
+
+    def owned_bytes(self) -> int:
+        """Bytes of the GL buffers, textures and renderbuffers the technique owns now (what
+        :meth:`own` registered; the frame's shared G-buffer and depth-stencil are not counted): a
+        memory figure every technique has, whether or not its :meth:`stats` reports one."""
+        total = 0
+        for obj in self._owned:
+            if isinstance(getattr(obj, "nbytes", None), int):  # the lab's own wrappers (gl.DepthTexture)
+                total += obj.nbytes
+            elif hasattr(obj, "components"):  # a texture or renderbuffer
+                total += obj.width * obj.height * obj.components * _DTYPE_BYTES.get(obj.dtype, 4)
+            elif isinstance(getattr(obj, "size", None), int):  # a buffer
+                total += obj.size
+        return total
 
     def visibility_target(self, size: tuple[int, int], share_depth_stencil=None):
         """The technique's visibility image: an owned R32F texture of ``size`` (width, height)

@@ -179,8 +179,8 @@ class IrregularZBuffer(Technique):
         self.insert_prog = self.program("izb_insert.glsl", defines={**ATLAS_DEFINES, "LOCAL_SIZE": LOCAL_SIZE})
         gl.set_uniforms(self.insert_prog, self.light.uniforms())
         self.atlas.write_uniforms(self.insert_prog)
-        gl.set_uniforms(self.insert_prog, {"u_rays": self.ray_count, "u_samples_per_pixel": self.samples})
-        gl.set_uniforms(self.insert_prog, {"u_node_capacity": self.pool})
+        gl.set_uniforms(self.insert_prog, {"u_rays": self.ray_count, "u_samples_per_pixel": self.samples,
+                                           "u_node_capacity": self.pool})
         self.raster_prog = self.program("izb_raster.glsl",
                                         defines={"COVERAGE_POLYGON": 1} if self.coverage == "polygon" else None)
         self.test_prog = self.program("izb_test.glsl", defines={"LOCAL_SIZE": LOCAL_SIZE})
@@ -231,8 +231,9 @@ class IrregularZBuffer(Technique):
         return out
 
     def _w_min(self, origins: np.ndarray) -> list[float]:
-        """Per face the clip plane w of the test pass (module :data:`W_MIN_FRACTION`); 1 is never
-        reached by an orthographic face (w = 1 everywhere)."""
+        """Per face the clip plane w of the raster pass (:data:`W_MIN_FRACTION` × the smallest w
+        of the rays' origins in front of the face); 0 for an orthographic face, whose w is 1
+        everywhere (nothing is clipped)."""
         out = []
         for face in self.atlas.faces:
             if len(origins) == 0 or face.proj[3, 3] == 1.0:  # orthographic

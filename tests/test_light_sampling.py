@@ -252,7 +252,8 @@ def test_every_stat_has_a_rule_and_a_cube_map_keeps_six_faces(frame, name):
 def test_light_samples_parameter():
     """(d) the shared parameter: last in every opted-in spec, round-trips, validated; raytrace has
     none and unknown parameters still error (naming light_samples among the known ones)."""
-    assert set(SAMPLED) == {"shadow_map", "shadow_volume", "planar", "shadow_polygons", "projective"}
+    assert set(SAMPLED) == {"shadow_map", "shadow_volume", "planar", "shadow_polygons", "projective",
+                            "irregular_zbuffer"}
     for name in SAMPLED:
         t = from_spec(f"{name}:light_samples=9")
         assert t.spec().endswith(",light_samples=9") and t.light_samples == 9

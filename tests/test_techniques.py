@@ -109,3 +109,25 @@ def test_owned_bytes_counts_every_gl_object(lab):
     finally:
         tech.release()
     assert tech.owned_bytes() == 0
+
+
+def test_kept_objects_last_across_frames_only_when_asked(lab):
+    """Technique.keep: freed by release() in a compare or study; kept across release() while
+    keep_across_frames (animate), until forget()."""
+    import moderngl
+
+    from conftest import SMALL
+    from shadowlab.techniques import from_spec
+
+    ctx = lab.frame("box_on_plane", SMALL).ctx
+    tech = from_spec("shadow_map:resolution=64")
+    buf = tech.keep("cache", lambda: ctx.buffer(reserve=16))
+    assert tech.keep("cache", lambda: ctx.buffer(reserve=16)) is buf  # made once
+    tech.release()
+    assert isinstance(buf.mglo, moderngl.InvalidObject) and tech.kept("cache") is None
+    tech.keep_across_frames = True
+    buf = tech.keep("cache", lambda: ctx.buffer(reserve=16))
+    tech.release()
+    assert tech.kept("cache") is buf and not isinstance(buf.mglo, moderngl.InvalidObject)
+    tech.forget()
+    assert isinstance(buf.mglo, moderngl.InvalidObject) and tech.kept("cache") is None

@@ -271,51 +271,58 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
     truth_spec = None
     covered_last = underlay = None
     moving = scene.animation is not None and scene.animation.camera_moves
-    for k, t in enumerate(times):
-        frame = Frame(scene_at(scene, t), *size)
-        try:
-            evaluator = Evaluator(frame, repeat=repeat, warmup=warmup)
-            truth_spec = evaluator.truth_technique.spec()
-            geom = temporal.FrameGeometry.of(frame)
-            evals = [frame.evaluated(li) for li in lights]
-            for li in lights:
-                reproj = None if prev_geom is None else temporal.reproject(geom, prev_geom, evals[li], prev_eval[li])
-                step = None if on_step is None else (lambda what=f"frame {k + 1}/{n} truth light {li}":
-                                                     on_step(what, total))
-                truth_m = evaluator.truth(li, step)
-                measured = [(TRUTH_KEY, truth_m, True)]
-                for tech in techniques:
-                    step = None if on_step is None else (lambda what=f"frame {k + 1}/{n} {tech.short_label()} light {li}":
+    for tech in techniques:  # caches a technique keeps (Technique.keep) last from frame to frame
+        tech.keep_across_frames = True
+    try:
+        for k, t in enumerate(times):
+            frame = Frame(scene_at(scene, t), *size)
+            try:
+                evaluator = Evaluator(frame, repeat=repeat, warmup=warmup)
+                truth_spec = evaluator.truth_technique.spec()
+                geom = temporal.FrameGeometry.of(frame)
+                evals = [frame.evaluated(li) for li in lights]
+                for li in lights:
+                    reproj = None if prev_geom is None else temporal.reproject(geom, prev_geom, evals[li], prev_eval[li])
+                    step = None if on_step is None else (lambda what=f"frame {k + 1}/{n} truth light {li}":
                                                          on_step(what, total))
-                    measured.append((tech.spec(), measure(tech, frame, li, repeat, warmup, step), False))
-                truth_track = tracks.get((TRUTH_KEY, li))
-                truth_prev = truth_track.prev_vis if truth_track is not None else None
-                for key, m, is_ref in measured:
-                    track = tracks.setdefault((key, li), _Track(m.technique.spec(),
-                                                                safe_name(m.technique.short_label())))
-                    row = {"frame": k, "t": float(t), **evaluator.row(m, reference=is_ref),
-                           "notes": "; ".join(m.notes)}
-                    if reproj is not None:
-                        pm = temporal.pair_metrics(track.prev_vis, m.visibility, truth_prev, truth_m.visibility, reproj)
-                        row.update(pm.columns())
-                        track.flip_count = (pm.flips.astype(np.int32) if track.flip_count is None
-                                            else track.flip_count + pm.flips)
-                    else:
-                        row.update({c: float("nan") for c in temporal.TEMPORAL_COLUMNS})
-                    if li == 0 and not is_ref:
-                        track.strip.append(label_strip(_strip_picture(m.visibility, truth_m.visibility, evals[0],
-                                                                      frame.covered), k, n))
-                    track.prev_vis = m.visibility
-                    rows.append(row)
-            for tech in techniques:
-                notes.extend(f"frame {k}: {tech.spec()}: {x}" for x in dict.fromkeys(tech.notes))
-                tech.notes.clear()
-            prev_geom, prev_eval = geom, evals
-            covered_last = frame.covered.copy()
-            if k == n - 1:
-                underlay = _shaded_truth(frame, [evaluator.truth(li).visibility for li in lights])
-        finally:
-            frame.release()
+                    truth_m = evaluator.truth(li, step)
+                    measured = [(TRUTH_KEY, truth_m, True)]
+                    for tech in techniques:
+                        step = None if on_step is None else (lambda what=f"frame {k + 1}/{n} {tech.short_label()} light {li}":
+                                                             on_step(what, total))
+                        measured.append((tech.spec(), measure(tech, frame, li, repeat, warmup, step), False))
+                    truth_track = tracks.get((TRUTH_KEY, li))
+                    truth_prev = truth_track.prev_vis if truth_track is not None else None
+                    for key, m, is_ref in measured:
+                        track = tracks.setdefault((key, li), _Track(m.technique.spec(),
+                                                                    safe_name(m.technique.short_label())))
+                        row = {"frame": k, "t": float(t), **evaluator.row(m, reference=is_ref),
+                               "notes": "; ".join(m.notes)}
+                        if reproj is not None:
+                            pm = temporal.pair_metrics(track.prev_vis, m.visibility, truth_prev, truth_m.visibility, reproj)
+                            row.update(pm.columns())
+                            track.flip_count = (pm.flips.astype(np.int32) if track.flip_count is None
+                                                else track.flip_count + pm.flips)
+                        else:
+                            row.update({c: float("nan") for c in temporal.TEMPORAL_COLUMNS})
+                        if li == 0 and not is_ref:
+                            track.strip.append(label_strip(_strip_picture(m.visibility, truth_m.visibility, evals[0],
+                                                                          frame.covered), k, n))
+                        track.prev_vis = m.visibility
+                        rows.append(row)
+                for tech in techniques:
+                    notes.extend(f"frame {k}: {tech.spec()}: {x}" for x in dict.fromkeys(tech.notes))
+                    tech.notes.clear()
+                prev_geom, prev_eval = geom, evals
+                covered_last = frame.covered.copy()
+                if k == n - 1:
+                    underlay = _shaded_truth(frame, [evaluator.truth(li).visibility for li in lights])
+            finally:
+                frame.release()
+    finally:
+        for tech in techniques:
+            tech.keep_across_frames = False
+            tech.forget()
 
     df = pd.DataFrame(rows)
     ordered = metrics.order_columns([c for c in df.columns if c not in ("frame", "t")], pass_order())

@@ -256,6 +256,10 @@ class Technique:
         self._params = {k: p.parse(self.name, k, params.get(k, p.default)) for k, p in self.PARAMS.items()}
         self.notes: list[str] = []
         self._owned: list = []
+        self._kept: dict = {}  # GL objects kept across setups (see keep)
+        #: Set by a caller that renders this technique frame after frame (``shadowlab animate``):
+        #: what :meth:`keep` holds then survives :meth:`release` until :meth:`forget`.
+        self.keep_across_frames = False
         self._programs: list = []  # cache keys of the programs held
         self._visibility_texture = None
 
@@ -371,6 +375,27 @@ class Technique:
         self._owned.append(obj)
         return obj
 
+    def keep(self, key, make):
+        """A GL object the technique may keep from one frame's setup to the next (a cache of
+        rendered pages, say): made by ``make()`` the first time ``key`` is asked for, then
+        handed back. While :attr:`keep_across_frames` is False (compare, study) :meth:`release`
+        frees it like any owned object; while True (animate) it survives until :meth:`forget`."""
+        if key not in self._kept:
+            self._kept[key] = make()
+        return self._kept[key]
+
+    def kept(self, key):
+        """The object :meth:`keep` holds under ``key``, or None."""
+        return self._kept.get(key)
+
+    def forget(self) -> None:
+        """Free what :meth:`keep` holds (the end of an animation; :meth:`release` otherwise)."""
+        kept, self._kept = self._kept, {}
+        if kept:
+            gl.park()
+        for obj in kept.values():
+            obj.release()
+
     def free(self, *objs) -> None:
         """Release registered objects now (a buffer or vertex array replaced during rendering;
         not framebuffers, which :meth:`release` frees after parking the binding)."""
@@ -425,6 +450,8 @@ class Technique:
             gl.park()
         for obj in reversed(owned):
             obj.release()
+        if not self.keep_across_frames:
+            self.forget()
 
 
 def parse_spec(spec: str) -> tuple[str, dict[str, str]]:

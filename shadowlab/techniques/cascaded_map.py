@@ -24,6 +24,19 @@ texels near the camera are small (Engel 2006, "Cascaded shadow maps", ShaderX5; 
   depth slice. ``stabilize`` does not apply (the boxes follow the samples): it is ignored with a
   note.
 
+- ``focus=scene`` (the default; issue 26): "fit to scene" (Dimitrov 2007; Microsoft, "Common
+  techniques to improve shadow depth maps", 2012): each cascade's box above is intersected
+  with the bounding rectangle of the receivers in its slice that can be shadowed at all
+  (:func:`~shadowlab.techniques.maps.shadowable_mask`, what shadow_map's ``fit=shadowable``
+  covers), and its depth runs from the casters over the box to the farthest of those points:
+  a cascade spends no texels on empty ground. Under ``stabilize`` the focused box keeps a
+  world-fixed grid (:func:`snap_focus`: its texel is the sphere box's × 2^(−k/4), its corner
+  snapped to whole texels of that size), so shimmer returns only when the focused extent
+  crosses a quarter octave (or the splits move). A slice with no shadowable point keeps its
+  unfocused box (nothing there can be shadowed; keeping it keeps the grid). Under ``fit=sdsm``
+  only the shadowable points of a cascade's slice count (all of them in a slice that holds
+  none). ``focus=none``: the classic fits, bit for bit.
+
 Every cascade's light-space depth range runs from the nearest caster to the farthest point it
 covers, clamped to the scene's bounds (as in shadow_map's fitting). The atlas holds the cascades
 side by side (tile i at x = i·resolution; the map toolkit's :class:`~shadowlab.techniques.maps.Atlas`

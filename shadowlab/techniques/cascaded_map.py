@@ -24,6 +24,19 @@ texels near the camera are small (Engel 2006, "Cascaded shadow maps", ShaderX5; 
   depth slice. ``stabilize`` does not apply (the boxes follow the samples): it is ignored with a
   note.
 
+- ``focus=scene`` (the default; issue 26): "fit to scene" (Dimitrov 2007; Microsoft, "Common
+  techniques to improve shadow depth maps", 2012): each cascade's box above is intersected
+  with the bounding rectangle of the receivers in its slice that can be shadowed at all
+  (:func:`~shadowlab.techniques.maps.shadowable_mask`, what shadow_map's ``fit=shadowable``
+  covers), and its depth runs from the casters over the box to the farthest of those points:
+  a cascade spends no texels on empty ground. Under ``stabilize`` the focused box keeps a
+  world-fixed grid (:func:`snap_focus`: its texel is the sphere box's × 2^(−k/4), its corner
+  snapped to whole texels of that size), so shimmer returns only when the focused extent
+  crosses a quarter octave (or the splits move). A slice with no shadowable point keeps its
+  unfocused box (nothing there can be shadowed; keeping it keeps the grid). Under ``fit=sdsm``
+  only the shadowable points of a cascade's slice count (all of them in a slice that holds
+  none). ``focus=none``: the classic fits, bit for bit.
+
 Every cascade's light-space depth range runs from the nearest caster to the farthest point it
 covers, clamped to the scene's bounds (as in shadow_map's fitting). The atlas holds the cascades
 side by side (tile i at x = i·resolution; the map toolkit's :class:`~shadowlab.techniques.maps.Atlas`
@@ -43,7 +56,7 @@ from ..geometry import transforms as tf
 from ..geometry.bounds import box_corners
 from ..geometry.frusta import MIN_EXTENT, PAD, LightView
 from .base import FIRST, Param, PlotStyle, TechniqueError, TuneRange
-from .maps import DEPTH_MAP_STATS, FILTERS, MAX_FACES, DepthMapTechnique
+from .maps import DEPTH_MAP_STATS, FILTERS, MAX_FACES, DepthMapTechnique, shadowable_mask
 
 #: Most cascades: one per face of the map toolkit's atlas.
 MAX_CASCADES = MAX_FACES
@@ -51,6 +64,11 @@ MAX_CASCADES = MAX_FACES
 #: float32 view depth in the shader falls on the other side of a split than its float64 depth
 #: here still lies inside the cascade the shader picks.
 SPLIT_OVERLAP = 1e-3
+#: focus=scene with stabilize: a focused cascade's texel size is the sphere box's times
+#: 2^(−k / this) for a whole k (:func:`snap_focus`). More levels fit tighter (at most 2^(1/this)
+#: coarser than the focused extent needs: 19 % at 4) but change the texel size, and so move
+#: the grid, more often as the focused extent drifts; 4 is a quarter octave.
+FOCUS_LEVELS_PER_OCTAVE = 4
 
 
 def practical_splits(near: float, far: float, cascades: int, lam: float) -> np.ndarray:
@@ -111,15 +129,71 @@ def cascade_view(rotation: np.ndarray, lo: np.ndarray, hi: np.ndarray, points: n
     return LightView(rotation, proj, texel_world=float(np.max(hi - lo)) / resolution)
 
 
+def focus_rect(lo: np.ndarray, hi: np.ndarray, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The light-space box [lo, hi] (2,) each intersected with the bounding rectangle of the
+    points ``xy`` (M ≥ 1, 2), padded by :data:`PAD` of its extent like every other fit ("fit to
+    scene": Dimitrov 2007 §"Tight frustum"; Microsoft, "Common techniques to improve shadow depth
+    maps", 2012, "Fit to scene"). The points lie in the slice, hence in the box, so the result is
+    never empty; it is clamped so that lo ≤ hi all the same."""
+    plo, phi = xy.min(0), xy.max(0)
+    pad = PAD * max(float(np.max(phi - plo)), MIN_EXTENT)
+    flo, fhi = np.maximum(lo, plo - pad), np.minimum(hi, phi + pad)
+    return flo, np.maximum(fhi, flo + MIN_EXTENT)
+
+
+def snap_focus(lo: np.ndarray, hi: np.ndarray, sphere_lo: np.ndarray, texel: float,
+               resolution: int) -> tuple[np.ndarray, np.ndarray]:
+    """A stabilised focused box: per axis the finest texel t = ``texel`` · 2^(−k / L) (k ≥ 0,
+    L = :data:`FOCUS_LEVELS_PER_OCTAVE`; ``texel``: the stabilised sphere box's) whose box
+    [floor(lo / t) · t, that + resolution · t] still holds [lo, hi]; k = 0 keeps the sphere box
+    (``sphere_lo`` + resolution · texel). The box's corner is snapped to whole texels of its own
+    size t, so its texel grid is the world-fixed lattice t·ℤ in light space (Valient 2008's
+    snapping): it stays put while the camera moves unless k changes (the focused extent crosses
+    a level) or the splits do. Snapping the corners to whole sphere texels with any width would
+    not hold the grid: the texel, width / resolution, would change with every width."""
+    out_lo = np.array(sphere_lo, np.float64)
+    out_hi = out_lo + resolution * texel
+    for axis in range(2):
+        extent = max(float(hi[axis] - lo[axis]), MIN_EXTENT)
+        k = max(int(np.floor(FOCUS_LEVELS_PER_OCTAVE * np.log2(resolution * texel / extent))), 0)
+        while k > 0:  # the snap of lo can cost up to a texel: fall back a level until the box holds
+            t = texel * 2.0 ** (-k / FOCUS_LEVELS_PER_OCTAVE)
+            start = np.floor(lo[axis] / t) * t
+            if start + resolution * t >= hi[axis]:
+                out_lo[axis], out_hi[axis] = start, start + resolution * t
+                break
+            k -= 1
+    return out_lo, out_hi
+
+
+def focus_casters(rotation: np.ndarray, caster_bounds: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The caster boxes (K', 2, 3) whose light-space rectangle overlaps [lo, hi]: the only casters
+    that can shadow a point of the box (a directional light's rays run along light-space z)."""
+    if not len(caster_bounds):
+        return caster_bounds
+    xy = tf.transform_points(rotation, box_corners(caster_bounds))[:, :2].reshape(-1, 8, 2)
+    overlap = np.all(xy.min(1) <= hi, axis=1) & np.all(xy.max(1) >= lo, axis=1)
+    return caster_bounds[overlap]
+
+
 def fit_frustum_cascades(view: np.ndarray, tan_x: float, tan_y: float, intervals: np.ndarray,
                          direction: np.ndarray, caster_bounds: np.ndarray, scene_bounds: np.ndarray,
-                         resolution: int, stabilize: bool) -> list[LightView]:
+                         resolution: int, stabilize: bool, focus_points: np.ndarray | None = None) -> list[LightView]:
     """Classic CSM: one view per cascade covering the camera frustum's slice between the view
     depths ``intervals[i]`` = (z0, z1) ((N, 2)). ``stabilize``: a square box the size of the
     slice's bounding sphere (plus one texel), its corner snapped to whole texels in light space
-    (Valient 2008); else the slice corners' light-space bounding rectangle."""
+    (Valient 2008); else the slice corners' light-space bounding rectangle.
+
+    ``focus_points`` (M, 3; None: no focus, the classic fit bit for bit): the receivers that can
+    be shadowed. Each cascade's box shrinks to those of them in its slice (:func:`focus_rect`;
+    stabilised: :func:`snap_focus`), its depth runs from the casters over the box
+    (:func:`focus_casters`) to the farthest of them; a slice without one keeps its box (nothing
+    in it can be shadowed, so any box answers; keeping it keeps the stabilised grid)."""
     rot = light_rotation(direction)
     inv = np.linalg.inv(view)
+    if focus_points is not None:
+        focus_depth = -tf.transform_points(view, focus_points)[:, 2]
+        focus_xy = tf.transform_points(rot, focus_points)[:, :2]
     views = []
     for z0, z1 in intervals:
         corners = slice_corners(view, tan_x, tan_y, z0, z1)
@@ -135,22 +209,32 @@ def fit_frustum_cascades(view: np.ndarray, tan_x: float, tan_y: float, intervals
             lo, hi = xy.min(0), xy.max(0)
             pad = PAD * max(float(np.max(hi - lo)), MIN_EXTENT)
             lo, hi = lo - pad, hi + pad
-        views.append(cascade_view(rot, lo, hi, corners, caster_bounds, scene_bounds, resolution))
+        cover, casters = corners, caster_bounds
+        if focus_points is not None:
+            inside = (focus_depth >= z0) & (focus_depth <= z1)
+            if inside.any():
+                flo, fhi = focus_rect(lo, hi, focus_xy[inside])
+                lo, hi = snap_focus(flo, fhi, lo, texel, resolution) if stabilize else (flo, fhi)
+                cover, casters = focus_points[inside], focus_casters(rot, caster_bounds, lo, hi)
+        views.append(cascade_view(rot, lo, hi, cover, casters, scene_bounds, resolution))
     return views
 
 
 def fit_sdsm_cascades(view: np.ndarray, tan_x: float, tan_y: float, points: np.ndarray, intervals: np.ndarray,
                       direction: np.ndarray, caster_bounds: np.ndarray, scene_bounds: np.ndarray,
-                      resolution: int) -> tuple[list[LightView], list[str]]:
+                      resolution: int, focus: np.ndarray | None = None) -> tuple[list[LightView], list[str]]:
     """SDSM (Lauritzen et al. 2011): each cascade's light-space x/y box fitted tightly to the
     ``points`` (M, 3) whose view depth lies in its interval ((N, 2)); a cascade without points
-    covers its frustum slice instead (with a note)."""
+    covers its frustum slice instead (with a note). ``focus`` (bool (M,), or None): only the
+    points it marks (those that can be shadowed) count, in a cascade that holds any of them."""
     rot = light_rotation(direction)
     depth = -tf.transform_points(view, points)[:, 2]
     xy = tf.transform_points(rot, points)[:, :2]
     views, notes = [], []
     for i, (z0, z1) in enumerate(intervals):
         inside = (depth >= z0) & (depth <= z1)
+        if focus is not None and np.any(inside & focus):
+            inside &= focus
         if not inside.any():
             notes.append(f"cascaded_map: sdsm cascade {i} holds no evaluated point; it covers its frustum slice")
             cover = slice_corners(view, tan_x, tan_y, z0, z1)
@@ -202,6 +286,10 @@ class CascadedShadowMap(DepthMapTechnique):
                              max=1.0, min_open=True, tune=TuneRange(0.02, 0.5)),
         "stabilize": Param(True, "fit=frustum: bounding-sphere boxes snapped to whole texels (Valient 2008); "
                                  "ignored with a note under sdsm"),
+        "focus": Param("scene", "scene: each cascade's box shrunk to the receivers in its slice that can be "
+                                "shadowed and its depth to the casters over them ('fit to scene'); "
+                                "none: the whole slice (fit=frustum) or every evaluated point (fit=sdsm)",
+                       choices=("scene", "none")),
         "bias": Param(0.0005, "constant depth bias in window-depth units [0, 1] of each cascade", min=0.0, max=1.0,
                       # orders of magnitude from acne to detached contacts, as shadow_map's bias
                       tune=TuneRange(1e-5, 0.05, log=True)),
@@ -241,12 +329,14 @@ class CascadedShadowMap(DepthMapTechnique):
         ranges = np.diff(self.splits)
         self.blend_start = self.splits[1:] - (self.blend_width * ranges if self.blend else 0.0)
         intervals = cover_intervals(self.splits, self.blend_start)
+        focus = shadowable_mask(frame, slot) if self.focus == "scene" else None
         if sdsm and len(points):
             faces, sdsm_notes = fit_sdsm_cascades(frame.view, tan_x, tan_y, points, intervals, light.direction,
-                                                  casters, scene_bounds, self.resolution)
+                                                  casters, scene_bounds, self.resolution, focus=focus)
             return faces, notes + sdsm_notes
         return fit_frustum_cascades(frame.view, tan_x, tan_y, intervals, light.direction, casters,
-                                    scene_bounds, self.resolution, self.stabilize and not sdsm), notes
+                                    scene_bounds, self.resolution, self.stabilize and not sdsm,
+                                    focus_points=None if focus is None else points[focus]), notes
 
     # ------------------------------------------------------------------ lookup
     def lookup_defines(self) -> dict:

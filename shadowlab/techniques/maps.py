@@ -60,12 +60,17 @@ def shadowable(points: np.ndarray, normals: np.ndarray, light, bounds: np.ndarra
     return segments_hit_boxes(origin, dirs, np.minimum(dist, 1e30), bounds)
 
 
+def shadowable_mask(frame, slot) -> np.ndarray:
+    """Bool (M,) over the slot's evaluated receiver points: those that can be in shadow
+    (:func:`shadowable`). A mask, not the points, for fits that also need the others (cascaded_map's
+    focused SDSM falls back to every evaluated point of a slice that holds no shadowable one)."""
+    return shadowable(frame.compact_position[slot.evaluated], frame.compact_normal[slot.evaluated], slot.light,
+                      frame.caster_bounds(), eps=SHADOWABLE_OFFSET * frame.scene.extent())
+
+
 def shadowable_receivers(frame, slot) -> np.ndarray:
     """The slot's evaluated receiver points (M, 3) that can be in shadow (:func:`shadowable`)."""
-    points = frame.compact_position[slot.evaluated]
-    keep = shadowable(points, frame.compact_normal[slot.evaluated], slot.light, frame.caster_bounds(),
-                      eps=SHADOWABLE_OFFSET * frame.scene.extent())
-    return points[keep]
+    return frame.compact_position[slot.evaluated][shadowable_mask(frame, slot)]
 
 
 def fit_light_views(frame, slot, resolution: int, projection: str = "auto", near_override: float = 0.0,

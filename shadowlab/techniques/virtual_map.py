@@ -109,8 +109,9 @@ class VirtualMap(TexelMapping, Technique):
         "pool_pages": Param(1024, "physical pages in the pool (a square depth texture of ceil(sqrt(n)) pages a side)",
                             min=1),
         "lod_bias": Param(0.0, "added to log2(pixel / level-0 texel) before flooring: < 0 finer pages, > 0 coarser",
-                          # a level is a factor 2 in texel size: beyond ±3 levels the choice is meaningless
-                          min=-8.0, max=8.0, tune=TuneRange(-2.0, 2.0)),
+                          # a level is a factor 2 in texel size; ±MAX_LEVELS pins every pixel to level 0 or
+                          # M-1; tuning beyond ±2 levels trades a factor 4 in pages per step for nothing
+                          min=-float(MAX_LEVELS), max=float(MAX_LEVELS), tune=TuneRange(-2.0, 2.0)),
         "bias": Param(0.0005, "constant depth bias in window-depth units [0, 1]",
                       # as cascaded_map: the slope term carries the receiver's slope
                       min=0.0, max=1.0, tune=TuneRange(1e-6, 0.05, log=True)),
@@ -234,6 +235,7 @@ class VirtualMap(TexelMapping, Technique):
         with self.timed_pass("request"):
             self.requests.clear()
             self.requests.bind_to_storage_buffer(BINDING_REQUESTS)
+            glstate.apply(PassState())  # no framebuffer, but no inherited sampler objects on its units
             frame.tex_position.use(0)
             self.evaluated_tex.use(1)
             self.request_prog.run(-(-frame.width // LOCAL_SIZE), -(-frame.height // LOCAL_SIZE))

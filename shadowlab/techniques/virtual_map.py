@@ -22,7 +22,7 @@ Passes (``shaders/virtual_request.glsl``, ``shaders/virtual_lookup.glsl``, the d
    (``pages_dropped``, a note) and their pixels fall back to a coarser resident level (UE5 also
    falls back to coarser mips); the page table (one R32I texture: level m's pages in rows
    ``table_row[m]`` ..) is written;
-3. ``depth``: the pool is cleared, then every resident page is rendered in its slot's viewport
+3. ``depth``: every resident page is cleared and rendered in its slot's viewport
    through its own sub-projection — the level's projection followed by the 2D scale and
    translation in NDC that maps the page's uv rectangle onto the viewport — with the casters
    whose bounding boxes miss the page's sub-frustum culled per object on the CPU (the 8 corners
@@ -50,7 +50,9 @@ Deviations from UE5's design:
   The allocation keeps (level, x, y) → slot in :attr:`VirtualMap.resident` on the object, so a
   later step can keep the pages (and a validity flag per page) across renders and re-render
   only invalidated ones;
-- the whole pool is cleared each render (UE5 clears only the pages it renders);
+- each rendered page is cleared by a quad writing gl_FragDepth (``shaders/page_clear.glsl``) over its
+  viewport, as UE5 clears only the pages it renders (a glClear of the whole 64 MiB pool cost
+  ~5 ms a render on llvmpipe; the lab keeps the scissor test off);
 - pages are dropped within a level in page order (UE5 has no single rule here either; it
   reports the overflow); casters are culled per object, not per cluster (Nanite);
 - no per-page depth ranges or HZB culling, no filtering (nearest, one tap: UE5 uses SMRT).
@@ -194,6 +196,9 @@ class VirtualMap(TexelMapping, Technique):
             "u_page_size": self.page_size, "u_virtual_resolution": float(self.virtual_resolution),
             "u_bias": float(self.bias), "u_slope_scale": float(self.slope_scale)})
         self.depth_prog = self.program("shadow_depth.glsl")
+        self.clear_prog = self.program("page_clear.glsl")
+        gl.set_uniforms(self.clear_prog, {"u_depth": CLEAR_DEPTH})
+        self.clear_quad = self.fullscreen_quad(self.clear_prog)
         self.quad = self.fullscreen_quad(self.lookup_prog)
         self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
         self._caster_clip_corners(frame)
@@ -289,42 +294,50 @@ class VirtualMap(TexelMapping, Technique):
         crop[0, 3], crop[1, 3] = -cx / s, -cy / s
         return crop
 
-    def _visible_casters(self, level: int, x: int, y: int) -> np.ndarray:
-        """Bool (K,): the casters whose bounding box is not wholly outside one side plane of the
-        page's sub-frustum (homogeneous clip test of its 8 corners: linear, so valid for
-        corners behind a perspective light too)."""
-        c = self.caster_clip
-        if len(c) == 0:
-            return np.zeros(0, bool)
-        s = (self.page_size << level) / self.virtual_resolution
-        u0, v0 = 2.0 * x * s - 1.0, 2.0 * y * s - 1.0  # the page's NDC rectangle in level 0
+    def _visible_casters(self, pages: np.ndarray) -> np.ndarray:
+        """Bool (R, K): per page (rows of (level, x, y)) the casters whose bounding box is not
+        wholly outside one side plane of the page's sub-frustum — the homogeneous clip test of
+        its 8 corners, linear in them, so valid for corners behind a perspective light too."""
+        c = self.caster_clip[None]                                    # (1, K, 8, 4)
+        level, x, y = (pages[:, i].astype(np.float64) for i in range(3))
+        s = self.page_size * np.exp2(level) / self.virtual_resolution  # the pages' uv size
+        u0, v0 = 2.0 * x * s - 1.0, 2.0 * y * s - 1.0                 # their NDC rectangles in level 0
         u1, v1 = u0 + 2.0 * s, v0 + 2.0 * s
+        u0, v0, u1, v1 = (v[:, None, None] for v in (u0, v0, u1, v1))
         w = c[..., CLIP_W]
-        outside = ((c[..., 0] < u0 * w).all(1) | (c[..., 0] > u1 * w).all(1)
-                   | (c[..., 1] < v0 * w).all(1) | (c[..., 1] > v1 * w).all(1))
+        outside = ((c[..., 0] < u0 * w).all(2) | (c[..., 0] > u1 * w).all(2)
+                   | (c[..., 1] < v0 * w).all(2) | (c[..., 1] > v1 * w).all(2))
         return ~outside
 
-    def _render_pages(self) -> None:
-        """Clear the pool; render each resident page's casters into its slot."""
-        from OpenGL import GL
+    def _slot_viewport(self, slot_index: int) -> tuple[int, int, int, int]:
+        """The viewport (x, y, width, height) of physical slot ``slot_index`` in the pool."""
+        sy, sx = divmod(slot_index, self.pool_side)
+        return sx * self.page_size, sy * self.page_size, self.page_size, self.page_size
 
+    def _render_pages(self) -> None:
+        """Clear each resident page's slot (only those: UE5 clears the pages it renders), then
+        render its casters into it through its sub-projection."""
         frame = self.frame
-        self.pool.use_as_target()
+        resident = range(self.counts["resident"])
+        self.pool.fbo.use()
+        glstate.apply(PassState(depth_test=True, depth_func="always", depth_write=True, color_write=False))
+        for slot_index in resident:
+            frame.ctx.viewport = self._slot_viewport(slot_index)
+            self.clear_quad.render()
         glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False))
-        GL.glClearBufferfv(GL.GL_DEPTH, 0, (CLEAR_DEPTH,))
         vao = frame.vertex_array(self.depth_prog)
+        visible_all = self._visible_casters(self.resident[:len(resident)])
         draws = 0
-        for slot_index in range(self.counts["resident"]):
+        for slot_index in resident:
             level, x, y = (int(v) for v in self.resident[slot_index])
-            visible = self._visible_casters(level, x, y)
+            visible = visible_all[slot_index]
             if not visible.any():
                 continue
-            sy, sx = divmod(slot_index, self.pool_side)
-            frame.ctx.viewport = (sx * self.page_size, sy * self.page_size, self.page_size, self.page_size)
+            frame.ctx.viewport = self._slot_viewport(slot_index)
             matrix = self._page_matrix(level, x, y) @ self.view.view_proj
             self.depth_prog["u_light_view_proj"].write(gl.mat_bytes(matrix))
-            for rng in np.flatnonzero(visible):
-                r = self.caster_ranges[rng]
+            for k in np.flatnonzero(visible):
+                r = self.caster_ranges[k]
                 vao.render(vertices=r.count, first=r.first)
                 draws += 1
         self.counts["draws"] = draws

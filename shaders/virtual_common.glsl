@@ -2,8 +2,9 @@
 // Unreal Engine 5 documentation): what the request pass (virtual_request.glsl) and the lookup
 // (virtual_lookup.glsl) must compute identically — the mip level a point wants and the page of
 // that level its light-space uv falls in. Python twin: shadowlab/techniques/virtual_map.py.
-// The includer includes lights.glsl (light_position) and atlas.glsl (face 0 = the level-0 map)
-// first, and defines MAX_LEVELS (the size of the per-level arrays).
+// The includer includes lights.glsl (light_position) and atlas.glsl (face f = face f's level 0)
+// first, and defines MAX_LEVELS (the size of the per-level arrays). A point light's cube is six
+// virtual maps, one per face (atlas.glsl's faces), sharing these levels and page sizes.
 #ifndef MAX_LEVELS
 #error "MAX_LEVELS: per-level array size (shadowlab.techniques.virtual_map.MAX_LEVELS)"
 #endif

@@ -12,15 +12,17 @@
 #define SHADOWED 0.0
 #include "gbuffer_fetch.glsl"
 uniform int u_faces;
-uniform mat4 u_light_matrix[MAX_FACES];  // face 0: BIAS · projection · view of level 0
+uniform mat4 u_light_matrix[MAX_FACES];  // per face: BIAS · projection · view of its level 0
 uniform vec4 u_face_rect[MAX_FACES];     // unused here (atlas.glsl's functions name it)
 uniform vec2 u_atlas_size;
+#include "cube_face.glsl"
 #include "atlas.glsl"
 #include "receiver_plane.glsl"
 #include "virtual_common.glsl"
 uniform sampler2D u_pool;                // the physical page pool: window depth
-uniform isampler2D u_page_table;         // level m's page (x, y) at texel (x, u_table_row[m] + y): slot or NOT_RESIDENT
+uniform isampler2D u_page_table;         // face f, level m, page (x, y) at texel (x, f × u_face_rows + u_table_row[m] + y): slot or NOT_RESIDENT
 uniform int u_table_row[MAX_LEVELS];
+uniform int u_face_rows;                 // page-table rows of one face's levels
 uniform int u_pool_side;                 // pages per side of the pool
 uniform int u_page_size;                 // texels per side of a page
 uniform float u_virtual_resolution;      // texels per side of level 0
@@ -34,12 +36,13 @@ void main() {
     if (!gbuffer_position(P)) return;
     vec3 N = gbuffer_normal_towards(light_dir_to(P));  // two-sided receivers: the side facing the light
     vec3 c;
-    if (!map_coordinates(0, P, c) || !on_virtual_map(c)) return;
+    int f = face_of(P);                  // a point light's cube: the face of the major axis
+    if (!map_coordinates(f, P, c) || !on_virtual_map(c)) return;
     int slot = NOT_RESIDENT;
     int m = wanted_level(P);
     for (; m < u_levels; ++m) {
         ivec2 page = page_of(m, c.xy);
-        slot = texelFetch(u_page_table, ivec2(page.x, u_table_row[m] + page.y), 0).r;
+        slot = texelFetch(u_page_table, ivec2(page.x, f * u_face_rows + u_table_row[m] + page.y), 0).r;
         if (slot != NOT_RESIDENT) break;
     }
     if (slot == NOT_RESIDENT) return;   // never: the coarsest page is requested and kept first
@@ -53,7 +56,7 @@ void main() {
     float texel_uv = scale / u_virtual_resolution;
     vec2 dz, edge;
     float extra;
-    if (receiver_plane_gradient(0, P, N, c, level0_texel(P) * scale, dz, edge))
+    if (receiver_plane_gradient(f, P, N, c, level0_texel(P) * scale, dz, edge))
         extra = u_slope_scale * (abs(dz.x) + abs(dz.y)) * texel_uv;
     else
         extra = u_slope_scale * max(abs(edge.x), abs(edge.y));  // edge-on to the light

@@ -109,9 +109,13 @@ def test_bad_parameters_name_the_parameter(spec, parameter):
         from_spec(spec)
 
 
-@pytest.mark.parametrize("projection", ["cube", "auto"])
-def test_cube_point_light_is_refused(lab, projection):
-    """sm_point_cube: receivers all around a point light need six faces: not supported yet."""
-    frame = lab.frame("sm_point_cube", SMALL)
-    with pytest.raises(TechniqueError, match="cube faces are not supported"):
-        measure(from_spec(f"virtual_map:projection={projection}"), frame, 0, repeat=1, warmup=0)
+def test_point_light_cube_is_six_virtual_maps(lab):
+    """sm_point_cube: receivers all around a point light. projection=auto chooses the cube, six
+    virtual maps sharing one pool. Measured at 320x240: error_rate 0.23 % with 47 pages (the
+    2048² cube shadow map: 0.015 %); a single frustum misses most of the room (2.3 %, a note)."""
+    rows = lab.rows("sm_point_cube", ["virtual_map", "virtual_map:projection=frustum"], MEDIUM)
+    cube, frustum = rows.loc["virtual_map"], rows.loc["virtual_map:projection=frustum"]
+    assert cube["faces"] == 6 and frustum["faces"] == 1
+    assert cube["dense_equivalent_bytes"] == 6 * frustum["dense_equivalent_bytes"]
+    assert cube["error_rate"] < 0.005 < frustum["error_rate"]
+    assert cube["pages_rendered"] == cube["resident_pages"] > 6

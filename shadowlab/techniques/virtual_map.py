@@ -35,9 +35,11 @@ Passes (``shaders/virtual_request.glsl``, ``shaders/virtual_lookup.glsl``, the d
 
 The light view is shadow_map's default fit (:func:`shadowlab.techniques.maps.fit_light_views`
 at the virtual resolution, ``fit=shadowable``): directional, target-direct and spot lights, and
-point lights as one perspective frustum (``projection=frustum``, the default here). A point light
-whose receivers need a cube (``projection=cube``, or ``auto`` choosing it) is a TechniqueError:
-cube faces are not supported yet. Area lights: light-sampled, like shadow_map.
+point lights as one perspective frustum or a cube (``projection``, ``auto`` as shadow_map). A
+cube is six virtual maps, one per face (the face of the major axis of light-to-point, as
+``shaders/cube_face.glsl``), sharing the pool: page keys are (face, level, x, y), the request
+mask and the page table hold the six faces one after the other. Area lights: light-sampled,
+like shadow_map.
 
 Deviations from UE5's design:
 
@@ -70,12 +72,13 @@ from ..geometry.bounds import box_corners
 from ..geometry.transforms import BIAS
 from ..glstate import PassState
 from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
-from .maps import CLEAR_DEPTH, TexelMapping, check_texture_size, fit_light_views, map_texel_coordinates
+from .maps import (ATLAS_DEFINES, CLEAR_DEPTH, MAX_FACES, TexelMapping, check_texture_size, cube_face_index,
+                   fit_light_views, map_texel_coordinates)
 
 #: Size of the per-level uniform arrays of the shaders (``MAX_LEVELS``): V / P ≤ 2^15 pages.
 MAX_LEVELS = 16
-#: The shaders read the level-0 map as face 0 of a one-face atlas (``atlas.glsl``).
-ONE_FACE = 1
+#: Faces of a point light's cube (``geometry.frusta.CUBE_FACES``): six virtual maps.
+CUBE = 6
 #: Compute invocations per work-group side of the request pass (8 × 8 pixels a group).
 LOCAL_SIZE = 8
 #: Storage-buffer binding of the request mask (``virtual_request.glsl``: BINDING_REQUESTS).
@@ -120,13 +123,12 @@ class VirtualMap(TexelMapping, Technique):
         "slope_scale": Param(2.0, "multiple of the receiver's depth change over one texel of the level used",
                              min=0.0, max=1e4, tune=TuneRange(0.0, 16.0)),
         "depth_bits": Param(24, "pool depth format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
-        "projection": Param("frustum", "point lights: frustum (one perspective view); cube and auto (which may "
-                                       "choose a cube) are refused while cube faces are not supported",
-                            choices=("frustum", "auto", "cube")),
+        "projection": Param("auto", "point lights: cube (six virtual maps), frustum (one), auto (as shadow_map)",
+                            choices=("auto", "cube", "frustum")),
     }
     STATS = {"resident_pages": MAX, "resident_memory_bytes": MAX, "pool_memory_bytes": MAX,
              "pages_requested": SUM, "pages_rendered": SUM, "pages_dropped": SUM, "caster_draws": SUM,
-             "levels": FIRST, "memory_bytes": MAX, "dense_equivalent_bytes": MAX, "texel_world": FIRST}
+             "levels": FIRST, "faces": FIRST, "memory_bytes": MAX, "dense_equivalent_bytes": MAX, "texel_world": FIRST}
 
     def __init__(self, **params):
         super().__init__(**params)
@@ -155,22 +157,22 @@ class VirtualMap(TexelMapping, Technique):
         """Fit the level-0 view, make the pool, the page table, the request mask and the programs."""
         ctx = frame.ctx
         faces, notes = fit_light_views(frame, slot, self.virtual_resolution, self.projection)
-        if len(faces) != ONE_FACE:
-            raise TechniqueError(f"{self.name}: light {slot.index} needs a cube map ({len(faces)} faces; "
-                                 f"projection={self.projection}): cube faces are not supported yet; use "
-                                 f"projection=frustum")
         self.notes.extend(notes)
+        #: The level-0 view of each virtual map: one, or a point light's six cube faces.
+        self.faces = faces
         self.view = faces[0]
         self.perspective = self.view.proj[3, 3] != 1.0
-        self.light_matrix = BIAS @ self.view.view_proj
+        self.light_matrices = [BIAS @ face.view_proj for face in faces]
+        self.face_words = int(self.mask_offset[-1])
+        self.face_rows = int(self.table_row[-1])
         pool_size = (self.pool_side * self.page_size,) * 2
         check_texture_size(pool_size, self.name, "page pool", "lower pool_pages or page_size")
-        check_texture_size((self.pages0, int(self.table_row[-1])), self.name, "page table", "raise page_size")
+        self.table_shape = (len(faces) * self.face_rows, self.pages0)  # (rows, columns)
+        check_texture_size(self.table_shape[::-1], self.name, "page table", "raise page_size")
         self.pool = self.own(gl.DepthTexture.create(pool_size, self.depth_bits))
-        self.table_shape = (int(self.table_row[-1]), self.pages0)  # (rows, columns)
         self.table_tex = self.own(ctx.texture((self.pages0, self.table_shape[0]), 1, dtype="i4"))
         self.table_tex.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.mask_words = int(self.mask_offset[-1])
+        self.mask_words = len(faces) * self.face_words
         self.requests = self.own(ctx.buffer(reserve=4 * self.mask_words))
         evaluated = frame.evaluated_image(slot)[::-1]  # GL rows run bottom-up
         self.evaluated_tex = self.own(ctx.texture((frame.width, frame.height), 1,
@@ -179,20 +181,23 @@ class VirtualMap(TexelMapping, Technique):
         common = {**self.light.uniforms(), "u_levels": self.levels, "u_pages0": self.pages0,
                   "u_texel_world": float(self.view.texel_world), "u_texel_angle": float(self.view.texel_angle),
                   "u_camera_eye": tuple(map(float, frame.camera.eye)), "u_pixel_angle": self._pixel_angle(),
-                  "u_lod_bias": float(self.lod_bias), "u_faces": ONE_FACE}
-        defines = {"MAX_FACES": ONE_FACE, "MAX_LEVELS": MAX_LEVELS}
+                  "u_lod_bias": float(self.lod_bias), "u_faces": len(faces)}
+        defines = {**ATLAS_DEFINES, "MAX_LEVELS": MAX_LEVELS}
+        matrices = self.light_matrices + [np.eye(4)] * (MAX_FACES - len(faces))
         self.request_prog = self.program("virtual_request.glsl",
                                          defines={**defines, "LOCAL_SIZE": LOCAL_SIZE,
                                                   "BINDING_REQUESTS": BINDING_REQUESTS})
         self.lookup_prog = self.program("virtual_lookup.glsl", defines=defines)
         for prog in (self.request_prog, self.lookup_prog):
             gl.set_uniforms(prog, common)
-            prog["u_light_matrix"].write(gl.mat_bytes(self.light_matrix))
+            prog["u_light_matrix"].write(b"".join(gl.mat_bytes(m) for m in matrices))
         gl.set_uniforms(self.request_prog, {"u_position": 0, "u_evaluated": 1,
-                                            "u_mask_offset": self._padded_levels(self.mask_offset)})
+                                            "u_mask_offset": self._padded_levels(self.mask_offset),
+                                            "u_face_words": self.face_words})
         gl.set_uniforms(self.lookup_prog, {
             "u_position": 0, "u_normal": 1, "u_pool": 2, "u_page_table": 3,
-            "u_table_row": self._padded_levels(self.table_row), "u_pool_side": self.pool_side,
+            "u_table_row": self._padded_levels(self.table_row), "u_face_rows": self.face_rows,
+            "u_pool_side": self.pool_side,
             "u_page_size": self.page_size, "u_virtual_resolution": float(self.virtual_resolution),
             "u_bias": float(self.bias), "u_slope_scale": float(self.slope_scale)})
         self.depth_prog = self.program("shadow_depth.glsl")
@@ -202,9 +207,10 @@ class VirtualMap(TexelMapping, Technique):
         self.quad = self.fullscreen_quad(self.lookup_prog)
         self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
         self._caster_clip_corners(frame)
-        #: (level, x, y) of the page in each physical slot (-1 rows: free), and the page table:
-        #: the state a page cache across renders would keep (not implemented: every render starts empty).
-        self.resident = np.full((self.pool_pages, 3), NOT_RESIDENT, np.int64)
+        #: (face, level, x, y) of the page in each physical slot (-1 rows: free), and the page
+        #: table: the state a page cache across renders would keep (not implemented: every
+        #: render starts empty).
+        self.resident = np.full((self.pool_pages, 4), NOT_RESIDENT, np.int64)
         self.table = np.full(self.table_shape, NOT_RESIDENT, np.int32)
         self.counts = {"requested": 0, "resident": 0, "dropped": 0, "draws": 0}
 
@@ -219,19 +225,19 @@ class VirtualMap(TexelMapping, Technique):
         return out + [0] * (MAX_LEVELS - len(out))
 
     def _caster_clip_corners(self, frame) -> None:
-        """Per caster object its draw range and its bounding box's corners in the level-0 clip
-        space (K, 8, 4): a page's culling test is then four comparisons per corner."""
+        """Per caster object its draw range, and its bounding box's corners in each face's
+        level-0 clip space (F, K, 8, 4): a page's culling test is then four comparisons per corner."""
         self.caster_ranges, boxes = [], []
         for obj, rng in zip(frame.scene.objects, frame.object_ranges):
             if obj.casts:
                 self.caster_ranges.append(rng)
                 boxes.append(obj.bounds())
         if not boxes:
-            self.caster_clip = np.zeros((0, BOX_CORNERS, 4))
+            self.caster_clip = np.zeros((len(self.faces), 0, BOX_CORNERS, 4))
             return
         corners = box_corners(np.stack(boxes)).reshape(-1, BOX_CORNERS, 3)
         homogeneous = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], axis=2)
-        self.caster_clip = homogeneous @ self.view.view_proj.T
+        self.caster_clip = np.stack([homogeneous @ face.view_proj.T for face in self.faces])
 
     # -- rendering -----------------------------------------------------------------
     def render(self) -> None:
@@ -265,18 +271,17 @@ class VirtualMap(TexelMapping, Technique):
         """Physical slots for the requested pages (indices into the request mask), coarsest
         level first; the excess fine pages are dropped (noted). Fills :attr:`resident` and
         :attr:`table`."""
-        level = np.searchsorted(self.mask_offset, requested, side="right") - 1
-        order = np.lexsort((requested, -level))  # coarsest level first, then page order
+        face, word = np.divmod(requested, self.face_words)
+        level = np.searchsorted(self.mask_offset, word, side="right") - 1
+        order = np.lexsort((requested, -level))  # coarsest level first, then face and page order
         kept = order[:self.pool_pages]
         dropped = len(requested) - len(kept)
-        level = level[kept]
-        local = requested[kept] - self.mask_offset[level]
-        pages = self.pages0 >> level
-        y, x = np.divmod(local, pages)
+        face, level = face[kept], level[kept]
+        y, x = np.divmod(word[kept] - self.mask_offset[level], self.pages0 >> level)
         self.table[:] = NOT_RESIDENT
-        self.table[self.table_row[level] + y, x] = np.arange(len(kept), dtype=np.int32)
+        self.table[face * self.face_rows + self.table_row[level] + y, x] = np.arange(len(kept), dtype=np.int32)
         self.resident[:] = NOT_RESIDENT
-        self.resident[:len(kept)] = np.stack([level, x, y], axis=1)
+        self.resident[:len(kept)] = np.stack([face, level, x, y], axis=1)
         if dropped and not self.counts["dropped"]:
             finest = int(level.min()) if len(level) else self.levels - 1
             self.notes.append(f"page pool of {self.pool_pages} pages full: {dropped} of {len(requested)} requested "
@@ -295,11 +300,11 @@ class VirtualMap(TexelMapping, Technique):
         return crop
 
     def _visible_casters(self, pages: np.ndarray) -> np.ndarray:
-        """Bool (R, K): per page (rows of (level, x, y)) the casters whose bounding box is not
+        """Bool (R, K): per page (rows of (face, level, x, y)) the casters whose bounding box is not
         wholly outside one side plane of the page's sub-frustum — the homogeneous clip test of
         its 8 corners, linear in them, so valid for corners behind a perspective light too."""
-        c = self.caster_clip[None]                                    # (1, K, 8, 4)
-        level, x, y = (pages[:, i].astype(np.float64) for i in range(3))
+        c = self.caster_clip[pages[:, 0]]                             # (R, K, 8, 4)
+        level, x, y = (pages[:, i].astype(np.float64) for i in range(1, 4))
         s = self.page_size * np.exp2(level) / self.virtual_resolution  # the pages' uv size
         u0, v0 = 2.0 * x * s - 1.0, 2.0 * y * s - 1.0                 # their NDC rectangles in level 0
         u1, v1 = u0 + 2.0 * s, v0 + 2.0 * s
@@ -329,12 +334,12 @@ class VirtualMap(TexelMapping, Technique):
         visible_all = self._visible_casters(self.resident[:len(resident)])
         draws = 0
         for slot_index in resident:
-            level, x, y = (int(v) for v in self.resident[slot_index])
+            face, level, x, y = (int(v) for v in self.resident[slot_index])
             visible = visible_all[slot_index]
             if not visible.any():
                 continue
             frame.ctx.viewport = self._slot_viewport(slot_index)
-            matrix = self._page_matrix(level, x, y) @ self.view.view_proj
+            matrix = self._page_matrix(level, x, y) @ self.faces[face].view_proj
             self.depth_prog["u_light_view_proj"].write(gl.mat_bytes(matrix))
             for k in np.flatnonzero(visible):
                 r = self.caster_ranges[k]
@@ -343,6 +348,10 @@ class VirtualMap(TexelMapping, Technique):
         self.counts["draws"] = draws
 
     # -- texel mapping -------------------------------------------------------------
+    def face_index(self, points: np.ndarray) -> np.ndarray:
+        """Int (M,): the virtual map (0, or a cube face as ``cube_face.glsl`` picks it) of each point."""
+        return cube_face_index(points, getattr(self.light, "position", None), len(self.faces))
+
     def used_level(self, points: np.ndarray) -> np.ndarray:
         """Int (M,): the level the lookup uses at world ``points`` (M, 3): the wanted level
         (as ``virtual_common.glsl``'s wanted_level, in float64) walked up to the finest resident
@@ -357,7 +366,9 @@ class VirtualMap(TexelMapping, Technique):
         with np.errstate(divide="ignore", invalid="ignore"):
             wanted = np.floor(np.log2(footprint / texel) + self.lod_bias)
         level = np.clip(np.nan_to_num(wanted, nan=0.0), 0, self.levels - 1).astype(int)
-        s = np.concatenate([points, np.ones((len(points), 1))], axis=1) @ self.light_matrix.T
+        face = self.face_index(points)
+        homogeneous = np.concatenate([points, np.ones((len(points), 1))], axis=1)
+        s = np.einsum("nij,nj->ni", np.stack(self.light_matrices)[face], homogeneous)
         with np.errstate(divide="ignore", invalid="ignore"):
             uv = s[:, :2] / s[:, 3:4]
             depth = s[:, 2] / s[:, 3]
@@ -369,7 +380,8 @@ class VirtualMap(TexelMapping, Technique):
             page = np.clip(np.floor(uv * n), 0, n - 1).astype(int)
             here = todo & (level <= m)
             idx = np.flatnonzero(here)
-            resident = self.table[self.table_row[m] + page[idx, 1], page[idx, 0]] != NOT_RESIDENT
+            row = face[idx] * self.face_rows + self.table_row[m] + page[idx, 1]
+            resident = self.table[row, page[idx, 0]] != NOT_RESIDENT
             out[idx[resident]] = m
             todo[idx[resident]] = False
         return out
@@ -378,8 +390,8 @@ class VirtualMap(TexelMapping, Technique):
         """Float64 (M, 2): texel coordinates of ``points`` in the level each ``reference`` point
         uses (level-0 texel coordinates / 2^m); NaN where the reference is off the map."""
         level = self.used_level(reference)
-        rect = [(0, 0, self.virtual_resolution, self.virtual_resolution)]
-        t = map_texel_coordinates([self.view], rect, lambda p: np.zeros(len(p), int), points, reference)
+        rects = [(0, 0, self.virtual_resolution, self.virtual_resolution)] * len(self.faces)
+        t = map_texel_coordinates(self.faces, rects, self.face_index, points, reference)
         t = t / np.exp2(np.maximum(level, 0))[:, None]
         t[level < 0] = np.nan
         return t
@@ -400,5 +412,6 @@ class VirtualMap(TexelMapping, Technique):
                 "caster_draws": int(self.counts["draws"]),
                 "levels": int(self.levels),
                 "memory_bytes": int(pool_bytes + self.table.size * TABLE_BYTES),
-                "dense_equivalent_bytes": int(self.virtual_resolution ** 2 * depth),
+                "dense_equivalent_bytes": int(len(self.faces) * self.virtual_resolution ** 2 * depth),
+                "faces": len(self.faces),
                 "texel_world": float(self.view.texel_world) or None}

@@ -1,0 +1,422 @@
+"""Virtual shadow maps: a huge virtual depth map of which only the pages the view needs exist.
+
+After Unreal Engine 5's virtual shadow maps (Epic Games, "Virtual Shadow Maps", Unreal Engine 5
+documentation, 2022; the idea goes back to Lefohn, Sengupta & Owens 2007, "Resolution-matched
+shadow maps", ACM TOG 26(4), and Fernando et al. 2001, "Adaptive shadow maps"): one light view
+of ``virtual_resolution``² texels (default 16384²) split into pages of ``page_size``² texels
+(default 128²), with a mip pyramid of levels m = 0 .. M−1 (level m has V / 2^m texels per side).
+Only pages that visible pixels need get memory, from a physical pool of ``pool_pages`` pages in
+one depth texture, and the lookup finds them through a page table.
+
+Passes (``shaders/virtual_request.glsl``, ``shaders/virtual_lookup.glsl``, the depth pass is
+``shaders/shadow_depth.glsl``):
+
+1. ``request`` (compute): every evaluated G-buffer pixel computes the level whose texels are
+   about its own size, m = clamp(floor(log2(pixel world footprint / level-0 texel) +
+   ``lod_bias``), 0, M−1) — pixel footprint = distance to the eye × 2·tan(fov/2)/height, the
+   level-0 texel ``texel_world`` (orthographic) or ``texel_angle`` × distance from the light
+   (perspective) — and marks that page, and the page of the coarsest level, in a request mask of
+   one uint per page per level;
+2. ``allocate`` (CPU): the mask is read back; the requested pages get physical slots from the
+   coarsest level down, so that when the pool is too small the excess *fine* pages are dropped
+   (``pages_dropped``, a note) and their pixels fall back to a coarser resident level (UE5 also
+   falls back to coarser mips); the page table (one R32I texture: level m's pages in rows
+   ``table_row[m]`` ..) is written;
+3. ``depth``: every resident page is cleared and rendered in its slot's viewport
+   through its own sub-projection — the level's projection followed by the 2D scale and
+   translation in NDC that maps the page's uv rectangle onto the viewport — with the casters
+   whose bounding boxes miss the page's sub-frustum culled per object on the CPU (the 8 corners
+   against the page's four side planes in clip space);
+4. ``lookup``: a full-screen pass over the G-buffer: the wanted level as in (1), walked up to the
+   finest resident level, the page table, then the physical texel compared with constant
+   ``bias`` plus ``slope_scale`` × the receiver's depth change over one texel of that level
+   (shadow_map's ``slope`` variant; ``shaders/receiver_plane.glsl``). Points off the virtual
+   map are lit, as with shadow_map.
+
+The light view is shadow_map's default fit (:func:`shadowlab.techniques.maps.fit_light_views`
+at the virtual resolution, ``fit=shadowable``): directional, target-direct and spot lights, and
+point lights as one perspective frustum or a cube (``projection``, ``auto`` as shadow_map). A
+cube is six virtual maps, one per face (the face of the major axis of light-to-point, as
+``shaders/cube_face.glsl``), sharing the pool: page keys are (face, level, x, y), the request
+mask and the page table hold the six faces one after the other. Area lights: light-sampled,
+like shadow_map.
+
+Deviations from UE5's design:
+
+- one mip pyramid for every light type; UE5 uses clipmaps (nested levels centred on the camera)
+  for directional lights and mips for local lights. Clipmaps are not done: here level 0 covers
+  the whole fitted view, so its texel is fixed by the fit, not by the distance to the camera;
+- the number of levels is derived, not a parameter: M = log2(V / P) + 1, so the coarsest level
+  is a single page (every pixel's fallback, requested by every pixel);
+- no page caching across frames: all pages are requested, allocated and rendered every render.
+  The allocation keeps (level, x, y) → slot in :attr:`VirtualMap.resident` on the object, so a
+  later step can keep the pages (and a validity flag per page) across renders and re-render
+  only invalidated ones;
+- each rendered page is cleared by a quad writing gl_FragDepth (``shaders/page_clear.glsl``) over its
+  viewport, as UE5 clears only the pages it renders (a glClear of the whole 64 MiB pool cost
+  ~5 ms a render on llvmpipe; the lab keeps the scissor test off);
+- pages are dropped within a level in page order (UE5 has no single rule here either; it
+  reports the overflow); casters are culled per object, not per cluster (Nanite);
+- no per-page depth ranges or HZB culling, no filtering (nearest, one tap: UE5 uses SMRT).
+- the level follows distance only (pixel size over texel size at the point), as UE5's does: a
+  receiver at a grazing angle to the light or the camera gets texels longer than a pixel along
+  one axis (texel footprint p95 1.8 px on sun_scene at 320x240, p50 0.76); texels about a
+  pixel wide also mean a larger boundary error than a 2048² map's tenth-of-a-pixel texels on
+  small scenes (sun_scene: 0.35 px against 0.12; ``lod_bias=-1``: 0.02 px with 18 pages).
+
+Texel footprint (:class:`~shadowlab.techniques.maps.TexelMapping`): supported — the texel
+coordinates of a point are those of the level its reference point actually uses (the wanted
+level walked up the page table as the lookup does), in that level's texels.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .. import gl, glstate
+from ..geometry.bounds import box_corners
+from ..geometry.transforms import BIAS
+from ..glstate import PassState
+from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
+from .maps import (ATLAS_DEFINES, CLEAR_DEPTH, MAX_FACES, TexelMapping, check_texture_size, cube_face_index,
+                   fit_light_views, map_texel_coordinates)
+
+#: Size of the per-level uniform arrays of the shaders (``MAX_LEVELS``): V / P ≤ 2^15 pages.
+MAX_LEVELS = 16
+#: Faces of a point light's cube (``geometry.frusta.CUBE_FACES``): six virtual maps.
+CUBE = 6
+#: Compute invocations per work-group side of the request pass (8 × 8 pixels a group).
+LOCAL_SIZE = 8
+#: Storage-buffer binding of the request mask (``virtual_request.glsl``: BINDING_REQUESTS).
+BINDING_REQUESTS = 0
+#: A page-table entry of a page with no physical page (``virtual_common.glsl``: NOT_RESIDENT).
+NOT_RESIDENT = -1
+#: Bytes per texel of each depth format (24-bit depth is stored in 4 bytes) and of a page-table entry.
+DEPTH_BYTES = {16: 2, 24: 4, 32: 4}
+TABLE_BYTES = 4
+#: Corners of a box, and homogeneous clip coordinates (x, y, z, w).
+BOX_CORNERS, CLIP_W = 8, 3
+
+
+def _power_of_two(value: int) -> bool:
+    return value > 0 and value & (value - 1) == 0
+
+
+class VirtualMap(TexelMapping, Technique):
+    """UE5-style virtual shadow map (module docstring): pages requested by the visible pixels,
+    allocated from a fixed pool, rendered one viewport each, looked up through a page table."""
+
+    name = "virtual_map"
+    summary = ("virtual shadow map (UE5 2022; Lefohn et al. 2007): a 16384² virtual map in 128² pages over a mip "
+               "pyramid, only the pages visible pixels request allocated from a fixed pool and rendered")
+    STYLE = PlotStyle("#8c564b", "p")
+    LIGHT_SAMPLED = True  # area lights: averaged over light samples like shadow_map
+    PASSES = ("request", "allocate", "depth", "lookup")
+    PARAMS = {
+        "virtual_resolution": Param(16384, "virtual map width and height in texels (level 0; a power of two)",
+                                    min=16, max=2 ** 20, tune=TuneRange(2048, 65536, log=True)),
+        "page_size": Param(128, "page width and height in texels (a power of two dividing virtual_resolution)",
+                           min=8, max=4096),
+        "pool_pages": Param(1024, "physical pages in the pool (a square depth texture of ceil(sqrt(n)) pages a side)",
+                            min=1),
+        "lod_bias": Param(0.0, "added to log2(pixel / level-0 texel) before flooring: < 0 finer pages, > 0 coarser",
+                          # a level is a factor 2 in texel size; ±MAX_LEVELS pins every pixel to level 0 or
+                          # M-1; tuning beyond ±2 levels trades a factor 4 in pages per step for nothing
+                          min=-float(MAX_LEVELS), max=float(MAX_LEVELS), tune=TuneRange(-2.0, 2.0)),
+        "bias": Param(0.0005, "constant depth bias in window-depth units [0, 1]",
+                      # as cascaded_map: the slope term carries the receiver's slope
+                      min=0.0, max=1.0, tune=TuneRange(1e-6, 0.05, log=True)),
+        "slope_scale": Param(2.0, "multiple of the receiver's depth change over one texel of the level used",
+                             min=0.0, max=1e4, tune=TuneRange(0.0, 16.0)),
+        "depth_bits": Param(24, "pool depth format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
+        "projection": Param("auto", "point lights: cube (six virtual maps), frustum (one), auto (as shadow_map)",
+                            choices=("auto", "cube", "frustum")),
+    }
+    STATS = {"resident_pages": MAX, "resident_memory_bytes": MAX, "pool_memory_bytes": MAX,
+             "pages_requested": SUM, "pages_rendered": SUM, "pages_dropped": SUM, "caster_draws": SUM,
+             "levels": FIRST, "faces": FIRST, "memory_bytes": MAX, "dense_equivalent_bytes": MAX, "texel_world": FIRST}
+
+    def __init__(self, **params):
+        super().__init__(**params)
+        if not _power_of_two(self.virtual_resolution):
+            raise TechniqueError(f"{self.name}: virtual_resolution must be a power of two, got "
+                                 f"{self.virtual_resolution}")
+        if not _power_of_two(self.page_size):
+            raise TechniqueError(f"{self.name}: page_size must be a power of two, got {self.page_size}")
+        if self.page_size > self.virtual_resolution:
+            raise TechniqueError(f"{self.name}: page_size ({self.page_size}) must divide virtual_resolution "
+                                 f"({self.virtual_resolution})")
+        #: Pages per side of level 0, and the levels (the coarsest is one page).
+        self.pages0 = self.virtual_resolution // self.page_size
+        self.levels = self.pages0.bit_length()
+        if self.levels > MAX_LEVELS:
+            raise TechniqueError(f"{self.name}: virtual_resolution / page_size = {self.pages0} pages a side needs "
+                                 f"{self.levels} levels, more than {MAX_LEVELS}; raise page_size")
+        pages = [self.pages0 >> m for m in range(self.levels)]
+        #: Per level: first word of its pages in the request mask, first row in the page table.
+        self.mask_offset = np.concatenate([[0], np.cumsum([n * n for n in pages])]).astype(int)
+        self.table_row = np.concatenate([[0], np.cumsum(pages)]).astype(int)
+        self.pool_side = int(np.ceil(np.sqrt(self.pool_pages)))
+
+    # -- setup ---------------------------------------------------------------------
+    def setup(self, frame, slot) -> None:
+        """Fit the level-0 view, make the pool, the page table, the request mask and the programs."""
+        ctx = frame.ctx
+        faces, notes = fit_light_views(frame, slot, self.virtual_resolution, self.projection)
+        self.notes.extend(notes)
+        #: The level-0 view of each virtual map: one, or a point light's six cube faces.
+        self.faces = faces
+        self.view = faces[0]
+        self.perspective = self.view.proj[3, 3] != 1.0
+        self.light_matrices = [BIAS @ face.view_proj for face in faces]
+        self.face_words = int(self.mask_offset[-1])
+        self.face_rows = int(self.table_row[-1])
+        pool_size = (self.pool_side * self.page_size,) * 2
+        check_texture_size(pool_size, self.name, "page pool", "lower pool_pages or page_size")
+        self.table_shape = (len(faces) * self.face_rows, self.pages0)  # (rows, columns)
+        check_texture_size(self.table_shape[::-1], self.name, "page table", "raise page_size")
+        self.pool = self.own(gl.DepthTexture.create(pool_size, self.depth_bits))
+        self.table_tex = self.own(ctx.texture((self.pages0, self.table_shape[0]), 1, dtype="i4"))
+        self.table_tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.mask_words = len(faces) * self.face_words
+        self.requests = self.own(ctx.buffer(reserve=4 * self.mask_words))
+        evaluated = frame.evaluated_image(slot)[::-1]  # GL rows run bottom-up
+        self.evaluated_tex = self.own(ctx.texture((frame.width, frame.height), 1,
+                                                  np.ascontiguousarray(evaluated, np.uint8).tobytes(), dtype="u1"))
+        self.evaluated_tex.filter = (ctx.NEAREST, ctx.NEAREST)
+        common = {**self.light.uniforms(), "u_levels": self.levels, "u_pages0": self.pages0,
+                  "u_texel_world": float(self.view.texel_world), "u_texel_angle": float(self.view.texel_angle),
+                  "u_camera_eye": tuple(map(float, frame.camera.eye)), "u_pixel_angle": self._pixel_angle(),
+                  "u_lod_bias": float(self.lod_bias), "u_faces": len(faces)}
+        defines = {**ATLAS_DEFINES, "MAX_LEVELS": MAX_LEVELS}
+        matrices = self.light_matrices + [np.eye(4)] * (MAX_FACES - len(faces))
+        self.request_prog = self.program("virtual_request.glsl",
+                                         defines={**defines, "LOCAL_SIZE": LOCAL_SIZE,
+                                                  "BINDING_REQUESTS": BINDING_REQUESTS})
+        self.lookup_prog = self.program("virtual_lookup.glsl", defines=defines)
+        for prog in (self.request_prog, self.lookup_prog):
+            gl.set_uniforms(prog, common)
+            prog["u_light_matrix"].write(b"".join(gl.mat_bytes(m) for m in matrices))
+        gl.set_uniforms(self.request_prog, {"u_position": 0, "u_evaluated": 1,
+                                            "u_mask_offset": self._padded_levels(self.mask_offset),
+                                            "u_face_words": self.face_words})
+        gl.set_uniforms(self.lookup_prog, {
+            "u_position": 0, "u_normal": 1, "u_pool": 2, "u_page_table": 3,
+            "u_table_row": self._padded_levels(self.table_row), "u_face_rows": self.face_rows,
+            "u_pool_side": self.pool_side,
+            "u_page_size": self.page_size, "u_virtual_resolution": float(self.virtual_resolution),
+            "u_bias": float(self.bias), "u_slope_scale": float(self.slope_scale)})
+        self.depth_prog = self.program("shadow_depth.glsl")
+        self.clear_prog = self.program("page_clear.glsl")
+        gl.set_uniforms(self.clear_prog, {"u_depth": CLEAR_DEPTH})
+        self.clear_quad = self.fullscreen_quad(self.clear_prog)
+        self.quad = self.fullscreen_quad(self.lookup_prog)
+        self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
+        self._caster_clip_corners(frame)
+        #: (face, level, x, y) of the page in each physical slot (-1 rows: free), and the page
+        #: table: the state a page cache across renders would keep (not implemented: every
+        #: render starts empty).
+        self.resident = np.full((self.pool_pages, 4), NOT_RESIDENT, np.int64)
+        self.table = np.full(self.table_shape, NOT_RESIDENT, np.int32)
+        self.counts = {"requested": 0, "resident": 0, "dropped": 0, "draws": 0}
+
+    def _pixel_angle(self) -> float:
+        """World size of a screen pixel per unit distance from the eye (as Frame.pixel_footprint)."""
+        return float(2.0 * np.tan(np.radians(self.frame.camera.fov_y) / 2.0) / self.frame.height)
+
+    @staticmethod
+    def _padded_levels(values) -> list[int]:
+        """Per-level ints padded to :data:`MAX_LEVELS` (the shaders' array size)."""
+        out = [int(v) for v in values[:MAX_LEVELS]]
+        return out + [0] * (MAX_LEVELS - len(out))
+
+    def _caster_clip_corners(self, frame) -> None:
+        """Per caster object its draw range, and its bounding box's corners in each face's
+        level-0 clip space (F, K, 8, 4): a page's culling test is then four comparisons per corner."""
+        self.caster_ranges, boxes = [], []
+        for obj, rng in zip(frame.scene.objects, frame.object_ranges):
+            if obj.casts:
+                self.caster_ranges.append(rng)
+                boxes.append(obj.bounds())
+        if not boxes:
+            self.caster_clip = np.zeros((len(self.faces), 0, BOX_CORNERS, 4))
+            return
+        corners = box_corners(np.stack(boxes)).reshape(-1, BOX_CORNERS, 3)
+        homogeneous = np.concatenate([corners, np.ones(corners.shape[:2] + (1,))], axis=2)
+        self.caster_clip = np.stack([homogeneous @ face.view_proj.T for face in self.faces])
+
+    # -- rendering -----------------------------------------------------------------
+    def render(self) -> None:
+        """Request, allocate, render the resident pages, look up."""
+        frame, ctx = self.frame, self.frame.ctx
+        with self.timed_pass("request"):
+            self.requests.clear()
+            self.requests.bind_to_storage_buffer(BINDING_REQUESTS)
+            glstate.apply(PassState())  # no framebuffer, but no inherited sampler objects on its units
+            frame.tex_position.use(0)
+            self.evaluated_tex.use(1)
+            self.request_prog.run(-(-frame.width // LOCAL_SIZE), -(-frame.height // LOCAL_SIZE))
+            ctx.memory_barrier()
+        with self.timed_pass("allocate", cpu=True):
+            mask = np.frombuffer(self.requests.read(), np.uint32)
+            self._allocate(np.flatnonzero(mask))
+            self.table_tex.write(self.table.tobytes())
+        with self.timed_pass("depth"):
+            self._render_pages()
+        with self.timed_pass("lookup"):
+            self.vis_fbo.use()
+            ctx.viewport = (0, 0, frame.width, frame.height)
+            glstate.apply(PassState())
+            frame.tex_position.use(0)
+            frame.tex_normal.use(1)
+            self.pool.texture.use(2)
+            self.table_tex.use(3)
+            self.quad.render()
+
+    def _allocate(self, requested: np.ndarray) -> None:
+        """Physical slots for the requested pages (indices into the request mask), coarsest
+        level first; the excess fine pages are dropped (noted). Fills :attr:`resident` and
+        :attr:`table`."""
+        face, word = np.divmod(requested, self.face_words)
+        level = np.searchsorted(self.mask_offset, word, side="right") - 1
+        order = np.lexsort((requested, -level))  # coarsest level first, then face and page order
+        kept = order[:self.pool_pages]
+        dropped = len(requested) - len(kept)
+        face, level = face[kept], level[kept]
+        y, x = np.divmod(word[kept] - self.mask_offset[level], self.pages0 >> level)
+        self.table[:] = NOT_RESIDENT
+        self.table[face * self.face_rows + self.table_row[level] + y, x] = np.arange(len(kept), dtype=np.int32)
+        self.resident[:] = NOT_RESIDENT
+        self.resident[:len(kept)] = np.stack([face, level, x, y], axis=1)
+        if dropped and not self.counts["dropped"]:
+            finest = int(level.min()) if len(level) else self.levels - 1
+            self.notes.append(f"page pool of {self.pool_pages} pages full: {dropped} of {len(requested)} requested "
+                              f"pages dropped (finest level kept: {finest}); their pixels use a coarser resident level")
+        self.counts.update(requested=len(requested), resident=len(kept), dropped=dropped)
+
+    def _page_matrix(self, level: int, x: int, y: int) -> np.ndarray:
+        """The page's sub-projection after the level-0 projection: NDC scaled by 1/s and
+        translated so the page's uv square [x·s, (x+1)·s] × [y·s, (y+1)·s] fills [−1, 1]²
+        (s = the page's uv size), in homogeneous clip coordinates."""
+        s = (self.page_size << level) / self.virtual_resolution
+        cx, cy = 2.0 * x * s + s - 1.0, 2.0 * y * s + s - 1.0  # the page's centre in level-0 NDC
+        crop = np.eye(4)
+        crop[0, 0] = crop[1, 1] = 1.0 / s
+        crop[0, 3], crop[1, 3] = -cx / s, -cy / s
+        return crop
+
+    def _visible_casters(self, pages: np.ndarray) -> np.ndarray:
+        """Bool (R, K): per page (rows of (face, level, x, y)) the casters whose bounding box is not
+        wholly outside one side plane of the page's sub-frustum — the homogeneous clip test of
+        its 8 corners, linear in them, so valid for corners behind a perspective light too."""
+        c = self.caster_clip[pages[:, 0]]                             # (R, K, 8, 4)
+        level, x, y = (pages[:, i].astype(np.float64) for i in range(1, 4))
+        s = self.page_size * np.exp2(level) / self.virtual_resolution  # the pages' uv size
+        u0, v0 = 2.0 * x * s - 1.0, 2.0 * y * s - 1.0                 # their NDC rectangles in level 0
+        u1, v1 = u0 + 2.0 * s, v0 + 2.0 * s
+        u0, v0, u1, v1 = (v[:, None, None] for v in (u0, v0, u1, v1))
+        w = c[..., CLIP_W]
+        outside = ((c[..., 0] < u0 * w).all(2) | (c[..., 0] > u1 * w).all(2)
+                   | (c[..., 1] < v0 * w).all(2) | (c[..., 1] > v1 * w).all(2))
+        return ~outside
+
+    def _slot_viewport(self, slot_index: int) -> tuple[int, int, int, int]:
+        """The viewport (x, y, width, height) of physical slot ``slot_index`` in the pool."""
+        sy, sx = divmod(slot_index, self.pool_side)
+        return sx * self.page_size, sy * self.page_size, self.page_size, self.page_size
+
+    def _render_pages(self) -> None:
+        """Clear each resident page's slot (only those: UE5 clears the pages it renders), then
+        render its casters into it through its sub-projection."""
+        frame = self.frame
+        resident = range(self.counts["resident"])
+        self.pool.fbo.use()
+        glstate.apply(PassState(depth_test=True, depth_func="always", depth_write=True, color_write=False))
+        for slot_index in resident:
+            frame.ctx.viewport = self._slot_viewport(slot_index)
+            self.clear_quad.render()
+        glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False))
+        vao = frame.vertex_array(self.depth_prog)
+        visible_all = self._visible_casters(self.resident[:len(resident)])
+        draws = 0
+        for slot_index in resident:
+            face, level, x, y = (int(v) for v in self.resident[slot_index])
+            visible = visible_all[slot_index]
+            if not visible.any():
+                continue
+            frame.ctx.viewport = self._slot_viewport(slot_index)
+            matrix = self._page_matrix(level, x, y) @ self.faces[face].view_proj
+            self.depth_prog["u_light_view_proj"].write(gl.mat_bytes(matrix))
+            for k in np.flatnonzero(visible):
+                r = self.caster_ranges[k]
+                vao.render(vertices=r.count, first=r.first)
+                draws += 1
+        self.counts["draws"] = draws
+
+    # -- texel mapping -------------------------------------------------------------
+    def face_index(self, points: np.ndarray) -> np.ndarray:
+        """Int (M,): the virtual map (0, or a cube face as ``cube_face.glsl`` picks it) of each point."""
+        return cube_face_index(points, getattr(self.light, "position", None), len(self.faces))
+
+    def used_level(self, points: np.ndarray) -> np.ndarray:
+        """Int (M,): the level the lookup uses at world ``points`` (M, 3): the wanted level
+        (as ``virtual_common.glsl``'s wanted_level, in float64) walked up to the finest resident
+        one; −1 off the map. Valid after :meth:`render`."""
+        points = np.asarray(points, np.float64)
+        eye = np.asarray(self.frame.camera.eye, np.float64)
+        footprint = np.linalg.norm(points - eye, axis=1) * self._pixel_angle()
+        if self.perspective:
+            texel = self.view.texel_angle * np.linalg.norm(points - self.light.position, axis=1)
+        else:
+            texel = np.full(len(points), self.view.texel_world)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            wanted = np.floor(np.log2(footprint / texel) + self.lod_bias)
+        level = np.clip(np.nan_to_num(wanted, nan=0.0), 0, self.levels - 1).astype(int)
+        face = self.face_index(points)
+        homogeneous = np.concatenate([points, np.ones((len(points), 1))], axis=1)
+        s = np.einsum("nij,nj->ni", np.stack(self.light_matrices)[face], homogeneous)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = s[:, :2] / s[:, 3:4]
+            depth = s[:, 2] / s[:, 3]
+        inside = (s[:, 3] > 0) & np.all((uv >= 0) & (uv < 1), axis=1) & (depth >= 0) & (depth <= 1)
+        out = np.full(len(points), -1)
+        todo = inside.copy()
+        for m in range(self.levels):
+            n = self.pages0 >> m
+            page = np.clip(np.floor(uv * n), 0, n - 1).astype(int)
+            here = todo & (level <= m)
+            idx = np.flatnonzero(here)
+            row = face[idx] * self.face_rows + self.table_row[m] + page[idx, 1]
+            resident = self.table[row, page[idx, 0]] != NOT_RESIDENT
+            out[idx[resident]] = m
+            todo[idx[resident]] = False
+        return out
+
+    def texel_coordinates(self, points: np.ndarray, reference: np.ndarray) -> np.ndarray:
+        """Float64 (M, 2): texel coordinates of ``points`` in the level each ``reference`` point
+        uses (level-0 texel coordinates / 2^m); NaN where the reference is off the map."""
+        level = self.used_level(reference)
+        rects = [(0, 0, self.virtual_resolution, self.virtual_resolution)] * len(self.faces)
+        t = map_texel_coordinates(self.faces, rects, self.face_index, points, reference)
+        t = t / np.exp2(np.maximum(level, 0))[:, None]
+        t[level < 0] = np.nan
+        return t
+
+    # -- results -------------------------------------------------------------------
+    def stats(self) -> dict:
+        """Pages requested / resident / rendered / dropped, pool and resident memory against a
+        dense map of the virtual resolution, levels, the level-0 texel."""
+        depth = DEPTH_BYTES[self.depth_bits]
+        page_bytes = self.page_size ** 2 * depth
+        pool_bytes = self.pool.nbytes
+        return {"resident_pages": int(self.counts["resident"]),
+                "resident_memory_bytes": int(self.counts["resident"] * page_bytes),
+                "pool_memory_bytes": int(pool_bytes),
+                "pages_requested": int(self.counts["requested"]),
+                "pages_rendered": int(self.counts["resident"]),
+                "pages_dropped": int(self.counts["dropped"]),
+                "caster_draws": int(self.counts["draws"]),
+                "levels": int(self.levels),
+                "memory_bytes": int(pool_bytes + self.table.size * TABLE_BYTES),
+                "dense_equivalent_bytes": int(len(self.faces) * self.virtual_resolution ** 2 * depth),
+                "faces": len(self.faces),
+                "texel_world": float(self.view.texel_world) or None}

@@ -119,3 +119,52 @@ def test_point_light_cube_is_six_virtual_maps(lab):
     assert cube["dense_equivalent_bytes"] == 6 * frustum["dense_equivalent_bytes"]
     assert cube["error_rate"] < 0.005 < frustum["error_rate"]
     assert cube["pages_rendered"] == cube["resident_pages"] > 6
+
+
+# --------------------------------------------------------------------------- page caching
+
+def _animated(tmp_path, scene, specs, frames=4):
+    import pandas as pd
+
+    from shadowlab.commands.animate import animate
+
+    out = animate(scene, specs, frames=frames, size=SMALL, out=tmp_path / scene)
+    return pd.read_csv(out / "frames.csv")
+
+
+def test_cached_pages_give_the_same_frames_with_fewer_renders(tmp_path):
+    """A dolly under a fixed sun: pages fixed in light space (fit=scene) are kept from frame to
+    frame; the frames are exactly those of re-rendering every page (measured at 320x240 over 24
+    frames: 204 pages rendered against 1407)."""
+    df = _animated(tmp_path, "tm_camera_dolly", ["virtual_map:fit=scene", "virtual_map:fit=scene,cache=false"])
+    vm = df[df["technique"] == "virtual_map"]
+    cached = vm[~vm["short_label"].str.contains("cache=false")].sort_values("frame")
+    fresh = vm[vm["short_label"].str.contains("cache=false")].sort_values("frame")
+    for col in ("error_rate", "false_shadow_rate", "false_lit_rate", "pages_requested"):
+        assert cached[col].tolist() == fresh[col].tolist(), col
+    assert (fresh["pages_rendered"] == fresh["pages_requested"]).all()
+    assert cached["pages_rendered"].iloc[0] == cached["pages_requested"].iloc[0]  # the first frame renders all
+    # over 4 frames the dolly moves far per frame: measured 36 pages against 69
+    assert cached["pages_rendered"].iloc[1:].sum() < 0.75 * fresh["pages_rendered"].iloc[1:].sum()
+    assert (cached["pages_cached"].iloc[1:] > 0).all()
+
+
+def test_a_moving_light_invalidates_every_page(tmp_path):
+    df = _animated(tmp_path, "tm_rotating_sun", ["virtual_map:fit=scene"])
+    vm = df[df["technique"] == "virtual_map"]
+    assert (vm["pages_rendered"] == vm["pages_requested"]).all() and (vm["pages_cached"] == 0).all()
+
+
+def test_page_cache_keeps_valid_pages_and_evicts_the_least_recently_used():
+    from shadowlab.techniques.virtual_map import PageCache
+
+    cache = PageCache()
+    cache.reset(object(), 3)
+    slots, fresh = cache.assign([(0, 0, 0, 0), (0, 0, 1, 0)], ["a", "b"])
+    assert fresh == [0, 1] and sorted(slots) == [0, 1]
+    slots2, fresh2 = cache.assign([(0, 0, 0, 0), (0, 0, 1, 0)], ["a", "changed"])
+    assert slots2 == slots and fresh2 == [1]           # same signature: kept; another: re-rendered in place
+    _, fresh3 = cache.assign([(0, 0, 2, 0), (0, 0, 3, 0)], ["c", "d"])
+    assert fresh3 == [0, 1]                            # the free slot, then the least recently used
+    assert cache.assign([(0, 0, 1, 0)], ["changed"])[1] == []  # still held: the newer of the two old pages
+    assert cache.assign([(0, 0, 0, 0)], ["a"])[1] == [0]       # evicted for (0, 0, 3, 0): rendered again

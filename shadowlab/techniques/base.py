@@ -376,9 +376,9 @@ class Technique:
         return obj
 
     def keep(self, key, make):
-        """A GL object the technique may keep from one frame's setup to the next (a cache of
-        rendered pages, say): made by ``make()`` the first time ``key`` is asked for, then
-        handed back. While :attr:`keep_across_frames` is False (compare, study) :meth:`release`
+        """A GL object (or anything with ``release()``) the technique may keep from one frame's
+        setup to the next (a cache of rendered pages, say): made by ``make()`` the first time
+        ``key`` is asked for, then handed back. While :attr:`keep_across_frames` is False (compare, study) :meth:`release`
         frees it like any owned object; while True (animate) it survives until :meth:`forget`."""
         if key not in self._kept:
             self._kept[key] = make()

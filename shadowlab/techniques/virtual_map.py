@@ -101,6 +101,60 @@ def _power_of_two(value: int) -> bool:
     return value > 0 and value & (value - 1) == 0
 
 
+class PageCache:
+    """Which page each physical slot of a pool holds, with the signature of what it was
+    rendered from (the light views, the casters over it and their geometry) and when it was
+    last used. Kept on the technique across the frames of an animation (``cache=true``): a page
+    asked for again with the same signature keeps its slot and its depth, and is not rendered
+    again; anything else is a new page."""
+
+    def __init__(self):
+        self.pool = None
+        self.slots: dict = {}        # page key (face, level, x, y) -> (slot, signature)
+        self.last_used: list = []
+        self.clock = 0
+
+    def release(self) -> None:
+        """Forget every page (what :meth:`shadowlab.techniques.base.Technique.forget` calls)."""
+        self.reset(None, 0)
+
+    def reset(self, pool, size: int) -> None:
+        """Empty, for ``pool`` of ``size`` slots (a new pool holds nothing)."""
+        self.pool, self.slots, self.last_used, self.clock = pool, {}, [-1] * size, 0
+
+    def assign(self, keys: list, signatures: list) -> tuple[list[int], list[int]]:
+        """Slots for the pages ``keys`` (at most the pool's size, distinct), and the indices of
+        those that must be rendered: not held, or held with another signature. New pages take
+        free slots first, then the least recently used slots of pages not asked for now."""
+        self.clock += 1
+        slots = [-1] * len(keys)
+        fresh = []
+        pinned = set()
+        for i, (key, sig) in enumerate(zip(keys, signatures)):
+            held = self.slots.get(key)
+            if held is not None:
+                slots[i] = held[0]
+                pinned.add(held[0])
+                if held[1] != sig:
+                    fresh.append(i)
+        taken = {slot for slot, _ in self.slots.values()}
+        spare = [s for s in range(len(self.last_used)) if s not in taken]
+        spare += sorted((s for s in taken if s not in pinned), key=lambda s: self.last_used[s])
+        owner = {slot: key for key, (slot, _) in self.slots.items()}
+        spare_iter = iter(spare)
+        for i, key in enumerate(keys):
+            if slots[i] < 0:
+                slot = next(spare_iter)
+                if slot in owner:
+                    del self.slots[owner[slot]]
+                slots[i] = slot
+                fresh.append(i)
+        for i, (key, sig) in enumerate(zip(keys, signatures)):
+            self.slots[key] = (slots[i], sig)
+            self.last_used[slots[i]] = self.clock
+        return slots, sorted(fresh)
+
+
 class VirtualMap(TexelMapping, Technique):
     """UE5-style virtual shadow map (module docstring): pages requested by the visible pixels,
     allocated from a fixed pool, rendered one viewport each, looked up through a page table."""
@@ -130,9 +184,16 @@ class VirtualMap(TexelMapping, Technique):
         "depth_bits": Param(24, "pool depth format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
         "projection": Param("auto", "point lights: cube (six virtual maps), frustum (one), auto (as shadow_map)",
                             choices=("auto", "cube", "frustum")),
+        "fit": Param("shadowable", "the light view covers what can be shadowed in this view (shadowable, as "
+                                   "shadow_map), or the whole scene (scene: fixed in light space while the camera "
+                                   "moves, so pages can be kept from frame to frame)",
+                     choices=("shadowable", "scene")),
+        "cache": Param(True, "in animations, keep rendered pages from frame to frame and re-render only those "
+                             "whose view or casters changed (UE5's page caching)"),
     }
     STATS = {"resident_pages": MAX, "resident_memory_bytes": MAX, "pool_memory_bytes": MAX,
-             "pages_requested": SUM, "pages_rendered": SUM, "pages_dropped": SUM, "caster_draws": SUM,
+             "pages_requested": SUM, "pages_rendered": SUM, "pages_cached": SUM, "pages_dropped": SUM,
+             "caster_draws": SUM,
              "levels": FIRST, "faces": FIRST, "memory_bytes": MAX, "dense_equivalent_bytes": MAX, "texel_world": FIRST}
 
     def __init__(self, **params):
@@ -161,7 +222,12 @@ class VirtualMap(TexelMapping, Technique):
     def setup(self, frame, slot) -> None:
         """Fit the level-0 view, make the pool, the page table, the request mask and the programs."""
         ctx = frame.ctx
-        faces, notes = fit_light_views(frame, slot, self.virtual_resolution, self.projection)
+        if self.fit == "scene":
+            # the whole scene's bounds: a view that does not follow the camera (cacheable pages)
+            faces, notes = slot.light.shadow_views(box_corners(frame.scene.bounds()[None]), frame.caster_bounds(),
+                                                   self.virtual_resolution, projection=self.projection)
+        else:
+            faces, notes = fit_light_views(frame, slot, self.virtual_resolution, self.projection)
         self.notes.extend(notes)
         #: The level-0 view of each virtual map: one, or a point light's six cube faces.
         self.faces = faces
@@ -174,7 +240,19 @@ class VirtualMap(TexelMapping, Technique):
         check_texture_size(pool_size, self.name, "page pool", "lower pool_pages or page_size")
         self.table_shape = (len(faces) * self.face_rows, self.pages0)  # (rows, columns)
         check_texture_size(self.table_shape[::-1], self.name, "page table", "raise page_size")
-        self.pool = self.own(gl.DepthTexture.create(pool_size, self.depth_bits))
+        # The pool and what its slots hold outlive this frame only while caching in an animation
+        # (Technique.keep); the cache is per light slot and starts empty when the pool is made.
+        caching = self.cache and self.keep_across_frames
+        if caching:
+            key = ("pool", slot.index, pool_size, self.depth_bits)
+            self.pool = self.keep(key, lambda: gl.DepthTexture.create(pool_size, self.depth_bits))
+            self.page_cache = self.keep(("pages", slot.index), PageCache)
+            if self.page_cache.pool is not self.pool:
+                self.page_cache.reset(self.pool, self.pool_pages)
+        else:
+            self.pool = self.own(gl.DepthTexture.create(pool_size, self.depth_bits))
+            self.page_cache = PageCache()
+            self.page_cache.reset(self.pool, self.pool_pages)
         self.table_tex = self.own(ctx.texture((self.pages0, self.table_shape[0]), 1, dtype="i4"))
         self.table_tex.filter = (ctx.NEAREST, ctx.NEAREST)
         self.mask_words = len(faces) * self.face_words
@@ -212,12 +290,15 @@ class VirtualMap(TexelMapping, Technique):
         self.quad = self.fullscreen_quad(self.lookup_prog)
         self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
         self._caster_clip_corners(frame)
-        #: (face, level, x, y) of the page in each physical slot (-1 rows: free), and the page
-        #: table: the state a page cache across renders would keep (not implemented: every
-        #: render starts empty).
-        self.resident = np.full((self.pool_pages, 4), NOT_RESIDENT, np.int64)
+        #: The page table (physical slot per (face, level, y, x) row/column; NOT_RESIDENT: none).
         self.table = np.full(self.table_shape, NOT_RESIDENT, np.int32)
-        self.counts = {"requested": 0, "resident": 0, "dropped": 0, "draws": 0}
+        self.counts = {"requested": 0, "resident": 0, "rendered": 0, "cached": 0, "dropped": 0, "draws": 0}
+        # What a kept page's content depends on: every face's light view and the virtual layout;
+        # per page, the casters over it and their geometry (checked per page when it is reused).
+        self.view_key = hash((tuple(f.view_proj.tobytes() for f in faces), self.virtual_resolution,
+                              self.page_size, self.depth_bits))
+        self.caster_keys = np.array([hash(np.asarray(o.vertices).tobytes()) for o in frame.scene.objects
+                                     if o.casts], np.int64)
 
     def _pixel_angle(self) -> float:
         """World size of a screen pixel per unit distance from the eye (as Frame.pixel_footprint)."""
@@ -274,8 +355,10 @@ class VirtualMap(TexelMapping, Technique):
 
     def _allocate(self, requested: np.ndarray) -> None:
         """Physical slots for the requested pages (indices into the request mask), coarsest
-        level first; the excess fine pages are dropped (noted). Fills :attr:`resident` and
-        :attr:`table`."""
+        level first; the excess fine pages are dropped (noted). Pages the cache still holds,
+        with the same view and the same casters over them, keep their slot and are not rendered
+        again; the others take a free slot or the least recently used one. Fills
+        :attr:`table` and :attr:`to_render` (the (slot, face, level, x, y) rows to draw)."""
         face, word = np.divmod(requested, self.face_words)
         level = np.searchsorted(self.mask_offset, word, side="right") - 1
         order = np.lexsort((requested, -level))  # coarsest level first, then face and page order
@@ -283,15 +366,20 @@ class VirtualMap(TexelMapping, Technique):
         dropped = len(requested) - len(kept)
         face, level = face[kept], level[kept]
         y, x = np.divmod(word[kept] - self.mask_offset[level], self.pages0 >> level)
+        pages = np.stack([face, level, x, y], axis=1).astype(np.int64)
+        visible = self._visible_casters(pages)
+        signatures = [hash((self.view_key, tuple(np.flatnonzero(v)), self.caster_keys[v].tobytes())) for v in visible]
+        slots, fresh = self.page_cache.assign([tuple(p) for p in pages.tolist()], signatures)
         self.table[:] = NOT_RESIDENT
-        self.table[face * self.face_rows + self.table_row[level] + y, x] = np.arange(len(kept), dtype=np.int32)
-        self.resident[:] = NOT_RESIDENT
-        self.resident[:len(kept)] = np.stack([face, level, x, y], axis=1)
+        self.table[face * self.face_rows + self.table_row[level] + y, x] = np.asarray(slots, np.int32)
+        self.to_render = [(slots[i], *pages[i]) for i in fresh]
+        self.to_render_visible = visible[fresh] if len(fresh) else visible[:0]
         if dropped and not self.counts["dropped"]:
             finest = int(level.min()) if len(level) else self.levels - 1
             self.notes.append(f"page pool of {self.pool_pages} pages full: {dropped} of {len(requested)} requested "
                               f"pages dropped (finest level kept: {finest}); their pixels use a coarser resident level")
-        self.counts.update(requested=len(requested), resident=len(kept), dropped=dropped)
+        self.counts.update(requested=len(requested), resident=len(kept), rendered=len(fresh),
+                           cached=len(kept) - len(fresh), dropped=dropped)
 
     def _page_matrix(self, level: int, x: int, y: int) -> np.ndarray:
         """The page's sub-projection after the level-0 projection: NDC scaled by 1/s and
@@ -325,26 +413,23 @@ class VirtualMap(TexelMapping, Technique):
         return sx * self.page_size, sy * self.page_size, self.page_size, self.page_size
 
     def _render_pages(self) -> None:
-        """Clear each resident page's slot (only those: UE5 clears the pages it renders), then
-        render its casters into it through its sub-projection."""
+        """Clear the slot of each page to render (only those: UE5 clears the pages it renders;
+        kept pages keep their depth), then render its casters into it through its
+        sub-projection."""
         frame = self.frame
-        resident = range(self.counts["resident"])
         self.pool.fbo.use()
         glstate.apply(PassState(depth_test=True, depth_func="always", depth_write=True, color_write=False))
-        for slot_index in resident:
+        for slot_index, *_ in self.to_render:
             frame.ctx.viewport = self._slot_viewport(slot_index)
             self.clear_quad.render()
         glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False))
         vao = frame.vertex_array(self.depth_prog)
-        visible_all = self._visible_casters(self.resident[:len(resident)])
         draws = 0
-        for slot_index in resident:
-            face, level, x, y = (int(v) for v in self.resident[slot_index])
-            visible = visible_all[slot_index]
+        for (slot_index, face, level, x, y), visible in zip(self.to_render, self.to_render_visible):
             if not visible.any():
                 continue
             frame.ctx.viewport = self._slot_viewport(slot_index)
-            matrix = self._page_matrix(level, x, y) @ self.faces[face].view_proj
+            matrix = self._page_matrix(int(level), int(x), int(y)) @ self.faces[int(face)].view_proj
             self.depth_prog["u_light_view_proj"].write(gl.mat_bytes(matrix))
             for k in np.flatnonzero(visible):
                 r = self.caster_ranges[k]
@@ -412,7 +497,8 @@ class VirtualMap(TexelMapping, Technique):
                 "resident_memory_bytes": int(self.counts["resident"] * page_bytes),
                 "pool_memory_bytes": int(pool_bytes),
                 "pages_requested": int(self.counts["requested"]),
-                "pages_rendered": int(self.counts["resident"]),
+                "pages_rendered": int(self.counts["rendered"]),
+                "pages_cached": int(self.counts["cached"]),
                 "pages_dropped": int(self.counts["dropped"]),
                 "caster_draws": int(self.counts["draws"]),
                 "levels": int(self.levels),

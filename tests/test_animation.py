@@ -92,7 +92,7 @@ def test_good_keyframes_parse_and_interpolate(tmp_path):
     assert np.degrees(np.arccos(-d[1])) == pytest.approx(30.0, abs=1e-9) and d[2] == pytest.approx(0.0, abs=1e-15)
     assert np.allclose(scene_at(s, 0.5).lights[1].position, [0.0, 5.0, 1.0])
     # objects shared, the still scene untouched
-    assert s1.objects is s.objects and np.array_equal(s.lights[0].direction, load_scene(
+    assert all(a is b for a, b in zip(s1.objects, s.objects)) and np.array_equal(s.lights[0].direction, load_scene(
         write(tmp_path, BASE, "still.toml")).lights[0].direction)
     assert s.animation is not None and load_scene(write(tmp_path, BASE, "still.toml")).animation is None
 
@@ -451,3 +451,26 @@ def test_failed_animate_leaves_earlier_results(tmp_path, monkeypatch):
         anim.animate("tm_rotating_sun", ["shadow_map:resolution=64"], frames=2, size=(32, 24), out=out)
     assert (out / "frames.csv").read_text() == "old"
     assert [p.name for p in tmp_path.iterdir()] == ["keep"]
+
+
+def test_objects_move_along_their_keyframes(tmp_path):
+    """[[animation.objects]]: a rigid offset, interpolated linearly; other objects are shared;
+    an unknown object name is an error naming the key, with a hint."""
+    import numpy as np
+
+    from shadowlab.scene import load_scene, parse_scene
+    from shadowlab.scene.animation import scene_at
+    from shadowlab.validation import SceneError
+
+    scene = load_scene("tm_moving_caster")
+    crate = [o.name for o in scene.objects].index("crate")
+    half = scene_at(scene, 0.5)
+    np.testing.assert_allclose(half.objects[crate].vertices, scene.objects[crate].vertices + [3.0, 0.0, 0.0])
+    assert all(half.objects[i] is o for i, o in enumerate(scene.objects) if i != crate)
+    assert scene_at(scene, 0.0).objects[crate].vertices.tolist() == scene.objects[crate].vertices.tolist()
+    import tomllib
+
+    data = tomllib.loads(scene.path.read_text())
+    data["animation"]["objects"][0]["object"] = "crat"
+    with pytest.raises(SceneError, match=r"animation\.objects\[0\]\.object.*did you mean 'crate'"):
+        parse_scene(data, "moving.toml")

@@ -259,6 +259,16 @@ def animate(scene_ref, specs: list[str], frames: int | None = None, size: tuple[
     return out
 
 
+def _what_moves(animation) -> str:
+    """The moving parts of an animation in words ("camera, lights"; "still scene")."""
+    if animation is None:
+        return "still scene"
+    parts = [name for name, moves in (("camera", animation.camera_moves), ("lights", bool(animation.lights)),
+                                      ("objects", bool(animation.objects))) if moves]
+    verb = "moves" if parts == ["camera"] else "move"
+    return f"{', '.join(parts)} {verb}" + ("" if animation.camera_moves else ", camera still")
+
+
 def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, warmup: int,
          on_step: StepCallback | None) -> None:
     """Measure every frame and write the outputs into the run directory ``rd``."""
@@ -350,6 +360,7 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
         "animation": scene.animation.describe() if scene.animation is not None else None,
         "still": scene.animation is None,
         "camera_moves": moving,
+        "what_moves": _what_moves(scene.animation),
         "frames": n,
         "times": times.tolist(),
         "size": list(size),

@@ -1,4 +1,4 @@
-"""Animated scenes: keyframed camera and light paths (the ``[animation]`` table of a scene file).
+"""Animated scenes: keyframed camera, light and object paths (the ``[animation]`` table of a scene file).
 
 A scene may declare how its camera and lights move over a normalised time t in [0, 1]::
 
@@ -12,12 +12,17 @@ A scene may declare how its camera and lights move over a normalised time t in [
     light = 0
     t = 0.0
     direction = [-0.4, -1.0, -0.3]
+    [[animation.objects]]            # object keyframes: object (name), t, translate
+    object = "box"
+    t = 0.0
+    translate = [0.0, 0.0, 0.0]      # an offset from where the file puts the object
 
 Keyframes of one path have strictly increasing t, the first at 0 and the last at 1. Positions,
 eyes, targets and fields of view are interpolated linearly; directions by spherical linear
 interpolation (slerp, Shoemake 1985, "Animating rotation with quaternion curves", §3, here on
 unit vectors), so a rotating sun turns at a constant angular speed and stays unit length.
-Objects never move: a frame's scene shares its objects with the still scene.
+An object path moves the object rigidly by a linearly interpolated offset (translation only);
+a frame's scene shares every object that does not move with the still scene.
 
 Parsing is as strict as the rest of the scene format (:mod:`shadowlab.validation`): unknown
 keys, missing keys, bad t sequences, light indices out of range, a key the light type does not
@@ -65,13 +70,25 @@ class LightKey:
 
 
 @dataclass
+class ObjectKey:
+    """One keyframe of object ``obj`` (its index in the scene) at time ``t``: ``translate``
+    (float64 (3,)), its offset from where the scene file puts it."""
+
+    obj: int
+    t: float
+    translate: np.ndarray
+
+
+@dataclass
 class Animation:
     """A scene's animation: the default frame count, the camera keyframes (empty: the camera
-    stands still) and per animated light index its keyframes, each list sorted by t."""
+    stands still), per animated light index its keyframes and per moving object index its
+    keyframes, each list sorted by t."""
 
     frames: int
     camera: list[CameraKey] = field(default_factory=list)
     lights: dict[int, list[LightKey]] = field(default_factory=dict)
+    objects: dict[int, list[ObjectKey]] = field(default_factory=dict)
 
     @property
     def camera_moves(self) -> bool:
@@ -87,7 +104,9 @@ class Animation:
                 "camera": [{"t": k.t, "eye": vec(k.eye), "target": vec(k.target), "fov_y": k.fov_y}
                            for k in self.camera],
                 "lights": {str(i): [{"t": k.t, "direction": vec(k.direction), "position": vec(k.position)}
-                                    for k in keys] for i, keys in self.lights.items()}}
+                                    for k in keys] for i, keys in self.lights.items()},
+                "objects": {str(i): [{"t": k.t, "translate": vec(k.translate)} for k in keys]
+                            for i, keys in self.objects.items()}}
 
 
 # --------------------------------------------------------------------------- parsing
@@ -143,18 +162,33 @@ def _parse_light_key(table, i: int, file: str, lights) -> LightKey:
     return LightKey(index, t, direction, position)
 
 
-def parse_animation(table, file: str = "<scene>", lights=None) -> Animation:
+def _parse_object_key(table, i: int, file: str, names) -> ObjectKey:
+    rd = TableReader(table, f"animation.objects[{i}]", file)
+    name = rd.string("object")
+    t = rd.number("t", min=0.0, max=1.0)
+    translate = rd.vector("translate", 3)
+    rd.finish()
+    if names is not None and name not in names:
+        from ..validation import did_you_mean
+
+        raise rd.error("object", f"no object named {name!r}{did_you_mean(name, names)}")
+    return ObjectKey(names.index(name) if names is not None else -1, t, translate)
+
+
+def parse_animation(table, file: str = "<scene>", lights=None, object_names=None) -> Animation:
     """Build an :class:`Animation` from the ``[animation]`` table of a scene file; ``lights``
     (the scene's parsed lights), when given, checks light indices and that each animated
-    quantity exists on its light. Raises :class:`SceneError` naming the file and the key."""
+    quantity exists on its light; ``object_names`` (the scene's objects' names, in order)
+    resolves the objects that move. Raises :class:`SceneError` naming the file and the key."""
     rd = TableReader(table, "animation", file)
     frames = rd.number("frames", min=2, integer=True)
     cam_tables = rd.table_list("camera", [])
     light_tables = rd.table_list("lights", [])
+    object_tables = rd.table_list("objects", [])
     rd.finish()
-    if not cam_tables and not light_tables:
-        raise rd.error("camera", "an animation needs camera keyframes ([[animation.camera]]) and/or light "
-                                 "keyframes ([[animation.lights]])")
+    if not cam_tables and not light_tables and not object_tables:
+        raise rd.error("camera", "an animation needs camera keyframes ([[animation.camera]]), light "
+                                 "keyframes ([[animation.lights]]) and/or object keyframes ([[animation.objects]])")
     camera = [_parse_camera_key(t, i, file) for i, t in enumerate(cam_tables)]
     if camera:
         _check_times(camera, "animation.camera", file)
@@ -177,7 +211,13 @@ def parse_animation(table, file: str = "<scene>", lights=None) -> Animation:
                 if float(a.direction @ b.direction) < OPPOSITE_DOT:
                     raise SceneError(file, f"{where}.direction", f"directions at t = {a.t} and t = {b.t} are "
                                      f"opposite: the rotation between them is undefined (add a keyframe between)")
-    return Animation(frames, camera, by_light)
+    by_object: dict[int, list[ObjectKey]] = {}
+    for k in (_parse_object_key(t, i, file, object_names) for i, t in enumerate(object_tables)):
+        by_object.setdefault(k.obj, []).append(k)
+    for index, path in by_object.items():
+        name = object_names[index] if object_names is not None else str(index)
+        _check_times(path, f"animation.objects ({name})", file)
+    return Animation(frames, camera, by_light, by_object)
 
 
 # --------------------------------------------------------------------------- interpolation
@@ -220,15 +260,16 @@ def _segment(keys, t: float) -> tuple[int, float]:
 
 
 def scene_at(scene, t: float):
-    """A copy of ``scene`` at time ``t`` in [0, 1] of its animation: camera and animated lights
-    moved to their interpolated keyframe values (near/far as in the file: refitted per frame
-    where the file leaves them out); objects, shading and the animation itself shared. A scene
-    without animation gives a plain copy (still frames)."""
+    """A copy of ``scene`` at time ``t`` in [0, 1] of its animation: camera, animated lights and
+    moving objects at their interpolated keyframe values (near/far as in the file: refitted per
+    frame where the file leaves them out); still objects, shading and the animation itself
+    shared. A scene without animation gives a plain copy (still frames)."""
     t = float(t)
     if not 0.0 <= t <= 1.0:
         raise ValueError(f"animation time must lie in [0, 1], got {t}")
     out = copy.copy(scene)
     out.lights = list(scene.lights)
+    out.objects = list(scene.objects)
     anim = scene.animation
     if anim is None:
         return out
@@ -254,4 +295,9 @@ def scene_at(scene, t: float):
         if a.position is not None:
             changes["position"] = lerp(a.position, b.position, s)
         out.lights[index] = dataclasses.replace(scene.lights[index], **changes)
+    for index, keys in anim.objects.items():
+        i, s = _segment(keys, t)
+        offset = lerp(keys[i].translate, keys[i + 1].translate, s)
+        obj = scene.objects[index]
+        out.objects[index] = dataclasses.replace(obj, vertices=obj.vertices + offset)
     return out

@@ -217,7 +217,7 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
                       shadow_color=shading_rd.vector("shadow_color", 3, default=default_of(Shading, "shadow_color")))
     shading_rd.finish()
     anim_table = rd.raw("animation", None)
-    animation = None if anim_table is None else parse_animation(anim_table, file, lights)
+    animation = None if anim_table is None else parse_animation(anim_table, file, lights, [o.name for o in objects])
     rd.finish()
     return Scene(name, camera, lights, objects, shading, Path(file) if file != "<scene>" else None, animation,
                  metric)

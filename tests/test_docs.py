@@ -84,6 +84,24 @@ def test_every_shipped_scene_is_in_the_hard_case_catalogue():
     assert headings <= shipped, f"docs/hard-cases.md describes scenes that are not shipped: {sorted(headings - shipped)}"
 
 
+def test_the_catalogue_names_the_suites_each_scene_is_in():
+    """Each entry's "Suites:" line names exactly the shipped suites that run the scene."""
+    from shadowlab.study.suite import builtin_suites, load_suite
+
+    text = (DOCS / "hard-cases.md").read_text(encoding="utf-8")
+    suites = builtin_suites()
+    runs: dict[str, set] = {}
+    for name, path in suites.items():
+        for scene in load_suite(path).scenes:
+            runs.setdefault(scene.name, set()).add(name)
+    wrong = []
+    for scene, line in re.findall(r"^### `([a-z0-9_]+)`.*?^- \*\*Suites:\*\* ([^\n]*)", text, re.M | re.S):
+        listed = {s for s in re.findall(r"`(\w+)`", line) if s in suites}
+        if listed != runs.get(scene, set()):
+            wrong.append(f"{scene}: lists {sorted(listed)}, runs in {sorted(runs.get(scene, set()))}")
+    assert not wrong, "docs/hard-cases.md: " + "; ".join(wrong)
+
+
 def test_every_metric_column_is_defined_in_the_metrics_page():
     text = (DOCS / "metrics.md").read_text(encoding="utf-8")
     names = [c.name for c in metrics.COLUMNS] + list(TEMPORAL_COLUMNS)

@@ -156,7 +156,7 @@ def test_a_moving_light_invalidates_every_page(tmp_path):
 
 
 def test_page_cache_keeps_valid_pages_and_evicts_the_least_recently_used():
-    from shadowlab.techniques.virtual_map import PageCache
+    from shadowlab.page_cache import PageCache
 
     cache = PageCache()
     cache.reset(object(), 3)

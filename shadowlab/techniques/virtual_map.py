@@ -77,6 +77,7 @@ from ..geometry.bounds import box_corners
 from ..geometry.transforms import BIAS
 from ..glstate import PassState
 from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
+from ..page_cache import PageCache
 from .maps import (ATLAS_DEFINES, CLEAR_DEPTH, MAX_FACES, TexelMapping, check_texture_size, cube_face_index,
                    fit_light_views, map_texel_coordinates)
 
@@ -99,60 +100,6 @@ BOX_CORNERS, CLIP_W = 8, 3
 
 def _power_of_two(value: int) -> bool:
     return value > 0 and value & (value - 1) == 0
-
-
-class PageCache:
-    """Which page each physical slot of a pool holds, with the signature of what it was
-    rendered from (the light views, the casters over it and their geometry) and when it was
-    last used. Kept on the technique across the frames of an animation (``cache=true``): a page
-    asked for again with the same signature keeps its slot and its depth, and is not rendered
-    again; anything else is a new page."""
-
-    def __init__(self):
-        self.pool = None
-        self.slots: dict = {}        # page key (face, level, x, y) -> (slot, signature)
-        self.last_used: list = []
-        self.clock = 0
-
-    def release(self) -> None:
-        """Forget every page (what :meth:`shadowlab.techniques.base.Technique.forget` calls)."""
-        self.reset(None, 0)
-
-    def reset(self, pool, size: int) -> None:
-        """Empty, for ``pool`` of ``size`` slots (a new pool holds nothing)."""
-        self.pool, self.slots, self.last_used, self.clock = pool, {}, [-1] * size, 0
-
-    def assign(self, keys: list, signatures: list) -> tuple[list[int], list[int]]:
-        """Slots for the pages ``keys`` (at most the pool's size, distinct), and the indices of
-        those that must be rendered: not held, or held with another signature. New pages take
-        free slots first, then the least recently used slots of pages not asked for now."""
-        self.clock += 1
-        slots = [-1] * len(keys)
-        fresh = []
-        pinned = set()
-        for i, (key, sig) in enumerate(zip(keys, signatures)):
-            held = self.slots.get(key)
-            if held is not None:
-                slots[i] = held[0]
-                pinned.add(held[0])
-                if held[1] != sig:
-                    fresh.append(i)
-        taken = {slot for slot, _ in self.slots.values()}
-        spare = [s for s in range(len(self.last_used)) if s not in taken]
-        spare += sorted((s for s in taken if s not in pinned), key=lambda s: self.last_used[s])
-        owner = {slot: key for key, (slot, _) in self.slots.items()}
-        spare_iter = iter(spare)
-        for i, key in enumerate(keys):
-            if slots[i] < 0:
-                slot = next(spare_iter)
-                if slot in owner:
-                    del self.slots[owner[slot]]
-                slots[i] = slot
-                fresh.append(i)
-        for i, (key, sig) in enumerate(zip(keys, signatures)):
-            self.slots[key] = (slots[i], sig)
-            self.last_used[slots[i]] = self.clock
-        return slots, sorted(fresh)
 
 
 class VirtualMap(TexelMapping, Technique):

@@ -4,7 +4,8 @@ After Unreal Engine 5's virtual shadow maps (Epic Games, "Virtual Shadow Maps", 
 documentation, 2022; the idea goes back to Lefohn, Sengupta & Owens 2007, "Resolution-matched
 shadow maps", ACM TOG 26(4), and Fernando et al. 2001, "Adaptive shadow maps"): one light view
 of ``virtual_resolution``² texels (default 16384²) split into pages of ``page_size``² texels
-(default 128²), with a mip pyramid of levels m = 0 .. M−1 (level m has V / 2^m texels per side).
+(default 128²), with a mip pyramid of levels m = 0 .. M−1 (level m has V / 2^m texels per side)
+or, for directional lights, clipmap levels centred on the camera (``fit=clipmap``, below).
 Only pages that visible pixels need get memory, from a physical pool of ``pool_pages`` pages in
 one depth texture, and the lookup finds them through a page table.
 
@@ -43,15 +44,15 @@ like shadow_map.
 
 Deviations from UE5's design:
 
-- one mip pyramid for every light type; UE5 uses clipmaps (nested levels centred on the camera)
-  for directional lights and mips for local lights. Clipmaps are not done: here level 0 covers
-  the whole fitted view, so its texel is fixed by the fit, not by the distance to the camera;
-- the number of levels is derived, not a parameter: M = log2(V / P) + 1, so the coarsest level
-  is a single page (every pixel's fallback, requested by every pixel);
-- no page caching across frames: all pages are requested, allocated and rendered every render.
-  The allocation keeps (level, x, y) → slot in :attr:`VirtualMap.resident` on the object, so a
-  later step can keep the pages (and a validity flag per page) across renders and re-render
-  only invalidated ones;
+- the mip pyramid is the default for every light type; UE5 uses clipmaps for directional
+  lights (``fit=clipmap`` below) and mips for local lights. In the pyramid the number of levels
+  is derived, not a parameter: M = log2(V / P) + 1, so the coarsest level is a single page
+  (every pixel's fallback, requested by every pixel);
+- page caching (``cache=true``, in animations): :class:`PageCache` keeps the pages from frame to
+  frame, keyed by (face, level, light-space page) with a signature of the level's view and the
+  casters over the page; only pages whose signature changed are rendered again. Only
+  ``fit=scene`` and ``fit=clipmap`` keep pages while the camera moves (``fit=shadowable``'s view
+  follows the view);
 - each rendered page is cleared by a quad writing gl_FragDepth (``shaders/page_clear.glsl``) over its
   viewport, as UE5 clears only the pages it renders (a glClear of the whole 64 MiB pool cost
   ~5 ms a render on llvmpipe; the lab keeps the scissor test off);
@@ -63,6 +64,26 @@ Deviations from UE5's design:
   one axis (texel footprint p95 1.8 px on sun_scene at 320x240, p50 0.76); texels about a
   pixel wide also mean a larger boundary error than a 2048² map's tenth-of-a-pixel texels on
   small scenes (sun_scene: 0.35 px against 0.12; ``lod_bias=-1``: 0.02 px with 18 pages).
+
+Clipmaps (``fit=clipmap``, directional lights only; UE5's "clipmap" levels, Epic Games 2022,
+"Virtual Shadow Maps": each level a full virtual map, twice the previous one's side, centred on
+the camera and snapped to whole pages so that pages stay put while it moves): K =
+``clipmap_levels`` levels, level k an orthographic square along the light of side
+``clip_extent`` · 2^k with V² texels in (V/P)² pages, centred on the camera's eye projected into
+light space (fit=scene's light space, which does not move) and snapped to whole pages of that
+level; the depth range, the scene's bounds along the light, is every level's. ``clip_extent``
+auto (0) = the scene's light-space side × (V/P) / 2^(K−1): the coarsest level's texel is
+fit=scene's coarsest mip's (scene side / P), so pixels far away get texels as coarse as the
+pyramid's, and levels finer than fit=scene's level 0 exist for K > log2(V/P) + 1 (default K = 12:
+4 levels finer, 16× at level 0). The shaders see level k's uv as level 0's uv × 2^−k + an offset
+of whole pages (``virtual_common.glsl``: u_level_uv); the request mask and the page table hold
+K × (V/P)² entries (12 × 16384 words with the defaults); the request walks the wanted level up
+to the finest level containing the point, the lookup likewise to the finest resident one
+containing it. A page is rendered through its own orthographic square in light space (a matrix
+that depends only on where it lies) and cached under its light-space page coordinates, so a
+level shifted by whole pages keeps every page it still covers (as UE5), and a cached page is
+bit-for-bit what rendering it again gives. Not done: UE5's first/last clipmap level in world
+units (K is a count), its coarse-page marking and per-page depth ranges.
 
 Texel footprint (:class:`~shadowlab.techniques.maps.TexelMapping`): supported — the texel
 coordinates of a point are those of the level its reference point actually uses (the wanted

@@ -233,7 +233,8 @@ def test_clipmap_is_refused_for_local_lights(lab, scene):
 def test_clipmap_pages_are_kept_while_the_camera_moves(tmp_path):
     """tm_camera_dolly: the levels shift by whole pages, pages are cached under their light-space
     page coordinates, so the pages a level still covers are kept; the frames are those of
-    re-rendering every page (measured over 4 frames at 160x120: 43 pages rendered against 80)."""
+    re-rendering every page (measured over 4 frames at 160x120: 43 pages rendered against 80; at
+    320x240 over 24 frames: 123 against 969, fit=scene 204 against 1407)."""
     df = _animated(tmp_path, "tm_camera_dolly", ["virtual_map:fit=clipmap", "virtual_map:fit=clipmap,cache=false"])
     vm = df[df["technique"] == "virtual_map"]
     cached = vm[~vm["short_label"].str.contains("cache=false")].sort_values("frame")

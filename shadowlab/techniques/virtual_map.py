@@ -82,7 +82,11 @@ to the finest level containing the point, the lookup likewise to the finest resi
 containing it. A page is rendered through its own orthographic square in light space (a matrix
 that depends only on where it lies) and cached under its light-space page coordinates, so a
 level shifted by whole pages keeps every page it still covers (as UE5), and a cached page is
-bit-for-bit what rendering it again gives. Not done: UE5's first/last clipmap level in world
+bit-for-bit what rendering it again gives. Measured at 320x240 (error_rate, against
+fit=shadowable): pa_long_view 0.13 % vs 0.14 % with 57 pages vs 90; sun_scene 0.047 % vs 0.051 %;
+sm_wires 0.78 % vs 0.39 % — clipmap texels are square, while the fitted view's rectangle gives
+V texels along its short side too (finer there); tm_camera_dolly animated over 24 frames: 123
+pages rendered against fit=scene's 204 (969 and 1407 without the cache). Not done: UE5's first/last clipmap level in world
 units (K is a count), its coarse-page marking and per-page depth ranges.
 
 Texel footprint (:class:`~shadowlab.techniques.maps.TexelMapping`): supported — the texel

@@ -41,13 +41,14 @@ void main() {
     int slot = NOT_RESIDENT;
     int m = wanted_level(P);
     for (; m < u_levels; ++m) {
+        if (!level_contains(m, c.xy)) continue;  // clipmaps: a coarser level beyond this one's square
         ivec2 page = page_of(m, c.xy);
         slot = texelFetch(u_page_table, ivec2(page.x, f * u_face_rows + u_table_row[m] + page.y), 0).r;
         if (slot != NOT_RESIDENT) break;
     }
     if (slot == NOT_RESIDENT) return;   // never: the coarsest page is requested and kept first
     float pages = float(level_pages(m));
-    vec2 in_page = c.xy * pages - vec2(page_of(m, c.xy));
+    vec2 in_page = level_uv(m, c.xy) * pages - vec2(page_of(m, c.xy));
     ivec2 texel = clamp(ivec2(floor(in_page * float(u_page_size))), ivec2(0), ivec2(u_page_size - 1));
     ivec2 origin = ivec2(slot % u_pool_side, slot / u_pool_side) * u_page_size;
     float stored = texelFetch(u_pool, origin + texel, 0).r;

@@ -37,7 +37,7 @@ void main() {
     vec3 c;
     int f = face_of(P);                  // a point light's cube: the face of the major axis
     if (!map_coordinates(f, P, c) || !on_virtual_map(c)) return;  // lit: needs no page
-    mark(f, wanted_level(P), c.xy);
+    mark(f, covering_level(P, c.xy), c.xy);
     mark(f, u_levels - 1, c.xy);
 }
 #endif

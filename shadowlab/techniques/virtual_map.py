@@ -4,7 +4,8 @@ After Unreal Engine 5's virtual shadow maps (Epic Games, "Virtual Shadow Maps", 
 documentation, 2022; the idea goes back to Lefohn, Sengupta & Owens 2007, "Resolution-matched
 shadow maps", ACM TOG 26(4), and Fernando et al. 2001, "Adaptive shadow maps"): one light view
 of ``virtual_resolution``² texels (default 16384²) split into pages of ``page_size``² texels
-(default 128²), with a mip pyramid of levels m = 0 .. M−1 (level m has V / 2^m texels per side).
+(default 128²), with a mip pyramid of levels m = 0 .. M−1 (level m has V / 2^m texels per side)
+or, for directional lights, clipmap levels centred on the camera (``fit=clipmap``, below).
 Only pages that visible pixels need get memory, from a physical pool of ``pool_pages`` pages in
 one depth texture, and the lookup finds them through a page table.
 
@@ -43,15 +44,15 @@ like shadow_map.
 
 Deviations from UE5's design:
 
-- one mip pyramid for every light type; UE5 uses clipmaps (nested levels centred on the camera)
-  for directional lights and mips for local lights. Clipmaps are not done: here level 0 covers
-  the whole fitted view, so its texel is fixed by the fit, not by the distance to the camera;
-- the number of levels is derived, not a parameter: M = log2(V / P) + 1, so the coarsest level
-  is a single page (every pixel's fallback, requested by every pixel);
-- no page caching across frames: all pages are requested, allocated and rendered every render.
-  The allocation keeps (level, x, y) → slot in :attr:`VirtualMap.resident` on the object, so a
-  later step can keep the pages (and a validity flag per page) across renders and re-render
-  only invalidated ones;
+- the mip pyramid is the default for every light type; UE5 uses clipmaps for directional
+  lights (``fit=clipmap`` below) and mips for local lights. In the pyramid the number of levels
+  is derived, not a parameter: M = log2(V / P) + 1, so the coarsest level is a single page
+  (every pixel's fallback, requested by every pixel);
+- page caching (``cache=true``, in animations): :class:`PageCache` keeps the pages from frame to
+  frame, keyed by (face, level, light-space page) with a signature of the level's view and the
+  casters over the page; only pages whose signature changed are rendered again. Only
+  ``fit=scene`` and ``fit=clipmap`` keep pages while the camera moves (``fit=shadowable``'s view
+  follows the view);
 - each rendered page is cleared by a quad writing gl_FragDepth (``shaders/page_clear.glsl``) over its
   viewport, as UE5 clears only the pages it renders (a glClear of the whole 64 MiB pool cost
   ~5 ms a render on llvmpipe; the lab keeps the scissor test off);
@@ -64,6 +65,30 @@ Deviations from UE5's design:
   pixel wide also mean a larger boundary error than a 2048² map's tenth-of-a-pixel texels on
   small scenes (sun_scene: 0.35 px against 0.12; ``lod_bias=-1``: 0.02 px with 18 pages).
 
+Clipmaps (``fit=clipmap``, directional lights only; UE5's "clipmap" levels, Epic Games 2022,
+"Virtual Shadow Maps": each level a full virtual map, twice the previous one's side, centred on
+the camera and snapped to whole pages so that pages stay put while it moves): K =
+``clipmap_levels`` levels, level k an orthographic square along the light of side
+``clip_extent`` · 2^k with V² texels in (V/P)² pages, centred on the camera's eye projected into
+light space (fit=scene's light space, which does not move) and snapped to whole pages of that
+level; the depth range, the scene's bounds along the light, is every level's. ``clip_extent``
+auto (0) = the scene's light-space side × (V/P) / 2^(K−1): the coarsest level's texel is
+fit=scene's coarsest mip's (scene side / P), so pixels far away get texels as coarse as the
+pyramid's, and levels finer than fit=scene's level 0 exist for K > log2(V/P) + 1 (default K = 12:
+4 levels finer, 16× at level 0). The shaders see level k's uv as level 0's uv × 2^−k + an offset
+of whole pages (``virtual_common.glsl``: u_level_uv); the request mask and the page table hold
+K × (V/P)² entries (12 × 16384 words with the defaults); the request walks the wanted level up
+to the finest level containing the point, the lookup likewise to the finest resident one
+containing it. A page is rendered through its own orthographic square in light space (a matrix
+that depends only on where it lies) and cached under its light-space page coordinates, so a
+level shifted by whole pages keeps every page it still covers (as UE5), and a cached page is
+bit-for-bit what rendering it again gives. Measured at 320x240 (error_rate, against
+fit=shadowable): pa_long_view 0.13 % vs 0.14 % with 57 pages vs 90; sun_scene 0.047 % vs 0.051 %;
+sm_wires 0.78 % vs 0.39 % — clipmap texels are square, while the fitted view's rectangle gives
+V texels along its short side too (finer there); tm_camera_dolly animated over 24 frames: 123
+pages rendered against fit=scene's 204 (969 and 1407 without the cache). Not done: UE5's first/last clipmap level in world
+units (K is a count), its coarse-page marking and per-page depth ranges.
+
 Texel footprint (:class:`~shadowlab.techniques.maps.TexelMapping`): supported — the texel
 coordinates of a point are those of the level its reference point actually uses (the wanted
 level walked up the page table as the lookup does), in that level's texels.
@@ -74,8 +99,10 @@ import numpy as np
 
 from .. import gl, glstate
 from ..geometry.bounds import box_corners
+from ..geometry.frusta import LightView
 from ..geometry.transforms import BIAS
 from ..glstate import PassState
+from ..scene.lights import DirectionalLight
 from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
 from ..page_cache import PageCache
 from .maps import (ATLAS_DEFINES, CLEAR_DEPTH, MAX_FACES, TexelMapping, check_texture_size, cube_face_index,
@@ -96,6 +123,13 @@ DEPTH_BYTES = {16: 2, 24: 4, 32: 4}
 TABLE_BYTES = 4
 #: Corners of a box, and homogeneous clip coordinates (x, y, z, w).
 BOX_CORNERS, CLIP_W = 8, 3
+#: fit=clipmap: levels K by default. With clip_extent auto the coarsest level's texel is fit=scene's
+#: coarsest mip texel (the scene's side / page_size), so the levels above log2(V/P) + 1 from the top
+#: are finer than any of fit=scene's: 4 extra levels (12 with V/P = 128) reach texels 16× finer
+#: than fit=scene's level 0 near the camera, at 12 × (V/P)² mask words (196608: 768 KiB).
+DEFAULT_CLIPMAP_LEVELS = 12
+#: Per-level uv transform of the shaders (``virtual_common.glsl``: u_level_uv): scale, offset u, v, unused.
+LEVEL_UV = 4
 
 
 def _power_of_two(value: int) -> bool:
@@ -133,8 +167,14 @@ class VirtualMap(TexelMapping, Technique):
                             choices=("auto", "cube", "frustum")),
         "fit": Param("shadowable", "the light view covers what can be shadowed in this view (shadowable, as "
                                    "shadow_map), or the whole scene (scene: fixed in light space while the camera "
-                                   "moves, so pages can be kept from frame to frame)",
-                     choices=("shadowable", "scene")),
+                                   "moves, so pages can be kept from frame to frame); clipmap (directional lights): "
+                                   "UE5's nested full-resolution levels centred on the camera, snapped to pages",
+                     choices=("shadowable", "scene", "clipmap")),
+        "clipmap_levels": Param(DEFAULT_CLIPMAP_LEVELS, "fit=clipmap: levels K (level k covers clip_extent·2^k)",
+                                min=1, max=MAX_LEVELS),
+        "clip_extent": Param(0.0, "fit=clipmap: side of level 0 in world units; 0: auto, the scene's light-space "
+                                  "side × (V/P) / 2^(K−1) (the coarsest level's texel is fit=scene's coarsest mip's)",
+                             min=0.0),
         "cache": Param(True, "in animations, keep rendered pages from frame to frame and re-render only those "
                              "whose view or casters changed (UE5's page caching)"),
     }
@@ -155,11 +195,15 @@ class VirtualMap(TexelMapping, Technique):
                                  f"({self.virtual_resolution})")
         #: Pages per side of level 0, and the levels (the coarsest is one page).
         self.pages0 = self.virtual_resolution // self.page_size
-        self.levels = self.pages0.bit_length()
+        #: fit=clipmap: every level is a full virtual map of pages0² pages (UE5's clipmap levels).
+        self.clipmap = self.fit == "clipmap"
+        self.levels = self.clipmap_levels if self.clipmap else self.pages0.bit_length()
         if self.levels > MAX_LEVELS:
             raise TechniqueError(f"{self.name}: virtual_resolution / page_size = {self.pages0} pages a side needs "
                                  f"{self.levels} levels, more than {MAX_LEVELS}; raise page_size")
-        pages = [self.pages0 >> m for m in range(self.levels)]
+        pages = [self.pages0 if self.clipmap else self.pages0 >> m for m in range(self.levels)]
+        #: Pages per side of each level.
+        self.level_pages = np.asarray(pages, int)
         #: Per level: first word of its pages in the request mask, first row in the page table.
         self.mask_offset = np.concatenate([[0], np.cumsum([n * n for n in pages])]).astype(int)
         self.table_row = np.concatenate([[0], np.cumsum(pages)]).astype(int)
@@ -169,7 +213,9 @@ class VirtualMap(TexelMapping, Technique):
     def setup(self, frame, slot) -> None:
         """Fit the level-0 view, make the pool, the page table, the request mask and the programs."""
         ctx = frame.ctx
-        if self.fit == "scene":
+        if self.clipmap:
+            faces, notes = self._clipmap_views(frame, slot)
+        elif self.fit == "scene":
             # the whole scene's bounds: a view that does not follow the camera (cacheable pages)
             faces, notes = slot.light.shadow_views(box_corners(frame.scene.bounds()[None]), frame.caster_bounds(),
                                                    self.virtual_resolution, projection=self.projection)
@@ -181,6 +227,10 @@ class VirtualMap(TexelMapping, Technique):
         self.view = faces[0]
         self.perspective = self.view.proj[3, 3] != 1.0
         self.light_matrices = [BIAS @ face.view_proj for face in faces]
+        if not self.clipmap:  # the mip pyramid: every level is level 0's uv, 2^m coarser
+            self.level_scale = np.ones(self.levels)
+            self.level_offset = np.zeros((self.levels, 2))
+            self.level_origin = np.zeros((self.levels, 2), np.int64)
         self.face_words = int(self.mask_offset[-1])
         self.face_rows = int(self.table_row[-1])
         pool_size = (self.pool_side * self.page_size,) * 2
@@ -208,7 +258,11 @@ class VirtualMap(TexelMapping, Technique):
         self.evaluated_tex = self.own(ctx.texture((frame.width, frame.height), 1,
                                                   np.ascontiguousarray(evaluated, np.uint8).tobytes(), dtype="u1"))
         self.evaluated_tex.filter = (ctx.NEAREST, ctx.NEAREST)
-        common = {**self.light.uniforms(), "u_levels": self.levels, "u_pages0": self.pages0,
+        level_uv = np.zeros((MAX_LEVELS, LEVEL_UV), np.float32)
+        level_uv[:self.levels, 0] = self.level_scale
+        level_uv[:self.levels, 1:3] = self.level_offset
+        common = {**self.light.uniforms(), "u_levels": self.levels, "u_level_uv": level_uv,
+                  "u_level_pages": np.asarray(self._padded_levels(self.level_pages), np.int32),
                   "u_texel_world": float(self.view.texel_world), "u_texel_angle": float(self.view.texel_angle),
                   "u_camera_eye": tuple(map(float, frame.camera.eye)), "u_pixel_angle": self._pixel_angle(),
                   "u_lod_bias": float(self.lod_bias), "u_faces": len(faces)}
@@ -242,10 +296,64 @@ class VirtualMap(TexelMapping, Technique):
         self.counts = {"requested": 0, "resident": 0, "rendered": 0, "cached": 0, "dropped": 0, "draws": 0}
         # What a kept page's content depends on: every face's light view and the virtual layout;
         # per page, the casters over it and their geometry (checked per page when it is reused).
-        self.view_key = hash((tuple(f.view_proj.tobytes() for f in faces), self.virtual_resolution,
-                              self.page_size, self.depth_bits))
+        # Clipmap levels (_clipmap_views) are keyed per level on what does not move with the camera:
+        # pages are cached under their absolute page coordinates, so a level shifted by whole pages
+        # keeps the pages it still covers (UE5's clipmap page caching).
+        layout = (self.virtual_resolution, self.page_size, self.depth_bits)
+        if not self.clipmap:
+            self.level_keys = [hash((tuple(f.view_proj.tobytes() for f in faces), *layout))] * self.levels
         self.caster_keys = np.array([hash(np.asarray(o.vertices).tobytes()) for o in frame.scene.objects
                                      if o.casts], np.int64)
+
+    def _clipmap_views(self, frame, slot):
+        """fit=clipmap: the level-0 view, and per level its uv transform from level 0's uv, its
+        page origin and its cache key (UE5's directional-light clipmap, Epic Games 2022, "Virtual
+        Shadow Maps": levels centred on the camera, each twice the previous one's side, origins
+        snapped to whole pages so that pages stay put while the camera moves).
+
+        Light space is fit=scene's view (along the light from the scene's centre: it does not
+        move with the camera), and its depth range, the scene's bounds along the light, is every
+        level's. Level k is the square of side ``clip_extent`` · 2^k whose lower-left corner is
+        o_k pages of that level, o_k = round(eye / page side) − (V/P)/2: the camera's eye projected
+        into light space, snapped to the level's pages. A point's level-k uv is level 0's uv
+        · 2^−k + (o_0 · 2^−k − o_k) / (V/P) (exact: powers of two and whole pages)."""
+        if not isinstance(slot.light, DirectionalLight):
+            raise TechniqueError(f"{self.name}: fit=clipmap is for directional lights (UE5's clipmap); this "
+                                 f"{type(slot.light).__name__} needs fit=shadowable or fit=scene")
+        faces, notes = slot.light.shadow_views(box_corners(frame.scene.bounds()[None]), frame.caster_bounds(),
+                                               self.virtual_resolution)
+        scene = faces[0]
+        #: fit=scene's view: the light space every level lives in, and its depth rows.
+        self.scene_view = scene
+        scene_side = scene.texel_world * self.virtual_resolution
+        extent0 = self.clip_extent or scene_side * self.pages0 / 2.0 ** (self.levels - 1)
+        #: Per level: side (world units), page side, page origin (whole pages, light space).
+        self.level_side = extent0 * np.exp2(np.arange(self.levels))
+        self.level_page_side = self.level_side / self.pages0
+        eye = (scene.view @ np.append(np.asarray(frame.camera.eye, np.float64), 1.0))[:2]
+        self.level_origin = (np.floor(eye[None] / self.level_page_side[:, None] + 0.5).astype(np.int64)
+                             - self.pages0 // 2)
+        self.level_scale = np.exp2(-np.arange(self.levels, dtype=np.float64))
+        self.level_offset = (self.level_origin[0][None] * self.level_scale[:, None] - self.level_origin) / self.pages0
+        coarsest = self.level_side[-1]
+        if coarsest < 2.0 * scene_side:  # a camera inside the scene can then leave part of it uncovered
+            notes = notes + [f"fit=clipmap: the coarsest level ({coarsest:.3g} world units a side) may not cover the "
+                             f"scene ({scene_side:.3g}) around the camera; raise clip_extent or clipmap_levels"]
+        lo = self.level_origin[0] * self.level_page_side[0]
+        level0 = LightView(scene.view, self._ortho(scene.proj, lo, self.level_side[0]),
+                           texel_world=float(self.level_side[0]) / self.virtual_resolution)
+        self.level_keys = [hash((scene.view.tobytes(), scene.proj[2].tobytes(), float(side), self.virtual_resolution,
+                                 self.page_size, self.depth_bits)) for side in self.level_side]
+        return [level0], notes
+
+    @staticmethod
+    def _ortho(depth_proj: np.ndarray, lower_left: np.ndarray, side: float) -> np.ndarray:
+        """An orthographic projection of the light-space square [lower_left, lower_left + side]²
+        with ``depth_proj``'s depth rows (GL's glOrtho matrix: x_ndc = 2(x − l)/(r − l) − 1)."""
+        proj = depth_proj.copy()
+        proj[0] = [2.0 / side, 0.0, 0.0, -(2.0 * lower_left[0] + side) / side]
+        proj[1] = [0.0, 2.0 / side, 0.0, -(2.0 * lower_left[1] + side) / side]
+        return proj
 
     def _pixel_angle(self) -> float:
         """World size of a screen pixel per unit distance from the eye (as Frame.pixel_footprint)."""
@@ -312,14 +420,17 @@ class VirtualMap(TexelMapping, Technique):
         kept = order[:self.pool_pages]
         dropped = len(requested) - len(kept)
         face, level = face[kept], level[kept]
-        y, x = np.divmod(word[kept] - self.mask_offset[level], self.pages0 >> level)
+        y, x = np.divmod(word[kept] - self.mask_offset[level], self.level_pages[level])
         pages = np.stack([face, level, x, y], axis=1).astype(np.int64)
         visible = self._visible_casters(pages)
-        signatures = [hash((self.view_key, tuple(np.flatnonzero(v)), self.caster_keys[v].tobytes())) for v in visible]
-        slots, fresh = self.page_cache.assign([tuple(p) for p in pages.tolist()], signatures)
+        signatures = [hash((self.level_keys[m], tuple(np.flatnonzero(v)), self.caster_keys[v].tobytes()))
+                      for m, v in zip(level, visible)]
+        absolute = pages.copy()  # cache keys: page coordinates in light space (clipmaps shift by whole pages)
+        absolute[:, 2:] += self.level_origin[level]
+        slots, fresh = self.page_cache.assign([tuple(p) for p in absolute.tolist()], signatures)
         self.table[:] = NOT_RESIDENT
         self.table[face * self.face_rows + self.table_row[level] + y, x] = np.asarray(slots, np.int32)
-        self.to_render = [(slots[i], *pages[i]) for i in fresh]
+        self.to_render = [(slots[i], *absolute[i]) for i in fresh]
         self.to_render_visible = visible[fresh] if len(fresh) else visible[:0]
         if dropped and not self.counts["dropped"]:
             finest = int(level.min()) if len(level) else self.levels - 1
@@ -327,6 +438,17 @@ class VirtualMap(TexelMapping, Technique):
                               f"pages dropped (finest level kept: {finest}); their pixels use a coarser resident level")
         self.counts.update(requested=len(requested), resident=len(kept), rendered=len(fresh),
                            cached=len(kept) - len(fresh), dropped=dropped)
+
+    def _page_view_proj(self, face: int, level: int, x: int, y: int) -> np.ndarray:
+        """Projection · view that renders page (x, y) of ``level`` — absolute page coordinates
+        (level origin + table coordinates): the mip pyramid's crop after the face's projection;
+        a clipmap page's own orthographic square in light space, a matrix that depends only on
+        where the page lies, so a page cached in an earlier frame is what rendering it now gives."""
+        if not self.clipmap:
+            return self._page_matrix(level, x, y) @ self.faces[face].view_proj
+        side = self.level_page_side[level]
+        proj = self._ortho(self.scene_view.proj, np.array([x, y], np.float64) * side, side)
+        return proj @ self.scene_view.view
 
     def _page_matrix(self, level: int, x: int, y: int) -> np.ndarray:
         """The page's sub-projection after the level-0 projection: NDC scaled by 1/s and
@@ -344,9 +466,12 @@ class VirtualMap(TexelMapping, Technique):
         wholly outside one side plane of the page's sub-frustum — the homogeneous clip test of
         its 8 corners, linear in them, so valid for corners behind a perspective light too."""
         c = self.caster_clip[pages[:, 0]]                             # (R, K, 8, 4)
-        level, x, y = (pages[:, i].astype(np.float64) for i in range(1, 4))
-        s = self.page_size * np.exp2(level) / self.virtual_resolution  # the pages' uv size
-        u0, v0 = 2.0 * x * s - 1.0, 2.0 * y * s - 1.0                 # their NDC rectangles in level 0
+        level = pages[:, 1]
+        x, y = (pages[:, i].astype(np.float64) for i in (2, 3))
+        n, scale = self.level_pages[level], self.level_scale[level]
+        s = 1.0 / (n * scale)                                          # the pages' size in level-0 uv
+        u0 = 2.0 * (x / n - self.level_offset[level, 0]) / scale - 1.0  # their NDC rectangles in level 0
+        v0 = 2.0 * (y / n - self.level_offset[level, 1]) / scale - 1.0
         u1, v1 = u0 + 2.0 * s, v0 + 2.0 * s
         u0, v0, u1, v1 = (v[:, None, None] for v in (u0, v0, u1, v1))
         w = c[..., CLIP_W]
@@ -376,7 +501,7 @@ class VirtualMap(TexelMapping, Technique):
             if not visible.any():
                 continue
             frame.ctx.viewport = self._slot_viewport(slot_index)
-            matrix = self._page_matrix(int(level), int(x), int(y)) @ self.faces[int(face)].view_proj
+            matrix = self._page_view_proj(int(face), int(level), int(x), int(y))
             self.depth_prog["u_light_view_proj"].write(gl.mat_bytes(matrix))
             for k in np.flatnonzero(visible):
                 r = self.caster_ranges[k]
@@ -409,13 +534,16 @@ class VirtualMap(TexelMapping, Technique):
         with np.errstate(divide="ignore", invalid="ignore"):
             uv = s[:, :2] / s[:, 3:4]
             depth = s[:, 2] / s[:, 3]
-        inside = (s[:, 3] > 0) & np.all((uv >= 0) & (uv < 1), axis=1) & (depth >= 0) & (depth <= 1)
+        coarsest = self._level_uv(self.levels - 1, uv)
+        inside = (s[:, 3] > 0) & np.all((coarsest >= 0) & (coarsest < 1), axis=1) & (depth >= 0) & (depth <= 1)
         out = np.full(len(points), -1)
         todo = inside.copy()
         for m in range(self.levels):
-            n = self.pages0 >> m
-            page = np.clip(np.floor(uv * n), 0, n - 1).astype(int)
-            here = todo & (level <= m)
+            n = self.level_pages[m]
+            luv = self._level_uv(m, uv)
+            page = np.clip(np.floor(luv * n), 0, n - 1).astype(int)
+            contained = np.all((luv >= 0) & (luv < 1), axis=1)  # clipmaps: a coarser level beyond its square
+            here = todo & (level <= m) & contained
             idx = np.flatnonzero(here)
             row = face[idx] * self.face_rows + self.table_row[m] + page[idx, 1]
             resident = self.table[row, page[idx, 0]] != NOT_RESIDENT
@@ -423,13 +551,20 @@ class VirtualMap(TexelMapping, Technique):
             todo[idx[resident]] = False
         return out
 
+    def _level_uv(self, m: int, uv: np.ndarray) -> np.ndarray:
+        """Level m's uv of level-0 uv (``virtual_common.glsl``: level_uv)."""
+        return uv * self.level_scale[m] + self.level_offset[m]
+
     def texel_coordinates(self, points: np.ndarray, reference: np.ndarray) -> np.ndarray:
         """Float64 (M, 2): texel coordinates of ``points`` in the level each ``reference`` point
-        uses (level-0 texel coordinates / 2^m); NaN where the reference is off the map."""
+        uses (level-0 texel coordinates / 2^m; a clipmap level's: its uv × its V texels); NaN where
+        the reference is off the map."""
         level = self.used_level(reference)
         rects = [(0, 0, self.virtual_resolution, self.virtual_resolution)] * len(self.faces)
         t = map_texel_coordinates(self.faces, rects, self.face_index, points, reference)
-        t = t / np.exp2(np.maximum(level, 0))[:, None]
+        m = np.maximum(level, 0)
+        texels = (self.level_pages[m] * self.page_size).astype(np.float64)[:, None]  # the level's texels a side
+        t = (t / self.virtual_resolution * self.level_scale[m][:, None] + self.level_offset[m]) * texels
         t[level < 0] = np.nan
         return t
 
@@ -450,6 +585,8 @@ class VirtualMap(TexelMapping, Technique):
                 "caster_draws": int(self.counts["draws"]),
                 "levels": int(self.levels),
                 "memory_bytes": int(pool_bytes + self.table.size * TABLE_BYTES),
-                "dense_equivalent_bytes": int(len(self.faces) * self.virtual_resolution ** 2 * depth),
+                # a dense clipmap is K full maps
+                "dense_equivalent_bytes": int(len(self.faces) * (self.levels if self.clipmap else 1)
+                                              * self.virtual_resolution ** 2 * depth),
                 "faces": len(self.faces),
                 "texel_world": float(self.view.texel_world) or None}

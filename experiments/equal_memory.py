@@ -10,8 +10,8 @@ the same techniques in motion, with and without the virtual map's page caching.
 2. Motion: ``shadowlab animate`` on ``tm_rotating_sun`` (the light moves: every page is
    invalid every frame), ``tm_camera_dolly`` (the camera moves: pages fixed in light space stay
    valid) and ``tm_moving_caster`` (a crate slides: only its pages change), with the virtual map
-   fixed in light space (``fit=scene``) cached and not cached: the flip rate (flicker) and the
-   pages rendered per frame.
+   fixed in light space (``fit=scene``) and in clipmaps around the camera (``fit=clipmap``),
+   each cached and not cached: the flip rate (flicker) and the pages rendered per frame.
 
 Writes ``<out>.csv`` (still frames), ``<out>_motion.csv``, ``<out>.png`` and ``<out>.json``
 (provenance); the study goes beside it (``study-equal_memory``), the animations under
@@ -43,7 +43,8 @@ STILL_COLUMNS = ["boundary_error_px", "error_rate", "texel_footprint_p50", "texe
 MOTION_SCENES = {"tm_rotating_sun": "the light", "tm_camera_dolly": "the camera", "tm_moving_caster": "a caster"}
 #: The configurations animated: the equal-memory set, the virtual map fixed in light space cached and not.
 MOTION_SPECS = ["shadow_map", "cascaded_map", "cascaded_map:fit=sdsm", "lispsm", "virtual_map:pool_pages=256",
-                "virtual_map:pool_pages=256,fit=scene", "virtual_map:pool_pages=256,fit=scene,cache=false"]
+                "virtual_map:pool_pages=256,fit=scene", "virtual_map:pool_pages=256,fit=scene,cache=false",
+                "virtual_map:pool_pages=256,fit=clipmap", "virtual_map:pool_pages=256,fit=clipmap,cache=false"]
 #: The animations' default size (flicker is a per-pixel rate; a smaller image keeps this quick).
 MOTION_SIZE = (320, 240)
 MIB = 2 ** 20
@@ -106,14 +107,15 @@ def plot(still: pd.DataFrame, motion: pd.DataFrame, path: Path, renderer: str) -
     axes[1].axhline(1.0, color="k", lw=0.8, ls="--")
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=len(configs) // 2 + len(configs) % 2, fontsize=8)
-    vm = motion[motion["config"].str.startswith("virtual_map") & motion["config"].str.contains("fit=scene")]
+    vm = motion[motion["config"].str.startswith("virtual_map") & motion["config"].str.contains("fit=")]
+    bar = 0.8 / max(1, vm["config"].nunique())
     for k, (cfg, g) in enumerate(vm.groupby("config", sort=False)):
         ax = axes[2]
-        ax.bar(np.arange(len(g)) + k * 0.4, g["pages_rendered_per_frame"], 0.4,
-               label="not cached" if "cache=false" in cfg else "cached")
-        ax.set_xticks(np.arange(len(g)) + 0.2, [f"{s}\n({m} moves)" for s, m in zip(g["scene"], g["moves"])],
+        ax.bar(np.arange(len(g)) + k * bar, g["pages_rendered_per_frame"], bar,
+               label=cfg.replace("virtual_map:pool_pages=256,", ""))
+        ax.set_xticks(np.arange(len(g)) + 0.4, [f"{s}\n({m} moves)" for s, m in zip(g["scene"], g["moves"])],
                       fontsize=8)
-    axes[2].set_title("virtual map (fit=scene): pages rendered per frame", fontsize=10)
+    axes[2].set_title("virtual map: pages rendered per frame", fontsize=10)
     axes[2].legend(fontsize=8)
     fig.suptitle(f"Equal memory (16 MiB): one map, cascades, SDSM, LiSPSM, virtual map — {renderer}", fontsize=11)
     fig.tight_layout(rect=(0.0, 0.1, 1.0, 1.0))  # the legend below the panels

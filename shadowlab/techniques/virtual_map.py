@@ -48,7 +48,7 @@ Deviations from UE5's design:
   lights (``fit=clipmap`` below) and mips for local lights. In the pyramid the number of levels
   is derived, not a parameter: M = log2(V / P) + 1, so the coarsest level is a single page
   (every pixel's fallback, requested by every pixel);
-- page caching (``cache=true``, in animations): :class:`PageCache` keeps the pages from frame to
+- page caching (``cache=true``, in animations): :class:`shadowlab.page_cache.PageCache` keeps the pages from frame to
   frame, keyed by (face, level, light-space page) with a signature of the level's view and the
   casters over the page; only pages whose signature changed are rendered again. Only
   ``fit=scene`` and ``fit=clipmap`` keep pages while the camera moves (``fit=shadowable``'s view
@@ -142,7 +142,8 @@ class VirtualMap(TexelMapping, Technique):
 
     name = "virtual_map"
     summary = ("virtual shadow map (UE5 2022; Lefohn et al. 2007): a 16384² virtual map in 128² pages over a mip "
-               "pyramid, only the pages visible pixels request allocated from a fixed pool and rendered")
+               "pyramid or, for a sun, clipmaps around the camera; only the pages visible pixels request are "
+               "allocated from a fixed pool and rendered, and kept across animation frames")
     STYLE = PlotStyle("#8c564b", "p")
     LIGHT_SAMPLED = True  # area lights: averaged over light samples like shadow_map
     PASSES = ("request", "allocate", "depth", "lookup")

@@ -224,6 +224,18 @@ def _grid_offsets(views, point):
     return np.array([((BIAS @ v.view_proj) @ np.append(point, 1.0))[:2] * 1024 for v in views])
 
 
+def _moving_camera_setup():
+    """The light, caster and scene bounds, splits, cover intervals and frustum tangents of the
+    stabilisation tests: a sun over a 200-unit scene, four cascades at λ 0.5 over 0.3..210."""
+    light = tf.normalize(np.array([0.55, -0.75, 0.35]))
+    casters = np.array([[[-1.0, 0.0, -1.0], [1.0, 2.0, 1.0]]])
+    scene = np.array([[-20.0, -0.1, -100.0], [20.0, 3.0, 100.0]])
+    splits = practical_splits(0.3, 210.0, 4, 0.5)
+    intervals = np.stack([splits[:-1], splits[1:]], axis=1)
+    tan_y = np.tan(np.radians(25.0))
+    return light, casters, scene, splits, intervals, tan_y * 4 / 3, tan_y
+
+
 @pytest.mark.parametrize("stabilize", [True, False])
 def test_stabilised_cascades_keep_their_texel_grid(stabilize):
     """Moving the camera sideways (along light-space x) by 0.3 and by 2.3 of cascade 0's texel:
@@ -232,13 +244,7 @@ def test_stabilised_cascades_keep_their_texel_grid(stabilize):
     the 0.3 step; for the 2.3 step cascades 0 and 1 moved by 2 and 1 texels, off whole by 2e-13), and the sphere's box
     still holds its slice; without it the grid moves by fractions (measured 0.05 to 0.34 texel
     for the 0.3 step)."""
-    light = tf.normalize(np.array([0.55, -0.75, 0.35]))
-    casters = np.array([[[-1.0, 0.0, -1.0], [1.0, 2.0, 1.0]]])
-    scene = np.array([[-20.0, -0.1, -100.0], [20.0, 3.0, 100.0]])
-    splits = practical_splits(0.3, 210.0, 4, 0.5)
-    intervals = np.stack([splits[:-1], splits[1:]], axis=1)
-    tan_y = np.tan(np.radians(25.0))
-    tan_x = tan_y * 4 / 3
+    light, casters, scene, splits, intervals, tan_x, tan_y = _moving_camera_setup()
 
     def fit(eye):
         view = tf.look_at(eye, eye + np.array([0.0, -0.07, -1.0]), [0.0, 1.0, 0.0])
@@ -275,13 +281,7 @@ def test_focused_stabilised_cascades_keep_their_texel_grid():
     every focused box's size alone (the extent stays within its level) and move its grid by
     whole texels of its own (a world point's texel coordinates change by integers, to 1e-6); the
     focused texels are finer than the sphere's (below half)."""
-    light = tf.normalize(np.array([0.55, -0.75, 0.35]))
-    casters = np.array([[[-1.0, 0.0, -1.0], [1.0, 2.0, 1.0]]])
-    scene = np.array([[-20.0, -0.1, -100.0], [20.0, 3.0, 100.0]])
-    splits = practical_splits(0.3, 210.0, 4, 0.5)
-    intervals = np.stack([splits[:-1], splits[1:]], axis=1)
-    tan_y = np.tan(np.radians(25.0))
-    tan_x = tan_y * 4 / 3
+    light, casters, scene, splits, intervals, tan_x, tan_y = _moving_camera_setup()
     mids = 0.5 * (splits[:-1] + splits[1:])
     focus = np.concatenate([np.array([[x, 0.0, 97.0 - z] for x in (-1.0, 1.0)]) for z in mids])
 

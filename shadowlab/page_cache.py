@@ -22,6 +22,17 @@ class PageCache:
         """Forget every page (what :meth:`shadowlab.techniques.base.Technique.forget` calls)."""
         self.reset(None, 0)
 
+    def state(self) -> tuple:
+        """A copy of what the cache holds now (:meth:`restore` puts it back): every render of one
+        frame starts from the state the frame began with, so repeated timed renders of a frame
+        do the same work (the pages it changed are rendered each time, into the same slots)."""
+        return dict(self.slots), list(self.last_used), self.clock
+
+    def restore(self, state: tuple) -> None:
+        """Put back a :meth:`state`."""
+        slots, last_used, clock = state
+        self.slots, self.last_used, self.clock = dict(slots), list(last_used), clock
+
     def reset(self, pool, size: int) -> None:
         """Empty, for ``pool`` of ``size`` slots (a new pool holds nothing)."""
         self.pool, self.slots, self.last_used, self.clock = pool, {}, [-1] * size, 0

@@ -118,36 +118,33 @@ def nearest_hits(scene, origins: np.ndarray, directions: np.ndarray, tfar: np.nd
 
 def edge_distances(origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray, corners: np.ndarray,
                    chunk: int = 4096) -> np.ndarray:
-    """Per ray (K,), the world distance from where it crosses a triangle's plane to that
-    triangle's nearest edge, minimised over the triangles it crosses within (0, ``tfar``]:
-    float64 arithmetic on the float32 rays and the triangles' float32 corners (T, 3, 3), as the
-    tracers see them. Where two exact-in-float32 tests disagree about a ray (Embree's and the
-    irregular z-buffer's), this says whether it was a tie: a ray that passes within float32
-    resolution of an edge can fall either way. Inf where a ray crosses no triangle's plane in
-    range. Brute force over every triangle: for the few rays two tracers disagree on."""
+    """Per ray (K,), the world distance from where it crosses a triangle's plane to the nearest
+    point of that triangle's edges (the segments, not their lines), minimised over the
+    triangles whose planes it crosses within (0, ``tfar``]: float64 arithmetic on the float32
+    rays and the triangles' float32 corners (T, 3, 3), as the tracers see them. Where two
+    exact-in-float32 tests disagree about a ray (Embree's and the irregular z-buffer's), this
+    says whether it was a tie: a ray that passes within float32 resolution of an edge can fall
+    either way. Inf where a ray crosses no triangle's plane in range. Brute force over every
+    triangle: for the few rays two tracers disagree on."""
     corners = np.asarray(corners, np.float64)
     a, e1, e2 = corners[:, 0], corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
-    normal = np.cross(e1, e2)
-    twice_area = np.linalg.norm(normal, axis=1)
-    # the triangle's heights onto its edges opposite a, b, c (barycentric 1 = that height)
-    heights = np.stack([twice_area / np.linalg.norm(corners[:, 2] - corners[:, 1], axis=1),
-                        twice_area / np.linalg.norm(e2, axis=1), twice_area / np.linalg.norm(e1, axis=1)], axis=1)
+    ends = np.roll(corners, -1, axis=1)                # edge k runs from corner k to corner k + 1
     out = np.full(len(origins), np.inf)
     for k, (o, d, tf) in enumerate(zip(np.asarray(origins, np.float64), np.asarray(directions, np.float64),
                                        np.asarray(tfar, np.float64))):
         for s in range(0, len(corners), chunk):
             sl = slice(s, s + chunk)
-            p = np.cross(d, e2[sl])
-            det = np.einsum("ij,ij->i", e1[sl], p)
+            normal = np.cross(e1[sl], e2[sl])
             with np.errstate(divide="ignore", invalid="ignore"):
-                rel = o - a[sl]
-                u = np.einsum("ij,ij->i", rel, p) / det
-                q = np.cross(rel, e1[sl])
-                v = (q @ d) / det
-                t = np.einsum("ij,ij->i", e2[sl], q) / det
-            bary = np.stack([1.0 - u - v, u, v], axis=1) * heights[sl]  # signed distances to the edges
-            crossing = (t > 0) & (t <= tf) & (det != 0) & np.isfinite(t)
-            if crossing.any():
-                nearest = np.min(np.abs(bary[crossing]), axis=1)
-                out[k] = min(out[k], float(nearest.min()))
+                t = np.einsum("ij,ij->i", a[sl] - o, normal) / (normal @ d)
+            crossing = (t > 0) & (t <= tf) & np.isfinite(t)
+            if not crossing.any():
+                continue
+            x = o + t[crossing, None] * d                  # the crossing points, in the triangles' planes
+            p0, edge = corners[sl][crossing], ends[sl][crossing] - corners[sl][crossing]  # (C, 3 edges, 3)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                u = np.einsum("cij,cij->ci", x[:, None, :] - p0, edge) / np.einsum("cij,cij->ci", edge, edge)
+            u = np.clip(np.nan_to_num(u), 0.0, 1.0)        # the nearest point of each segment
+            dist = np.linalg.norm(x[:, None, :] - (p0 + u[..., None] * edge), axis=2).min(axis=1)
+            out[k] = min(out[k], float(dist.min()))
     return out

@@ -172,3 +172,15 @@ def test_polygon_coverage_keeps_fewer_pairs_on_wires(lab):
     box = lab.measure("sm_wires", "irregular_zbuffer", SMALL).stats["izb_pairs"]
     polygon = lab.measure("sm_wires", "irregular_zbuffer:coverage=polygon", SMALL).stats["izb_pairs"]
     assert polygon * 5 < box  # measured at 320x240: 52k against 894k
+
+
+def test_edge_distances_count_segments_not_lines():
+    """A ray that misses the triangle near the extension of an edge's line is far from the edge
+    itself: not a tie."""
+    from shadowlab.tracing import edge_distances
+
+    tri = np.array([[[0, 0, 1], [1, 0, 1], [0, 1, 1]]], np.float32)
+    # x = 3, y = 1e-4: close to the line y = 0 of edge (0,0)-(1,0), 2 units past its end
+    d = edge_distances(np.array([[3.0, 1e-4, 0.0]], np.float32), np.array([[0, 0, 1]], np.float32),
+                       np.array([10.0], np.float32), tri)
+    assert d[0] == pytest.approx(2.0, rel=1e-4)

@@ -254,3 +254,18 @@ def test_pixel_sized_texels_over_the_whole_view(lab):
     assert rows.loc["virtual_map:lod_bias=-1.0", "texel_footprint_max"] <= 1.0
     assert rows.loc["shadow_map", "texel_footprint_max"] > 2.0
     assert rows.loc["virtual_map:lod_bias=-1.0", "pages_dropped"] == 0
+
+
+def test_repeated_renders_of_a_still_frame_do_the_same_work(lab):
+    """Timed repeats (compare, studies) render every page each time: the cache only carries
+    pages from one frame to the next in an animation, never from one repeat to the next."""
+    frame = lab.frame("pa_long_view", SMALL)
+    m = measure(from_spec("virtual_map"), frame, 0, repeat=2, warmup=1)
+    assert m.stats["pages_rendered"] == m.stats["resident_pages"] > 0
+    assert m.stats["pages_cached"] == 0
+
+
+def test_a_pool_too_small_for_the_coarsest_pages_fails_loudly(lab):
+    """A cube's six coarsest pages cannot fit in a pool of two: some pixels would have no page."""
+    with pytest.raises(TechniqueError, match="pool_pages=2 cannot hold"):
+        lab.measure("sm_point_cube", "virtual_map:projection=cube,pool_pages=2", SMALL)

@@ -405,10 +405,11 @@ class Technique:
 
     def owned_bytes(self) -> int:
         """Bytes of the GL buffers, textures and renderbuffers the technique owns now (what
-        :meth:`own` registered; the frame's shared G-buffer and depth-stencil are not counted): a
+        :meth:`own` registered and what :meth:`keep` holds; the frame's shared G-buffer and
+        depth-stencil are not counted): a
         memory figure every technique has, whether or not its :meth:`stats` reports one."""
         total = 0
-        for obj in self._owned:
+        for obj in self._owned + list(self._kept.values()):  # kept objects (page caches) count too
             if isinstance(getattr(obj, "nbytes", None), int):  # the lab's own wrappers (gl.DepthTexture)
                 total += obj.nbytes
             elif hasattr(obj, "components"):  # a texture or renderbuffer

@@ -76,14 +76,6 @@ LOCAL_SIZE = 64
 #: Work groups GL guarantees in one dimension of a dispatch (GL 4.6 core, table 23.64): larger
 #: dispatches are split over y (izb_common.glsl: INVOCATION_INDEX).
 MAX_GROUPS_X = 65535
-
-
-def dispatch(prog, invocations: int) -> None:
-    """Run compute ``prog`` over at least ``invocations`` invocations of :data:`LOCAL_SIZE` each
-    group, as (x, y) groups within :data:`MAX_GROUPS_X`; the shader skips the surplus."""
-    groups = max(1, -(-invocations // LOCAL_SIZE))
-    rows = -(-groups // MAX_GROUPS_X)
-    prog.run(-(-groups // rows), rows)
 #: Texels each triangle's light-space bounding box is grown by: half a texel makes the box cover
 #: every texel centre the triangle's texels could hold; one more absorbs float32 rounding of the
 #: projection, so no covered texel is missed (extra texels only cost tests).
@@ -104,6 +96,14 @@ MAX_RETRIES = 2
 RAY_BYTES, NODE_BYTES, TEXEL_BYTES, PAIR_BYTES = 36, 8, 4, 8
 #: The most sub-pixel samples: one bit each in a 32-bit word per pixel.
 MAX_SAMPLES = 32
+
+
+def dispatch(prog, invocations: int) -> None:
+    """Run compute ``prog`` over at least ``invocations`` invocations of :data:`LOCAL_SIZE` each
+    group, as (x, y) groups within :data:`MAX_GROUPS_X`; the shader skips the surplus."""
+    groups = max(1, -(-invocations // LOCAL_SIZE))
+    rows = -(-groups // MAX_GROUPS_X)
+    prog.run(-(-groups // rows), rows)
 
 
 class IrregularZBuffer(Technique):
@@ -327,7 +327,9 @@ class IrregularZBuffer(Technique):
 
     def stats(self) -> dict:
         """Work counters (rays, (triangle, texel) pairs, triangle–segment tests, hits,
-        retries), the list-length distribution over non-empty texels (mean, p99, max), the
+        retries; ``izb_tests`` and ``izb_hits`` are approximate: a ray another triangle has
+        already blocked is skipped, and which triangle gets there first depends on scheduling —
+        the visibility does not), the list-length distribution over non-empty texels (mean, p99, max), the
         storage-buffer memory, faces, passes, samples per pixel."""
         texels = np.frombuffer(self.buffers["texels"].read(), np.int32)[:self.ray_count]
         lengths = np.bincount(texels[texels >= 0], minlength=1)

@@ -95,6 +95,8 @@ level walked up the page table as the lookup does), in that level's texels.
 """
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 
 from .. import gl, glstate
@@ -121,6 +123,9 @@ NOT_RESIDENT = -1
 #: Bytes per texel of each depth format (24-bit depth is stored in 4 bytes) and of a page-table entry.
 DEPTH_BYTES = {16: 2, 24: 4, 32: 4}
 TABLE_BYTES = 4
+#: Bytes of the digests that key cached pages (BLAKE2b, RFC 7693): a collision between two
+#: different page contents has probability about 2^-128 per pair.
+DIGEST_BYTES = 16
 #: Corners of a box, and homogeneous clip coordinates (x, y, z, w).
 BOX_CORNERS, CLIP_W = 8, 3
 #: fit=clipmap: levels K by default. With clip_extent auto the coarsest level's texel is fit=scene's
@@ -130,6 +135,15 @@ BOX_CORNERS, CLIP_W = 8, 3
 DEFAULT_CLIPMAP_LEVELS = 12
 #: Per-level uv transform of the shaders (``virtual_common.glsl``: u_level_uv): scale, offset u, v, unused.
 LEVEL_UV = 4
+
+
+def digest(*parts) -> bytes:
+    """A :data:`DIGEST_BYTES`-byte BLAKE2b digest of ``parts`` (bytes, or values whose repr is
+    stable): what a cached page's signature is built from."""
+    h = hashlib.blake2b(digest_size=DIGEST_BYTES)
+    for part in parts:
+        h.update(part if isinstance(part, bytes) else repr(part).encode())
+    return h.digest()
 
 
 def _power_of_two(value: int) -> bool:
@@ -251,6 +265,9 @@ class VirtualMap(TexelMapping, Technique):
             self.pool = self.own(gl.DepthTexture.create(pool_size, self.depth_bits))
             self.page_cache = PageCache()
             self.page_cache.reset(self.pool, self.pool_pages)
+        # Every render of this frame starts from the cache as the frame found it: repeated timed
+        # renders do the frame's work each time (without caching: every page, every render).
+        self.cache_at_frame_start = self.page_cache.state()
         self.table_tex = self.own(ctx.texture((self.pages0, self.table_shape[0]), 1, dtype="i4"))
         self.table_tex.filter = (ctx.NEAREST, ctx.NEAREST)
         self.mask_words = len(faces) * self.face_words
@@ -302,9 +319,9 @@ class VirtualMap(TexelMapping, Technique):
         # keeps the pages it still covers (UE5's clipmap page caching).
         layout = (self.virtual_resolution, self.page_size, self.depth_bits)
         if not self.clipmap:
-            self.level_keys = [hash((tuple(f.view_proj.tobytes() for f in faces), *layout))] * self.levels
-        self.caster_keys = np.array([hash(np.asarray(o.vertices).tobytes()) for o in frame.scene.objects
-                                     if o.casts], np.int64)
+            self.level_keys = [digest(*(f.view_proj.tobytes() for f in faces), *layout)] * self.levels
+        self.caster_keys = np.array([digest(np.asarray(o.vertices).tobytes()) for o in frame.scene.objects
+                                     if o.casts], f"S{DIGEST_BYTES}")
 
     def _clipmap_views(self, frame, slot):
         """fit=clipmap: the level-0 view, and per level its uv transform from level 0's uv, its
@@ -343,8 +360,8 @@ class VirtualMap(TexelMapping, Technique):
         lo = self.level_origin[0] * self.level_page_side[0]
         level0 = LightView(scene.view, self._ortho(scene.proj, lo, self.level_side[0]),
                            texel_world=float(self.level_side[0]) / self.virtual_resolution)
-        self.level_keys = [hash((scene.view.tobytes(), scene.proj[2].tobytes(), float(side), self.virtual_resolution,
-                                 self.page_size, self.depth_bits)) for side in self.level_side]
+        self.level_keys = [digest(scene.view.tobytes(), scene.proj[2].tobytes(), float(side), self.virtual_resolution,
+                                  self.page_size, self.depth_bits) for side in self.level_side]
         return [level0], notes
 
     @staticmethod
@@ -385,6 +402,7 @@ class VirtualMap(TexelMapping, Technique):
     def render(self) -> None:
         """Request, allocate, render the resident pages, look up."""
         frame, ctx = self.frame, self.frame.ctx
+        self.page_cache.restore(self.cache_at_frame_start)
         with self.timed_pass("request"):
             self.requests.clear()
             self.requests.bind_to_storage_buffer(BINDING_REQUESTS)
@@ -418,13 +436,18 @@ class VirtualMap(TexelMapping, Technique):
         face, word = np.divmod(requested, self.face_words)
         level = np.searchsorted(self.mask_offset, word, side="right") - 1
         order = np.lexsort((requested, -level))  # coarsest level first, then face and page order
+        coarsest = int(np.sum(level == level.max())) if len(level) else 0
+        if coarsest > self.pool_pages:  # some pixels would have no page at all: lit, silently
+            raise TechniqueError(f"{self.name}: pool_pages={self.pool_pages} cannot hold the {coarsest} pages of the "
+                                 f"coarsest level that every pixel falls back to; raise pool_pages")
         kept = order[:self.pool_pages]
         dropped = len(requested) - len(kept)
         face, level = face[kept], level[kept]
         y, x = np.divmod(word[kept] - self.mask_offset[level], self.level_pages[level])
         pages = np.stack([face, level, x, y], axis=1).astype(np.int64)
         visible = self._visible_casters(pages)
-        signatures = [hash((self.level_keys[m], tuple(np.flatnonzero(v)), self.caster_keys[v].tobytes()))
+        # a page's signature: its level's view, which casters are over it and their geometry
+        signatures = [(self.level_keys[m], np.flatnonzero(v).tobytes(), self.caster_keys[v].tobytes())
                       for m, v in zip(level, visible)]
         absolute = pages.copy()  # cache keys: page coordinates in light space (clipmaps shift by whole pages)
         absolute[:, 2:] += self.level_origin[level]

@@ -71,7 +71,7 @@ class SubpixelSamples:
     turned towards the camera; NaN points and zero normals where ``hit`` is False), ``hit`` bool
     (M, n) (the camera ray met a triangle with a valid point), ``object`` int32 (M, n) (its
     object, −1 on a miss), ``origins`` float32 (M, n, 3) the truth's offset shadow-ray origins
-    (:func:`shadowlab.tracing.offset_points` with :data:`DEFAULT_OFFSET_SCALE`), and
+    (:func:`shadowlab.tracing.offset_points`, by default with :data:`DEFAULT_OFFSET_SCALE`), and
     ``receives`` bool (M, n) (the sample's object receives shadows; False on a miss) and
     ``triangle`` int64 (M, n) (the frame's triangle index, as ``frame.triangle_id``; −1 on a
     miss)."""
@@ -133,17 +133,19 @@ def sample_directions(frame, offset: tuple[float, float]) -> np.ndarray:
     return dirs
 
 
-def subpixel_samples(frame, n: int) -> SubpixelSamples:
+def subpixel_samples(frame, n: int, offset_scale: float = DEFAULT_OFFSET_SCALE) -> SubpixelSamples:
     """The :class:`SubpixelSamples` of ``frame`` at ``n`` samples per pixel
-    (:func:`sample_pattern`), built once per (frame, n) and kept, weakly keyed by the frame."""
+    (:func:`sample_pattern`), their ray origins offset by ``offset_scale`` (the truth's rule),
+    built once per (frame, n, offset_scale) and kept, weakly keyed by the frame."""
     pattern = sample_pattern(n)  # checks n
     per_frame = _SAMPLES.setdefault(frame, {})
-    if n not in per_frame:
-        per_frame[n] = _build(frame, pattern)
-    return per_frame[n]
+    key = (n, float(offset_scale))
+    if key not in per_frame:
+        per_frame[key] = _build(frame, pattern, offset_scale)
+    return per_frame[key]
 
 
-def _build(frame, pattern: np.ndarray) -> SubpixelSamples:
+def _build(frame, pattern: np.ndarray, offset_scale: float = DEFAULT_OFFSET_SCALE) -> SubpixelSamples:
     """Trace and intersect the camera rays of every (covered pixel, offset of ``pattern``)."""
     m, n = len(frame.pixel_index), len(pattern)
     eye = np.asarray(frame.camera.eye, np.float64)
@@ -177,7 +179,7 @@ def _build(frame, pattern: np.ndarray) -> SubpixelSamples:
         hit[good, s] = True
         obj[good, s] = frame.triangle_object[tri]
         triangle[good, s] = tri
-        origins[good, s] = offset_points(p, nrm, extent, DEFAULT_OFFSET_SCALE)
+        origins[good, s] = offset_points(p, nrm, extent, offset_scale)
     receives = np.zeros((m, n), bool)
     receives[hit] = receives_by_object[obj[hit]]
     return SubpixelSamples(n, points, normals, hit, obj, origins, receives, triangle)

@@ -474,3 +474,7 @@ def test_objects_move_along_their_keyframes(tmp_path):
     data["animation"]["objects"][0]["object"] = "crat"
     with pytest.raises(SceneError, match=r"animation\.objects\[0\]\.object.*did you mean 'crate'"):
         parse_scene(data, "moving.toml")
+    data["animation"]["objects"][0]["object"] = "crate"
+    data["objects"].append({**data["objects"][1], "name": "crate"})  # two objects named crate
+    with pytest.raises(SceneError, match=r"animation\.objects\[0\]\.object.*2 objects are named 'crate'"):
+        parse_scene(data, "moving.toml")

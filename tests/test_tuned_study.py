@@ -123,3 +123,28 @@ def test_the_fair_suite_tunes_every_shadow_map_hard_case():
     hard = {s.name for s in suite.scenes}
     assert {"sm_grazing", "sm_contact", "sm_far_origin", "sm_thin", "sm_nonconvex", "sm_point_cube",
             "sm_aliasing"} <= hard
+
+
+@pytest.mark.slow  # a study: spawned worker processes
+def test_an_optimum_equal_to_the_spec_as_given_keeps_its_tuned_name(tmp_path):
+    """A one-render search keeps the start: the optimum is the spec as given, which the suite
+    runs anyway; its rows still appear under the tuned name, so the entry is on every scene."""
+    path = tmp_path / "suite.toml"
+    path.write_text(TUNED.split("[[tuned]]")[0] + '[[tuned]]\ntechnique = "filtered_map"\n'
+                    'params = ["min_variance"]\nbudget = 1\n')
+    outcome = run_study(path, out=tmp_path / "out", workers=1, log=lambda _: None)
+    res = outcome.results
+    for scene in ("sm_contact", "sm_grazing"):
+        tuned = res[(res["scene"] == scene) & (res["config"] == "filtered_map [tuned min_variance]")]
+        given = res[(res["scene"] == scene) & (res["config"] == "filtered_map")]
+        assert len(tuned) == len(given) == 1
+        assert tuned["label"].iloc[0] == given["label"].iloc[0]
+        assert tuned["error_rate"].iloc[0] == given["error_rate"].iloc[0]
+
+
+def test_two_tuned_tables_of_one_name_are_refused(tmp_path):
+    path = tmp_path / "dup.toml"
+    path.write_text(TUNED.split("[[tuned]]")[0] + '[[tuned]]\ntechnique = "shadow_map"\n'
+                    '[[tuned]]\ntechnique = "shadow_map"\nobjective = "false_lit_rate"\n')
+    with pytest.raises(SuiteError, match=r"tuned\[1\].*same configuration"):
+        load_suite(path)

@@ -349,9 +349,11 @@ def test_rendered_candidates_with_the_study_cache(lab, tmp_path):
 
 
 def test_a_small_budget_tries_every_dimension():
-    """Six evaluations over two dimensions: the first sweep must not spend them all on the first."""
+    """Seven evaluations over two dimensions, starting off the grid: the first sweep must not
+    spend them all on the first dimension (the old rule tried 5 values of a, then b once)."""
     dims = [Dimension("a", "float", 0.0, 1.0), Dimension("b", "float", 0.0, 1.0)]
-    history = coordinate_search(dims, {"a": 0.5, "b": 0.5}, lambda p: (p["a"] - 0.2) ** 2 + (p["b"] - 0.9) ** 2,
-                                budget=6)
-    assert len(history) == 6
-    assert len({t.params["b"] for t in history}) > 1
+    history = coordinate_search(dims, {"a": 0.3, "b": 0.3}, lambda p: (p["a"] - 0.2) ** 2 + (p["b"] - 0.9) ** 2,
+                                budget=7)
+    assert len(history) == 7
+    tried_b = {t.params["b"] for t in history} - {0.3}
+    assert len(tried_b) >= 2

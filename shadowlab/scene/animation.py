@@ -168,11 +168,17 @@ def _parse_object_key(table, i: int, file: str, names) -> ObjectKey:
     t = rd.number("t", min=0.0, max=1.0)
     translate = rd.vector("translate", 3)
     rd.finish()
-    if names is not None and name not in names:
+    if names is None:
+        raise rd.error("object", "object keyframes need the scene's objects to resolve names (parse_animation's "
+                                 "object_names)")
+    if name not in names:
         from ..validation import did_you_mean
 
         raise rd.error("object", f"no object named {name!r}{did_you_mean(name, names)}")
-    return ObjectKey(names.index(name) if names is not None else -1, t, translate)
+    if names.count(name) > 1:
+        raise rd.error("object", f"{names.count(name)} objects are named {name!r}: give the one that moves a name "
+                                 f"of its own")
+    return ObjectKey(names.index(name), t, translate)
 
 
 def parse_animation(table, file: str = "<scene>", lights=None, object_names=None) -> Animation:

@@ -279,8 +279,8 @@ def global_sentence(entry: dict) -> str:
     hi = min(v[1] for v in g["optima"].values())
     mids = {scene: (v[0] + v[1]) / 2 for scene, v in g["optima"].items()}
     low, high = min(mids, key=mids.get), max(mids, key=mids.get)
-    common = (f"one bias, {fmt_num((lo + hi) / 2, 3)}, lies in every scene's optimal interval"
-              if lo < hi else f"no single bias lies in every scene's optimal interval (the per-scene optima "
+    common = (f"one bias, {fmt_num((lo + hi) / 2, 3)}, lies in every scene's widest optimal interval"
+              if lo < hi else f"no single bias lies in every scene's widest optimal interval (the per-scene optima "
                               f"run from {fmt_num(mids[low], 3)} on {low} to {fmt_num(mids[high], 3)} on {high})")
     fixed = ", ".join(f"{k}={fmt_num(v, 3)}" for k, v in (g.get("held") or {}).items())
     question = f"One bias for every scene ({fixed} held, as the spec gives it)?" if fixed else "One bias for every scene?"

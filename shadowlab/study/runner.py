@@ -179,6 +179,7 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
               "repeat": suite.repeat, "warmup": suite.warmup, "study": suite.name, "size": list(suite.size),
               **provenance.record(gl_info=False)}
     results, problems = _assemble(suite, runs, cache, failed, timing_failed, out, record)
+    results = _tuned_rows_under_their_name(suite, tuned, results)
     elapsed = time.perf_counter() - t_start
     meta = {"name": suite.name, "description": suite.description, "size": list(suite.size), "repeat": suite.repeat,
             "warmup": suite.warmup, "device": device["device"], "renderer": renderer,
@@ -275,6 +276,23 @@ def _with_tuned(suite: Suite, tuned: list[_Tuned]) -> Suite:
         if spec not in configurations[j.scene.name]:
             configurations[j.scene.name].append(spec)
     return dataclasses.replace(suite, configurations=configurations, written=written)
+
+
+def _tuned_rows_under_their_name(suite: Suite, tuned: list, results: pd.DataFrame) -> pd.DataFrame:
+    """``results`` with, for each scene whose tuned optimum is a spec the suite runs anyway (no
+    gain over the spec as given, say), a copy of that spec's rows under the tuned entry's name:
+    a tuned entry then has rows on every scene it ran on, whatever spec each scene got."""
+    extra = []
+    for j in tuned or []:
+        r = j.result
+        if r is None or not r.get("ok", True) or "best" not in r.get("meta", {}):
+            continue
+        best = from_spec(r["meta"]["best"]).spec()
+        rows = results[(results["scene"] == j.scene.name) & (results["label"] == best)
+                       & (results["config"] != j.entry.name)]
+        if len(rows) and not ((results["scene"] == j.scene.name) & (results["config"] == j.entry.name)).any():
+            extra.append(rows.assign(config=j.entry.name))
+    return pd.concat([results, *extra], ignore_index=True) if extra else results
 
 
 def tuning_summary(suite: Suite, tuned: list, results: pd.DataFrame) -> list[dict]:

@@ -318,6 +318,12 @@ def parse_suite(data: dict, file: str = "<suite>", base: Path | None = None) -> 
               for i, t in enumerate(rd.table_list("sweeps", []))]
     tuned = [_tuned_entry(t, f"tuned[{i}]", file, {s.name for s in scenes}, written)
              for i, t in enumerate(rd.table_list("tuned", []))]
+    names: dict[str, int] = {}
+    for i, entry in enumerate(tuned):  # two entries of one name would pool their rows as one configuration
+        if entry.name in names:
+            raise SuiteError(f"{file}: tuned[{i}]: tunes the same configuration and parameters as "
+                             f"tuned[{names[entry.name]}] ({entry.name}); remove one")
+        names[entry.name] = i
     rd.finish()
     truth = RayTraced().spec()
     configurations = {}

@@ -215,7 +215,8 @@ class RayTraced(Technique):
             raise TechniqueError(f"{self.name}: pixel_samples={self.pixel_samples} is for hard lights only; "
                                  f"light {slot.index} is a {self.light.type_name} area light (use samples=..., "
                                  f"pixel_samples=1)")
-        self.subpixel = subpixel_samples(frame, self.pixel_samples) if self.pixel_samples > 1 else None
+        self.subpixel = (subpixel_samples(frame, self.pixel_samples, self.offset_scale) if self.pixel_samples > 1
+                         else None)
         self.sample_lit = None
         self.scene = caster_scene(frame) if frame.has_casters else None
         self.origins = offset_origins(frame, self.offset_scale)

@@ -7,7 +7,8 @@ a grid that is refined around the best value round after round:
 - round 0 tries ``points`` values across each dimension's whole range (geometric for ``log``
   dimensions, every choice for a choice dimension), dimension by dimension, starting from the
   spec's own values; with a budget too small for that, (budget − 1) / dimensions values each
-  (at least 3), so every dimension is tried;
+  (at least 3): every dimension is tried once the budget reaches 3 · dimensions + 1 renders
+  (below that the later dimensions may get none);
 - each later round tries ``points`` values across a window ``shrink`` times the previous one
   (never narrower than the previous spacing, so the window covers the gaps beside the best),
   centred on the best value; choice dimensions are tried again only when another dimension

@@ -4,9 +4,10 @@ tuned study's tasks share (DESIGN §15).
 
 Two routes, chosen from the spec and the parameters asked for:
 
-- **exact** (:mod:`shadowlab.tuning.exact_bias`): the shadow-map bias family — ``bias``, with at
-  most one of ``slope_scale`` (variant slope) or ``normal_offset`` (variant normal_offset) on a
-  stated grid — from one render: every constant bias at once;
+- **exact** (:mod:`shadowlab.tuning.exact_bias`): the shadow-map bias family — ``bias`` of the
+  constant, slope, normal_offset, receiver_plane and adaptive variants, with at most the
+  variant's one grid parameter (``slope_scale``, ``normal_offset`` or ``adaptive_epsilon``) on a
+  stated grid — from one render per grid value: every constant bias at once;
 - **search** (:mod:`shadowlab.tuning.search`): any other parameters, by coordinate search over
   rendered candidates on a budget of renders, reusing a study cache when given one.
 """

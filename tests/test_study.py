@@ -341,3 +341,116 @@ def test_cache_entries_round_trip_and_a_corrupt_entry_is_a_miss(tmp_path):
     cache.store_timing("t", {"columns": [{"time_ms_median": 1.5}]})
     assert cache.load_timing("t") == {"columns": [{"time_ms_median": 1.5}]}
     assert cache.load_timing("missing") is None
+
+
+# ----------------------------------------------------------------------------- scene bundles (Dask without a shared disk)
+
+def copy_scene_with_meshes(name: str, dest: Path) -> Path:
+    """A shipped scene copied into ``dest`` with the mesh files it names (same relative paths)."""
+    from shadowlab.scene import builtin_scenes
+    from shadowlab.study.cache import scene_mesh_files
+
+    src = builtin_scenes()[name]
+    dest.mkdir(parents=True, exist_ok=True)
+    shutil.copy(src, dest / src.name)
+    for ref, mesh in scene_mesh_files(src):
+        (dest / ref).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(mesh, dest / ref)
+    return dest / src.name
+
+
+def test_scene_bundle_round_trips_and_is_reused(tmp_path):
+    from shadowlab.study.bundle import materialize, scene_bundle
+    from shadowlab.study.cache import scene_content_hash
+
+    scene = copy_scene_with_meshes("rm_bunny", tmp_path / "src")
+    bundle = scene_bundle(scene)
+    assert bundle["hash"] == scene_content_hash(scene) and bundle["scene"] == "rm_bunny.toml"
+    assert set(bundle["files"]) == {"rm_bunny.toml", "meshes/bunny_closed.ply.gz"}
+    copy = materialize(bundle, tmp_path / "root")
+    assert copy == tmp_path / "root" / bundle["hash"] / "rm_bunny.toml"
+    assert scene_content_hash(copy) == bundle["hash"]
+    assert (copy.parent / "meshes" / "bunny_closed.ply.gz").read_bytes() == \
+        (scene.parent / "meshes" / "bunny_closed.ply.gz").read_bytes()
+    marker = copy.parent / "marker"
+    marker.write_text("kept")
+    assert materialize(bundle, tmp_path / "root") == copy and marker.is_file()  # reused, not rewritten
+    assert [p.name for p in (tmp_path / "root").iterdir()] == [bundle["hash"]]  # no temporary folder left
+
+
+def test_scene_bundle_lifts_its_base_for_meshes_above_the_scene(tmp_path):
+    from shadowlab.study.bundle import materialize, scene_bundle
+    from shadowlab.study.cache import scene_content_hash
+
+    scene = copy_scene_with_meshes("rm_bunny", tmp_path / "src" / "scenes")
+    shutil.move(tmp_path / "src" / "scenes" / "meshes", tmp_path / "src" / "meshes")
+    scene.write_text(scene.read_text().replace('"meshes/', '"../meshes/'))
+    bundle = scene_bundle(scene)
+    assert set(bundle["files"]) == {"scenes/rm_bunny.toml", "meshes/bunny_closed.ply.gz"}
+    copy = materialize(bundle, tmp_path / "root")
+    assert scene_content_hash(copy) == scene_content_hash(scene)
+
+
+def test_scene_bundle_refuses_paths_leaving_its_folder(tmp_path):
+    from shadowlab.study.bundle import materialize
+
+    for name in ("../evil.toml", "/tmp/evil.toml", "a/../../evil.toml", ""):
+        with pytest.raises(ValueError, match="leave the bundle"):
+            materialize({"hash": "ab12", "scene": name, "files": {name: b"x"}}, tmp_path / "root")
+    with pytest.raises(ValueError, match="hex digest"):
+        materialize({"hash": "../x", "scene": "a.toml", "files": {"a.toml": b"x"}}, tmp_path / "root")
+    assert not any((tmp_path / "root").glob("**/*evil*")) and not (tmp_path / "evil.toml").exists()
+
+
+def test_scene_bundle_refuses_an_absolute_mesh_path(tmp_path):
+    from shadowlab.study.bundle import scene_bundle
+
+    scene = copy_scene_with_meshes("rm_bunny", tmp_path / "src")
+    mesh = (scene.parent / "meshes" / "bunny_closed.ply.gz").resolve()
+    scene.write_text(scene.read_text().replace('"meshes/bunny_closed.ply.gz"', f'"{mesh.as_posix()}"'))
+    with pytest.raises(ValueError, match="absolute path"):
+        scene_bundle(scene)
+
+
+BUNDLED = """
+name = "bundled"
+size = [96, 72]
+repeat = 1
+warmup = 0
+scenes = ["rm_bunny.toml", "box_on_plane.toml"]
+techniques = ["shadow_map", "shadow_volume"]
+"""
+
+
+@pytest.mark.slow  # a Dask LocalCluster (spawned processes) and a local study
+def test_dask_workers_read_scenes_from_bundles_not_the_source_files(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    from shadowlab.study.cache import Cache
+
+    src = tmp_path / "src"
+    for name in ("rm_bunny", "box_on_plane"):
+        copy_scene_with_meshes(name, src)
+    path = write_suite(src, BUNDLED)
+    local = run_study(path, out=tmp_path / "local", workers=1, log=lambda _: None)
+    assert not local.failed
+    worker_dir, bundle_dir = tmp_path / "worker", tmp_path / "bundles"
+    worker_dir.mkdir()
+    with distributed.LocalCluster(n_workers=1, processes=True, threads_per_worker=1, dashboard_address=None,
+                                  local_directory=str(worker_dir),
+                                  env={"SHADOWLAB_BUNDLE_DIR": str(bundle_dir)}) as cluster, \
+            distributed.Client(cluster) as client:
+        on_dask = run_study(path, out=tmp_path / "dask", dask=client, log=lambda _: None)
+        seen = client.run(lambda: sorted(str(p) for p in __import__("pathlib").Path(
+            __import__("os").environ["SHADOWLAB_BUNDLE_DIR"]).glob("*/*.toml")))
+    assert not on_dask.failed
+    pd.testing.assert_frame_equal(metrics_of(on_dask.results), metrics_of(local.results))
+    # the worker wrote one bundle per scene, and every task read its scene from there
+    (files,) = seen.values()
+    assert sorted(Path(f).name for f in files) == ["box_on_plane.toml", "rm_bunny.toml"]
+    assert all(Path(f).parent.parent == bundle_dir for f in files)
+    cache = Cache(on_dask.out / "cache")
+    entries = list((cache.root / "acc").glob("*.npz"))
+    assert len(entries) == 2 * 3  # per scene: the truth and two configurations
+    for entry in entries:
+        loaded = Path(cache.load_result(entry.stem)["meta"]["scene_file"])
+        assert loaded.parent.parent == bundle_dir and src not in loaded.parents

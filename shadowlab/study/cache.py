@@ -30,21 +30,33 @@ from ..scene import PRIMITIVES
 CACHE_FORMAT = 1
 
 
+def scene_mesh_files(path: Path) -> list[tuple[str, Path]]:
+    """The mesh files a scene file names: ``(reference as written in the file, resolved path)``
+    per object mesh that is not a primitive, in file order. The one list of a scene's files that
+    both its content hash and its Dask bundle (:mod:`shadowlab.study.bundle`) use, so a bundle
+    always holds exactly what the hash covers. A file that is not valid TOML names none (loading
+    it fails on its own)."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError):
+        return []
+    files = []
+    for obj in data.get("objects", []) if isinstance(data.get("objects"), list) else []:
+        ref = obj.get("mesh") if isinstance(obj, dict) else None
+        if isinstance(ref, str) and ref not in PRIMITIVES:
+            files.append((ref, (path.parent / ref).resolve()))
+    return files
+
+
 def scene_content_hash(path: Path) -> str:
     """SHA-256 of a scene file and of every mesh file it references (relative to it); a mesh
     that is missing contributes its path, so the run fails again rather than hitting a cache."""
     path = Path(path)
     digest = hashlib.sha256(path.read_bytes())
-    try:
-        data = tomllib.loads(path.read_text())
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError):
-        return digest.hexdigest()
-    for obj in data.get("objects", []) if isinstance(data.get("objects"), list) else []:
-        ref = obj.get("mesh") if isinstance(obj, dict) else None
-        if isinstance(ref, str) and ref not in PRIMITIVES:
-            mesh = (path.parent / ref).resolve()
-            digest.update(ref.encode())
-            digest.update(mesh.read_bytes() if mesh.is_file() else b"<missing>")
+    for ref, mesh in scene_mesh_files(path):
+        digest.update(ref.encode())
+        digest.update(mesh.read_bytes() if mesh.is_file() else b"<missing>")
     return digest.hexdigest()
 
 

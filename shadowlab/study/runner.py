@@ -33,6 +33,7 @@ from ..output.rundir import safe_name
 from ..validation import RunError
 from ..techniques import from_spec
 from . import rundir
+from .bundle import scene_bundle
 from .cache import Cache, run_key, scene_content_hash
 from .executors import DaskExecutor, LocalExecutor, cores
 from ..scene import scene_purpose
@@ -114,12 +115,16 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
     revision = provenance.code_fingerprint()
 
     executor = DaskExecutor(dask) if dask is not None else None
+    bundles = SceneBundles() if dask is not None else None  # Dask workers may share no disk
     try:
+        for scene in suite.scenes if bundles is not None else []:
+            bundles.of(scene.path)  # up front: a scene that cannot be bundled stops the study before it runs
         device = _probe(executor)
         renderer = device["renderer"]
         tuned = []
         if suite.tuned:  # each [[tuned]] entry's per-scene optimum joins the scene's configurations
-            tuned = _tuning_phase(executor, suite, cache, revision, device["device"], force, workers, log)
+            tuned = _tuning_phase(executor, suite, cache, revision, device["device"], force, workers, log,
+                                  bundles)
             suite = _with_tuned(suite, tuned)
         runs = _plan(suite, revision, device["device"])
         todo_truth = [r for r in runs if r.reference and (force or not cache.has_result(r.acc_key))]
@@ -149,7 +154,8 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
             t0 = time.perf_counter()
             if todo_truth or todo_config:
                 log(f"accuracy phase on {executor_acc.description}")
-                _accuracy_phase(executor_acc, suite, todo_truth, todo_config, known_truths, cache, failed, progress)
+                _accuracy_phase(executor_acc, suite, todo_truth, todo_config, known_truths, cache, failed, progress,
+                                bundles)
                 if executor_acc is not executor:
                     executor_acc.close()
             phases["accuracy_s"] = time.perf_counter() - t0
@@ -163,7 +169,7 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
                 executor_time = executor or restart()
                 log(f"timing phase, one task at a time, on {executor_time.description}")
                 executor_time = _timing_phase(executor_time, suite, todo_time, cache, timing_failed, progress,
-                                              restart)
+                                              restart, bundles)
                 if executor_time is not executor:
                     executor_time.close()
             phases["timing_s"] = time.perf_counter() - t0
@@ -210,9 +216,10 @@ class _Tuned:
 
 
 def _tuning_phase(executor, suite: Suite, cache: Cache, revision: str, device: str, force: bool, workers: int,
-                  log) -> list[_Tuned]:
+                  log, bundles: SceneBundles | None = None) -> list[_Tuned]:
     """Run (or take from the cache) every ``[[tuned]]`` entry on each of its scenes, in parallel:
-    before the accuracy phase, which then runs the tuned configurations like any other."""
+    before the accuracy phase, which then runs the tuned configurations like any other
+    (``bundles``: on Dask, the scenes' bundles the tasks carry)."""
     from .tasks import run_task
 
     jobs = []
@@ -236,6 +243,8 @@ def _tuning_phase(executor, suite: Suite, cache: Cache, revision: str, device: s
             task = {"kind": "tune", "scene_path": str(j.scene.path), "scene_hash": j.scene_hash,
                     "size": list(suite.size), "spec": j.entry.spec, "params": list(j.entry.params),
                     "objective": j.entry.objective, "budget": j.entry.budget, "truth_spec": suite.truth}
+            if bundles is not None:
+                task["scene_bundle"] = bundles.of(j.scene.path)
             pending[ex.submit(run_task, task)] = j
         while pending:
             for fut in ex.wait_first(pending.keys()):
@@ -384,9 +393,32 @@ def _plan(suite: Suite, revision: str, device: str) -> list[_Run]:
     return runs
 
 
-def _task(run: _Run, suite: Suite, kind: str, **extra) -> dict:
-    return {"kind": kind, "scene_path": str(run.scene.path), "scene_hash": run.scene_hash,
+def _task(run: _Run, suite: Suite, kind: str, bundles: SceneBundles | None = None, **extra) -> dict:
+    """A run's task dict; with ``bundles`` (on Dask) it also carries its scene's bundle."""
+    task = {"kind": kind, "scene_path": str(run.scene.path), "scene_hash": run.scene_hash,
             "size": list(suite.size), "spec": run.spec, **extra}
+    if bundles is not None:
+        task["scene_bundle"] = bundles.of(run.scene.path)
+    return task
+
+
+class SceneBundles:
+    """Each scene's bundle (:func:`shadowlab.study.bundle.scene_bundle`), built once per study and
+    attached to every task of the scene sent to Dask workers, which may share no disk with this
+    machine. A scene that cannot be bundled (an absolute mesh path) is a RunError."""
+
+    def __init__(self):
+        self._made: dict[str, dict] = {}
+
+    def of(self, path) -> dict:
+        """The bundle of the scene file at ``path``."""
+        key = str(path)
+        if key not in self._made:
+            try:
+                self._made[key] = scene_bundle(path)
+            except ValueError as exc:
+                raise RunError(str(exc)) from exc
+        return self._made[key]
 
 
 def _lost(exc: BaseException) -> dict:
@@ -402,9 +434,9 @@ def _truth_arrays(result: dict) -> list[np.ndarray]:
 
 
 def _accuracy_phase(executor, suite, todo_truth, todo_config, known_truths: dict, cache: Cache, failed: dict,
-                    progress) -> None:
+                    progress, bundles: SceneBundles | None = None) -> None:
     """Truths first; each scene's configurations as soon as its truth is known (``known_truths``:
-    scene → a cached truth result)."""
+    scene → a cached truth result; ``bundles``: on Dask, the scenes' bundles the tasks carry)."""
     from .tasks import run_task
 
     waiting: dict[str, list[_Run]] = {}
@@ -423,11 +455,11 @@ def _accuracy_phase(executor, suite, todo_truth, todo_config, known_truths: dict
         arrays = _truth_arrays(truth_result)
         stderr = [float(row.get("truth_stderr_max", 0.0)) for row in truth_result["meta"]["rows"]]
         for r in waiting.pop(scene_name, []):
-            submit(r, _task(r, suite, "config", truth=arrays, truth_stderr=stderr))
+            submit(r, _task(r, suite, "config", bundles, truth=arrays, truth_stderr=stderr))
 
     try:
         for r in todo_truth:
-            submit(r, _task(r, suite, "truth"))
+            submit(r, _task(r, suite, "truth", bundles))
         for scene_name, truth_result in known_truths.items():
             submit_configs(scene_name, truth_result)
         while pending:
@@ -454,16 +486,17 @@ def _accuracy_phase(executor, suite, todo_truth, todo_config, known_truths: dict
         raise
 
 
-def _timing_phase(executor, suite, todo_time, cache: Cache, timing_failed: dict, progress, restart=None):
+def _timing_phase(executor, suite, todo_time, cache: Cache, timing_failed: dict, progress, restart=None,
+                  bundles: SceneBundles | None = None):
     """Each timing task alone: submitted only when the previous one has returned. ``restart``:
     makes a fresh local executor after a worker was lost (None on Dask, which replaces its own);
-    returns the executor in use at the end."""
+    ``bundles``: on Dask, the scenes' bundles the tasks carry; returns the executor in use at the end."""
     from .tasks import run_task
 
     try:
         for r in sorted(todo_time, key=lambda r: (r.scene.name, not r.reference)):
             try:
-                result = executor.submit(run_task, _task(r, suite, "timing", repeat=suite.repeat, warmup=suite.warmup,
+                result = executor.submit(run_task, _task(r, suite, "timing", bundles, repeat=suite.repeat, warmup=suite.warmup,
                                                          pass_timing=suite.pass_timing)).result()
             except Exception as exc:  # noqa: BLE001 - run_task never raises: the worker died
                 result = _lost(exc)

@@ -8,6 +8,10 @@ and reuses it, with the frames (G-buffers) of the scenes it last worked on. GL c
 to a thread, and a Dask worker may run tasks on several threads, so every task runs on one
 dedicated GL thread of the process.
 
+A task names its scene by ``scene_path`` and, on Dask, also carries it as bytes
+(``scene_bundle``, :mod:`shadowlab.study.bundle`), so workers need no copy of the scene files;
+each result's meta records the ``scene_file`` the worker read.
+
 Results: ``{"ok": bool, "error": str, "seconds": float, "meta": dict, "arrays": {name: ndarray},
 "files": {name: PNG bytes}}`` (the layout :class:`shadowlab.study.cache.Cache` stores).
 """
@@ -19,6 +23,7 @@ import time
 import traceback
 from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import numpy as np
 
@@ -64,6 +69,7 @@ def _run_here(task: dict) -> dict:
     t0 = time.perf_counter()
     try:
         result = {"truth": _truth, "config": _config, "timing": _timing, "tune": _tune}[task["kind"]](task)
+        result["meta"]["scene_file"] = str(scene_file(task))  # where this worker read the scene
         result.update(ok=True, error="")
     except Exception as exc:  # noqa: BLE001 - recorded as the run's error, the study goes on
         where = traceback.extract_tb(exc.__traceback__)[-1]
@@ -73,6 +79,17 @@ def _run_here(task: dict) -> dict:
     result["seconds"] = time.perf_counter() - t0
     result["pid"] = os.getpid()
     return result
+
+
+def scene_file(task: dict) -> Path:
+    """The scene file a task renders: its bundle's copy on this worker when the task carries one
+    (``scene_bundle``, on Dask: written under :func:`shadowlab.study.bundle.bundle_root` on first
+    use), else ``scene_path`` itself (local workers share the planner's disk)."""
+    from .bundle import materialize
+
+    if task.get("scene_bundle") is not None:
+        return materialize(task["scene_bundle"])
+    return Path(task["scene_path"])
 
 
 def _frame(task: dict):
@@ -89,9 +106,10 @@ def _frame(task: dict):
     while len(_frames) >= FRAMES_KEPT:
         _, old = _frames.popitem(last=False)
         old.release()
-    scene = load_scene(task["scene_path"])
+    path = scene_file(task)
+    scene = load_scene(path)
     # the run is cached under the hash the study planned with: the files must still be those
-    if scene_content_hash(task["scene_path"]) != task["scene_hash"]:
+    if scene_content_hash(path) != task["scene_hash"]:
         raise RuntimeError(f"{task['scene_path']} (or a mesh it names) changed after the study was planned; "
                            f"run the study again")
     frame = Frame(scene, *task["size"])

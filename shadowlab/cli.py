@@ -188,6 +188,22 @@ def _parser() -> argparse.ArgumentParser:
                     "results/study-quick/cache) to reuse its renders and keep this search's")
     tu.add_argument("--repeat", type=int, default=3, help="timed runs per rendered candidate (default 3)")
     tu.add_argument("--warmup", type=int, default=1, help="untimed warm-up runs (default 1)")
+    co = sub.add_parser("cost", help="fit a device's cost model from a study's work counters and times, or "
+                        "predict a study's times on a modelled device")
+    cosub = co.add_subparsers(dest="cost_command", required=True)
+    cf = cosub.add_parser("fit", help="fit time ≈ Σ c_k·work_k (non-negative) from a study's rows")
+    cf.add_argument("study_dir", help="a study directory (or a results CSV) with work_ and time columns")
+    cf.add_argument("--out", default=None, help="model file (default STUDY_DIR/cost_model.json)")
+    cf.add_argument("--target", default="time_ms_median",
+                    help="the time column to fit (default time_ms_median; gpu_time_ms_median on a GPU)")
+    cf.add_argument("--counters", default=None, metavar="A,B,...",
+                    help="the counters to fit (default: the exact ones and the declared taps and bytes)")
+    cf.add_argument("--per-pass", action="store_true", help="fit pass_<name>_ms against each pass's counters "
+                    "(the study needs pass_timing = true)")
+    cf.add_argument("--device", default=None, help="the device's name (default: the study's)")
+    cp = cosub.add_parser("predict", help="predicted time of every row of a study on a model's device")
+    cp.add_argument("study_dir", help="a study directory (or a results CSV) with work_ columns")
+    cp.add_argument("model", help="a model file written by 'cost fit'")
     ch = sub.add_parser("check", help="compare a study's artefact metrics with a baseline; exit 1 on regressions")
     ch.add_argument("study_dir", help="a study directory (holds results.csv)")
     ch.add_argument("baseline", help="baseline CSV (scene, light, config, label, held metrics)")
@@ -347,6 +363,28 @@ def _cmd_animate(args) -> int:
     return 0
 
 
+def _cmd_cost(args) -> int:
+    from .commands import cost as cost_cmd
+    from .cost import PREDICTED_LABEL, summary_line
+
+    if args.cost_command == "fit":
+        counters = [c.strip() for c in args.counters.split(",") if c.strip()] if args.counters else None
+        model, path = cost_cmd.fit_command(args.study_dir, args.out, args.target, counters, args.per_pass, args.device)
+        print(summary_line(model))
+        print(model.table().to_string(index=False, float_format=lambda v: f"{v:.4g}"))
+        print(f"model: {path.resolve()}")
+        print(f"plot:  {path.with_name('cost_fit.png').resolve()}")
+        return 0
+    table, path, model = cost_cmd.predict_command(args.study_dir, args.model)
+    print(f"{PREDICTED_LABEL} {model.target} on {model.device} (a prediction: the model's leave-one-scene-out "
+          f"median error is {cost_cmd._pct(model.cv_median_rel_error)})")
+    key = "label" if "label" in table.columns else "scene"
+    summary = table.groupby(key, sort=False)[["measured_ms", f"{PREDICTED_LABEL}_ms"]].median()
+    print(summary.to_string(float_format=lambda v: f"{v:.3g}"))
+    print(f"predictions: {path.resolve()}")
+    return 0
+
+
 def _cmd_tune(args) -> int:
     import json
 
@@ -398,6 +436,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_animate(args)
         if args.command == "tune":
             return _cmd_tune(args)
+        if args.command == "cost":
+            return _cmd_cost(args)
         return _cmd_compare(args)
     except (SceneError, TechniqueError, RunError, SuiteError, TuneError) as exc:
         print(f"shadowlab: error: {exc}", file=sys.stderr)

@@ -28,7 +28,7 @@ from typing import Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from . import gl, light_sampling, memory, metrics, texel_footprint, timing
+from . import gl, light_sampling, memory, metrics, texel_footprint, timing, work
 from .frame import Frame, LightSlot
 from .occluder_layers import occluder_layers
 from .scene import load_scene
@@ -61,6 +61,9 @@ class Measurement:
     #: Texel footprint m per pixel, float32 (height, width), row 0 = top, NaN where not evaluated
     #: (:func:`shadowlab.texel_footprint.footprint_image`); None for techniques without a map.
     footprint: np.ndarray | None = None
+    #: The work of one render, {pass: {counter: value}} (:mod:`shadowlab.work`): measured by the
+    #: counting render plus what the technique declares (:meth:`Technique.work`).
+    work: dict = field(default_factory=dict)
 
 
 #: How the pipeline's own columns combine over light samples: the texel footprint is the first
@@ -155,16 +158,18 @@ def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int 
     notes = list(dict.fromkeys(tech.notes[before:]))
     tech.notes[before:] = notes
     pass_times: dict = {}
+    per_pass_work: dict = {}
     for m in ms:
         for k, v in m.pass_times.items():
             pass_times[k] = pass_times.get(k, 0.0) + v
+        per_pass_work = work.merge(per_pass_work, m.work)  # the frame's N renders' work
     stats = {**light_sampling.combined_stats([m.stats for m in ms], {**tech.STATS, **PIPELINE_STATS}, tech.name),
              "light_samples": n}
     return dataclasses.replace(ms[0], visibility=average.result(),
                                timing=light_sampling.combined_timing([m.timing for m in ms]),
                                stats=stats, notes=notes, pass_times=pass_times,
                                setup_ms=float(sum(m.setup_ms for m in ms)),
-                               peak_rss_bytes=max(m.peak_rss_bytes for m in ms))
+                               peak_rss_bytes=max(m.peak_rss_bytes for m in ms), work=per_pass_work)
 
 
 def _measure_hard(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 5, warmup: int = 1,
@@ -193,11 +198,13 @@ def _measure_hard(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 
             finally:
                 tech.pass_timer = None
             pass_times = timer.columns()
+        counted = count_work(tech)
         vis = tech.visibility()
         stats = tech.stats()
         undeclared = [k for k in stats if k not in tech.STATS]
         if undeclared:
             raise TypeError(f"{tech.name}: stats {undeclared} are not declared in {type(tech).__name__}.STATS")
+        counted = work.merge(counted, tech.work(counted, stats))
         m_image = None
         if footprint and texel_footprint.has_texel_mapping(tech):
             m_image = texel_footprint.footprint_image(frame, slot, tech)
@@ -210,7 +217,24 @@ def _measure_hard(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 
     if release:
         tech.release()
     return Measurement(tech, slot.index, vis, t, stats, list(dict.fromkeys(tech.notes[before:])), pass_times,
-                       setup_ms, peak, m_image)
+                       setup_ms, peak, m_image, counted)
+
+
+def count_work(tech: Technique) -> dict:
+    """The work of one more render of ``tech`` (set up), per pass (:class:`shadowlab.work.WorkCounter`):
+    draws, samples, bytes and invocations as the GL was asked for them. A CPU technique
+    (``tech.cpu``) is not rendered again: its work is what it declares (:meth:`Technique.work`)."""
+    if tech.cpu:
+        return {}
+    counter = work.WorkCounter()
+    tech.work_counter = counter
+    try:
+        with counter.counting():
+            tech.render()
+        tech.frame.ctx.finish()
+    finally:
+        tech.work_counter = None
+    return counter.passes()
 
 
 class Evaluator:
@@ -291,6 +315,7 @@ class Evaluator:
         row.update(m.pass_times)
         row.update({f"param_{k}": v for k, v in tech.params().items()})
         row.update(m.stats)
+        row.update(work.columns(m.work))
         return row
 
 

@@ -42,7 +42,8 @@ def write_suite(tmp_path: Path, text: str = SMALL, name: str = "suite.toml") -> 
 
 def metrics_of(results: pd.DataFrame) -> pd.DataFrame:
     ok = results[results["status"] == "ok"].sort_values(["scene", "label", "light"])
-    return ok[["scene", "label", "light"] + [c for c in EXACT if c in ok.columns]].reset_index(drop=True)
+    work = sorted(c for c in ok.columns if c.startswith("work_"))  # the work counters (shadowlab.work)
+    return ok[["scene", "label", "light"] + [c for c in EXACT if c in ok.columns] + work].reset_index(drop=True)
 
 
 # ----------------------------------------------------------------------------- suites

@@ -439,7 +439,26 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
         pareto=_rel(study_dir, pareto_png) or quote(Path(pareto_png).as_posix()),
         summary=_summary_rows(results),
         failed=[[as_text(r["scene"]), as_text(r["label"]), as_text(r["error"])] for _, r in fails.iterrows()],
-        scenes=sections, error_colors=error_legend(), tuned=tuned_tables(meta))
+        scenes=sections, error_colors=error_legend(), tuned=tuned_tables(meta),
+        predictions=prediction_tables(meta))
+
+
+def prediction_tables(meta: dict) -> list[dict]:
+    """The study page's tables of predicted times (``shadowlab cost predict`` records them in
+    study.json's ``cost_predictions``): per modelled device, what the model is worth in words and
+    per configuration the median time measured here beside the median predicted there."""
+    out = []
+    for entry in meta.get("cost_predictions") or []:
+        cv = entry.get("cv_median_rel_error")
+        cv_text = ("not cross-validated (one scene)" if cv is None or (isinstance(cv, float) and cv != cv)
+                   else f"leave-one-scene-out median error {100 * float(cv):.0f} %")
+        what = (f"a cost model fitted on {entry.get('model_rows')} rows of {entry.get('model_scenes')} scenes "
+                f"(R² {float(entry.get('r2', float('nan'))):.3f}; {cv_text}) turns this study's work counters "
+                f"into {entry.get('target')} on that device. Rows: {entry.get('csv')}.")
+        rows = [[as_text(r.get("technique")), as_text(r.get("label")), fmt_ms_short(r.get("measured_ms")),
+                 fmt_ms_short(r.get("predicted_ms"))] for r in entry.get("rows", [])]
+        out.append({"device": as_text(entry.get("device")), "what": what, "rows": rows})
+    return out
 
 
 def write_study_report(study_dir, results: pd.DataFrame, meta: dict) -> dict:

@@ -225,6 +225,8 @@ class Technique:
     PASSES: tuple[str, ...] = ()
     #: Set by the pipeline while it times passes (a :class:`shadowlab.timing.PassTimer`).
     pass_timer = None
+    #: Set by the pipeline during its counting render (a :class:`shadowlab.work.WorkCounter`).
+    work_counter = None
 
     def __init_subclass__(cls, **kwargs):
         """Merge the shared ``light_samples`` parameter into an opted-in class's ``PARAMS`` (last,
@@ -343,10 +345,30 @@ class Technique:
 
     def timed_pass(self, name: str, cpu: bool = False):
         """Context manager around one pass of :meth:`render` (``name`` from :attr:`PASSES`;
-        ``cpu`` for work on the CPU): timed only while the pipeline asks for per-pass times."""
+        ``cpu`` for work on the CPU): timed only while the pipeline asks for per-pass times, and
+        its work booked to ``name`` during the pipeline's counting render (:mod:`shadowlab.work`)."""
+        if self.work_counter is not None:
+            return self.work_counter.measure(name, cpu)
         if self.pass_timer is None:
             return contextlib.nullcontext()
         return self.pass_timer.measure(name, cpu)
+
+    @staticmethod
+    def taps_work(counted: dict, taps_per_fragment: dict[str, float]) -> dict:
+        """Texture taps of the passes in ``taps_per_fragment`` ({pass: texels its shader reads
+        per fragment or compute invocation}, G-buffer reads included): the samples each pass
+        passed plus its compute invocations (``counted``) times that number — the model
+        :meth:`work` implementations declare ``texture_taps`` with."""
+        return {p: {"texture_taps": (counted[p].get("samples_passed", 0) + counted[p].get("compute_invocations", 0))
+                    * float(n)} for p, n in taps_per_fragment.items() if p in counted}
+
+    def work(self, counted: dict, stats: dict) -> dict:
+        """The work only the technique knows, per pass, for one render: {pass: {counter: value}}
+        with counters of :data:`shadowlab.work.COUNTERS` whose source is "technique" (rays,
+        CPU triangles, texture taps, stencil updates). ``counted`` is what the counting render
+        measured per pass (empty for a CPU technique, which the pipeline does not render again),
+        ``stats`` what :meth:`stats` reported. Added to ``counted`` by the pipeline."""
+        return {}
 
     def stats(self) -> dict:
         """Cost figures beside time (memory, passes ...), as extra metrics.csv columns; every

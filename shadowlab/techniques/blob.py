@@ -270,6 +270,10 @@ class BlobShadow(Technique):
         vis[self.evaluated] = (1.0 - self.darkening).astype(np.float32)
         return self.frame.to_image(vis, fill=1.0)
 
+    def work(self, counted: dict, stats: dict) -> dict:
+        """Points tested against each blob's plane on the CPU (evaluated points × blobs)."""
+        return {"blob": {"cpu_points": len(self.points) * len(self.blobs)}}
+
     def stats(self) -> dict:
         """Blobs drawn (casters with a receiver below), passes per frame, preprocessing time."""
         return {"blobs": len(self.blobs), "passes": 1, "preprocess_ms": self.preprocess_ms}

@@ -367,6 +367,11 @@ class FilteredShadowMap(TexelMapping, Technique):
             self.moments[0].use(1)
             self.quad.render()
 
+    def work(self, counted: dict, stats: dict) -> dict:
+        """Texture taps: each blur direction reads ``kernel`` texels per fragment; the lookup the
+        G-buffer's position and one bilinear fetch (four texels)."""
+        return self.taps_work(counted, {"blur": self.kernel, "lookup": 1 + 4})
+
     def stats(self) -> dict:
         """Cost: memory (the moments atlas, its blur copy, the depth buffer), bits per texel of
         the map, passes per frame."""

@@ -303,7 +303,7 @@ class IrregularZBuffer(Technique):
                 self.test_prog["u_pairs"].value = pairs
                 dispatch(self.test_prog, pairs)
                 ctx.memory_barrier()
-        self.counts = dict(zip(COUNTERS, np.frombuffer(b["counters"].read(), np.uint32).tolist()))
+            self.counts = dict(zip(COUNTERS, np.frombuffer(b["counters"].read(), np.uint32).tolist()))
 
     # -- results -------------------------------------------------------------------
     def sample_blocked(self) -> np.ndarray:
@@ -324,6 +324,10 @@ class IrregularZBuffer(Technique):
             vis = self.subpixel.coverage(evaluated & ~blocked, evaluated)
         vis = np.where(self.evaluated, vis, 1.0).astype(np.float32)
         return self.frame.to_image(vis, fill=1.0)
+
+    def work(self, counted: dict, stats: dict) -> dict:
+        """Rays inserted into the light-space lists (one per evaluated sample)."""
+        return {"insert": {"rays": stats["izb_rays"]}}
 
     def stats(self) -> dict:
         """Work counters (rays, (triangle, texel) pairs, triangle–segment tests, hits,

@@ -42,6 +42,8 @@ SHADOWABLE_OFFSET = 1e-5
 #: The window depth :func:`depth_pass` clears the map to: a texel still holding it saw no caster
 #: between the light and the far plane (PCSS tells such empty texels from blockers by it).
 CLEAR_DEPTH = 1.0
+#: G-buffer texels a lookup reads per fragment (position and normal), for its texture taps.
+GBUFFER_TAPS = 2
 #: PCF kernel radius (texels) of each lookup filter; None: hardware bilinear comparison.
 FILTERS = {"nearest": 0, "pcf3": 1, "pcf5": 2, "hw2x2": None}
 
@@ -425,6 +427,14 @@ class DepthMapTechnique(TexelMapping, Technique):
             quad.render()
             out[k] = gl.read_texture(tex, 4)
         return out
+
+    def work(self, counted: dict, stats: dict) -> dict:
+        """Texture taps: the lookup reads the G-buffer's position and normal, then (2r+1)² map
+        texels per fragment for ``pcfN`` (r = the kernel radius), one for ``nearest``, four for
+        the hardware 2x2 comparison; the two-layer resolve reads one texel of each layer."""
+        radius = FILTERS[self.filter]
+        per = 4 if radius is None else (2 * radius + 1) ** 2
+        return self.taps_work(counted, {"lookup": GBUFFER_TAPS + per, "resolve": 2})
 
     def stats(self) -> dict:
         """Map memory (every layer), faces, passes per frame, the first face's depth range and

@@ -232,6 +232,12 @@ class PCSS(TexelMapping, Technique):
         with self.timed_pass("lookup"):
             lookup_pass(self.frame, self.vis_fbo, self.quad, self.map.texture)
 
+    def work(self, counted: dict, stats: dict) -> dict:
+        """Texture taps per lookup fragment: the G-buffer's position and normal, the blocker
+        search's taps (when on) and the PCF's."""
+        per = 2 + (self.blocker_samples if self.blocker_search else 0) + self.filter_samples
+        return self.taps_work(counted, {"lookup": per})
+
     def stats(self) -> dict:
         """Map memory, passes per frame, the map's depth range and the light size used."""
         return {"memory_bytes": self.map.nbytes, "faces": 1, "passes": 2,

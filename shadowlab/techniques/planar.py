@@ -140,9 +140,10 @@ class PlanarShadow(Technique):
         from OpenGL import GL
 
         frame = self.frame
-        self.target.use()
-        glstate.apply(PassState(depth_write=False))
-        GL.glClearBufferfv(GL.GL_COLOR, 0, (1.0, 0.0, 0.0, 0.0))
+        with self.timed_pass("darken"):  # visibility starts lit; the darken passes multiply it
+            self.target.use()
+            glstate.apply(PassState(depth_write=False))
+            GL.glClearBufferfv(GL.GL_COLOR, 0, (1.0, 0.0, 0.0, 0.0))
         casters = [i for i, o in enumerate(frame.scene.objects) if o.casts]
         for rec in self.receivers:
             ref = 1 if self.clip else 0

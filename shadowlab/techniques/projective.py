@@ -195,9 +195,10 @@ class ProjectiveShadow(Technique):
         from OpenGL import GL
 
         frame, ctx = self.frame, self.frame.ctx
-        self.vis_fbo.use()
-        glstate.apply(PassState())
-        GL.glClearBufferfv(GL.GL_COLOR, 0, (LIT, LIT, LIT, LIT))
+        with self.timed_pass("lookup"):  # visibility starts lit; each lookup multiplies it
+            self.vis_fbo.use()
+            glstate.apply(PassState())
+            GL.glClearBufferfv(GL.GL_COLOR, 0, (LIT, LIT, LIT, LIT))
         vao = frame.vertex_array(self.mask_prog)
         for (index, view, bounds), (tex, fbo) in zip(self.casters, self.masks):
             with self.timed_pass("mask"):
@@ -220,6 +221,11 @@ class ProjectiveShadow(Technique):
                 gl.set_uniforms(self.lookup_prog, {"u_caster": index, "u_box_min": tuple(map(float, bounds[0])),
                                                    "u_box_max": tuple(map(float, bounds[1]))})
                 self.quad.render()
+
+    def work(self, counted: dict, stats: dict) -> dict:
+        """Texture taps per lookup fragment: the G-buffer's position and ids, the receiver
+        flags and the caster's shadow image."""
+        return self.taps_work(counted, {"lookup": 4})
 
     def stats(self) -> dict:
         """Cost: memory of every shadow image (R8, ``resolution``² each) and the receiver flags,

@@ -273,6 +273,10 @@ class RayTraced(Technique):
         lit[np.flatnonzero(self.evaluated)[self.blocked]] = False
         return lit[:, None]
 
+    def work(self, counted: dict, stats: dict) -> dict:
+        """Shadow rays traced by Embree per render."""
+        return {"trace": {"rays": stats["rays"]}}
+
     def stats(self) -> dict:
         """Shadow rays traced per render, samples per pixel (1 for hard lights) and the bound
         on the per-pixel standard error of the truth (0.5/√samples for area lights, 0 for hard

@@ -325,10 +325,11 @@ class ShadowVolume(Technique):
 
         with self.timed_pass("silhouette", cpu=True):
             self._geometry = self.cpu_volume_geometry()
-        self.target.use()
-        glstate.apply(self._volume_state(zfail=True))  # stencil writes on, for the clear
-        GL.glClearStencil(0)
-        GL.glClear(GL.GL_STENCIL_BUFFER_BIT)
+        with self.timed_pass("volume"):  # the stencil clear is the volume pass's first step
+            self.target.use()
+            glstate.apply(self._volume_state(zfail=True))  # stencil writes on, for the clear
+            GL.glClearStencil(0)
+            GL.glClear(GL.GL_STENCIL_BUFFER_BIT)
         for zfail, geometry in self._geometry.items():
             glstate.apply(self._volume_state(zfail))
             self._draw_volumes(zfail, *geometry)
@@ -338,6 +339,14 @@ class ShadowVolume(Technique):
             GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
             self.const_prog["u_value"].value = 1.0
             self.quad.render()
+
+    def work(self, counted: dict, stats: dict) -> dict:
+        """Stencil updates of the volume passes (exact, from :meth:`stats`'s occlusion counts);
+        on the CPU silhouette path, the caster triangles tested for facing each render."""
+        out = {"volume": {"stencil_updates": stats["stencil_updates"]}}
+        if self.silhouette == "cpu":
+            out["silhouette"] = {"cpu_triangles": stats["zpass_caster_triangles"] + stats["zfail_caster_triangles"]}
+        return out
 
     def stats(self) -> dict:
         """Silhouette edges, volume triangles, stencil fill and peak count (untimed extra passes),

@@ -593,6 +593,12 @@ class VirtualMap(TexelMapping, Technique):
         return t
 
     # -- results -------------------------------------------------------------------
+    def work(self, counted: dict, stats: dict) -> dict:
+        """Texture taps: the request pass reads the G-buffer position and the evaluated mask per
+        invocation; each lookup fragment the position and normal, the page table, then one
+        texel of the page."""
+        return self.taps_work(counted, {"request": 2, "lookup": 4})
+
     def stats(self) -> dict:
         """Pages requested / resident / rendered / dropped, pool and resident memory against a
         dense map of the virtual resolution, levels, the level-0 texel."""

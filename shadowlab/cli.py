@@ -378,9 +378,13 @@ def _cmd_cost(args) -> int:
     table, path, model = cost_cmd.predict_command(args.study_dir, args.model)
     print(f"{PREDICTED_LABEL} {model.target} on {model.device} (a prediction: the model's leave-one-scene-out "
           f"median error is {cost_cmd._pct(model.cv_median_rel_error)})")
-    key = "label" if "label" in table.columns else "scene"
-    summary = table.groupby(key, sort=False)[["measured_ms", f"{PREDICTED_LABEL}_ms"]].median()
+    key = next(c for c in ("short_label", "label", "scene") if c in table.columns)
+    here = "measured_here_ms" if "measured_here_ms" in table.columns else "measured_ms"
+    summary = table.groupby(key, sort=False)[[here, f"{PREDICTED_LABEL}_ms"]].median()
     print(summary.to_string(float_format=lambda v: f"{v:.3g}"))
+    missing = sorted({u for v in table.get("unmodelled", []) for u in str(v).split(", ") if u and v == v})
+    if missing:
+        print(f"no prediction where a row does work the model has no cost for: {', '.join(missing)}")
     print(f"predictions: {path.resolve()}")
     return 0
 

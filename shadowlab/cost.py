@@ -68,6 +68,11 @@ class CostModel:
     cv_median_rel_error: float
     cv_mean_rel_error: float
     cv_per_scene: dict[str, float] = field(default_factory=dict)
+    #: Counters asked for that no fitted row did: the model has no cost for them, and a row that
+    #: does such work gets no prediction (:func:`predict`).
+    unseen: list[str] = field(default_factory=list)
+    #: The techniques of the fitted rows: a prediction for another is an extrapolation.
+    techniques: list[str] = field(default_factory=list)
     source: str = ""
     weighting: str = "1/measured (relative error)"
     format: int = FORMAT
@@ -185,7 +190,8 @@ def fit(results: pd.DataFrame, device: str, target: str = "time_ms_median", coun
         raise CostModelError(f"unknown counter {unknown[0]!r}{did_you_mean(unknown[0], work.COUNTERS)} "
                              f"(known: {', '.join(work.COUNTERS)})")
     table = design(results, target, counters, per_pass)
-    counters = [k for k in counters if table[k].abs().sum() > 0]
+    unseen = [k for k in counters if table[k].abs().sum() == 0]
+    counters = [k for k in counters if k not in unseen]
     if not counters:
         raise CostModelError("no row did any of the counted work")
     c0, c = _nnls(table, counters)
@@ -209,32 +215,50 @@ def fit(results: pd.DataFrame, device: str, target: str = "time_ms_median", coun
                      median_rel_error=float(np.median(_relative_errors(predicted, measured))),
                      cv_median_rel_error=float(np.nanmedian(cv_err)) if len(scenes) > 1 else float("nan"),
                      cv_mean_rel_error=float(np.nanmean(cv_err)) if len(scenes) > 1 else float("nan"),
-                     cv_per_scene=per_scene, source=source)
+                     cv_per_scene=per_scene, unseen=unseen, source=source,
+                     techniques=sorted(map(str, _timed(results, target)["technique"].dropna().unique()))
+                     if "technique" in results.columns else [])
 
 
 def predict(results: pd.DataFrame, model: CostModel) -> pd.DataFrame:
-    """Per row (or per pass, for a per-pass model) of ``results`` with work counters: the
-    measured time (NaN where the row has none of the model's target), the model's prediction and
-    their relative error. Counters the rows lack count as 0 work."""
+    """Per row (or per pass, for a per-pass model) of ``results`` with work counters: the time
+    measured here (``measured_here_ms``: ``time_ms_median``), the model's target where the rows
+    have it (``measured_ms``: NaN when the study did not run on the model's device), the
+    prediction and their relative error. Counters the rows lack count as 0 work; a row doing work
+    the model has no cost for (:attr:`CostModel.unseen`: the truth's rays under a GPU model
+    fitted without them) gets no prediction, and ``unmodelled`` names that work."""
     rows = results
     if "status" in rows.columns:
         rows = rows[rows["status"] == "ok"]
     if not any(c.startswith("work_") for c in rows.columns):
         raise CostModelError("the rows have no work_ columns: the study predates work counters; run it again")
-    keys = [c for c in ("scene", "label", "light", "technique") if c in rows.columns]
+    keys = [c for c in ("scene", "label", "short_label", "light", "technique") if c in rows.columns]
     if model.per_pass:
         table = design(results, model.target, model.counters, per_pass=True)
     else:
         table = rows[keys].copy().reset_index(drop=True)
         table["pass"] = ""
-        measured = pd.to_numeric(rows[model.target], errors="coerce") if model.target in rows else np.nan
-        table["measured_ms"] = np.asarray(measured, float) if np.ndim(measured) else np.nan
+        here = pd.to_numeric(rows["time_ms_median"], errors="coerce") if "time_ms_median" in rows else None
+        table["measured_here_ms"] = here.to_numpy(float) if here is not None else np.nan
+        measured = pd.to_numeric(rows[model.target], errors="coerce") if model.target in rows else None
+        table["measured_ms"] = measured.to_numpy(float) if measured is not None else np.nan
         for k in model.counters:
             col = f"work_{k}"
             table[k] = pd.to_numeric(rows[col], errors="coerce").fillna(0.0).to_numpy(float) if col in rows else 0.0
-    table[f"{PREDICTED_LABEL}_ms"] = model.predict(table)
-    table["rel_error"] = _relative_errors(table[f"{PREDICTED_LABEL}_ms"].to_numpy(float),
-                                          table["measured_ms"].to_numpy(float))
+    unseen = {}
+    for k in model.unseen:
+        col = f"work_{k}" if not model.per_pass else None
+        if col and col in rows:
+            unseen[k] = pd.to_numeric(rows[col], errors="coerce").fillna(0.0).to_numpy(float) > 0
+    unmodelled = [", ".join(k for k, did in unseen.items() if did[i]) for i in range(len(table))] if unseen \
+        else [""] * len(table)
+    table["unmodelled"] = unmodelled
+    if model.techniques and "technique" in table.columns:  # no such technique among the fitted rows
+        table["extrapolated"] = ~table["technique"].astype(str).isin(model.techniques)
+    predicted = model.predict(table)
+    predicted[np.array([bool(u) for u in unmodelled])] = np.nan
+    table[f"{PREDICTED_LABEL}_ms"] = predicted
+    table["rel_error"] = _relative_errors(predicted, table["measured_ms"].to_numpy(float))
     return table[[c for c in table.columns if c not in model.counters]]
 
 

@@ -123,3 +123,24 @@ def test_cli_bad_input_exits_2_with_one_line(tmp_path, capsys):
     assert cli.main(["cost", "fit", str(study), "--counters", "samples,draws"]) == cli.EXIT_BAD_INPUT
     assert "unknown counter 'samples'" in capsys.readouterr().err
     assert not (study / "cost_model.json").exists()  # nothing written by a failed fit
+
+
+def test_the_study_page_labels_predictions():
+    """study.json's cost_predictions become tables headed as predictions, with the model's
+    cross-validated error; rows without a cost or outside the fitted techniques say so."""
+    from shadowlab.study.report import prediction_tables
+
+    meta = {"renderer": "llvmpipe", "cost_predictions": [{
+        "device": "GPU X", "target": "gpu_time_ms_median", "r2": 0.5, "cv_median_rel_error": 0.25,
+        "model_rows": 10, "model_scenes": 3, "csv": "cost/GPU_X.csv",
+        "rows": [{"technique": "shadow_map", "label": "shadow_map", "measured_here_ms": 30.0, "predicted_ms": 0.5},
+                 {"technique": "raytrace", "label": "raytrace", "measured_here_ms": 9.0, "predicted_ms": None,
+                  "unmodelled": "rays"},
+                 {"technique": "pcss", "label": "pcss", "measured_here_ms": 9.0, "predicted_ms": 1.0,
+                  "extrapolated": True}]}]}
+    (table,) = prediction_tables(meta)
+    assert table["device"] == "GPU X" and table["here"] == "llvmpipe"
+    assert "leave-one-scene-out median error 25 %" in table["what"]
+    assert table["rows"][0] == ["shadow_map", "shadow_map", "30.0", "0.50"]
+    assert "no cost for rays" in table["rows"][1][3]
+    assert "extrapolated" in table["rows"][2][3]

@@ -156,10 +156,16 @@ def prediction_entry(model: cost.CostModel, table: pd.DataFrame, csv: str) -> di
     measured time here and the median predicted time on the model's device."""
     rows = []
     key = "label" if "label" in table.columns else "scene"
+    predicted = f"{cost.PREDICTED_LABEL}_ms"
     for label, g in table.groupby(key, sort=False):
-        rows.append({"label": str(label), "technique": str(g["technique"].iloc[0]) if "technique" in g else "",
-                     "measured_ms": float(np.nanmedian(g["measured_ms"])) if g["measured_ms"].notna().any() else None,
-                     "predicted_ms": float(np.median(g[f"{cost.PREDICTED_LABEL}_ms"]))})
+        here = g["measured_here_ms"] if "measured_here_ms" in g else g["measured_ms"]
+        unmodelled = sorted({u for v in g.get("unmodelled", pd.Series(dtype=str)).fillna("") for u in v.split(", ") if u})
+        rows.append({"label": str(g["short_label"].iloc[0]) if "short_label" in g else str(label),
+                     "technique": str(g["technique"].iloc[0]) if "technique" in g else "",
+                     "measured_here_ms": float(np.nanmedian(here)) if here.notna().any() else None,
+                     "predicted_ms": float(np.nanmedian(g[predicted])) if g[predicted].notna().any() else None,
+                     "unmodelled": ", ".join(unmodelled),
+                     "extrapolated": bool(g["extrapolated"].any()) if "extrapolated" in g else False})
     return {"device": model.device, "target": model.target, "r2": model.r2,
             "cv_median_rel_error": model.cv_median_rel_error, "model_rows": model.rows,
             "model_scenes": len(model.scenes), "csv": csv, "rows": rows}

@@ -455,9 +455,14 @@ def prediction_tables(meta: dict) -> list[dict]:
         what = (f"a cost model fitted on {entry.get('model_rows')} rows of {entry.get('model_scenes')} scenes "
                 f"(R² {float(entry.get('r2', float('nan'))):.3f}; {cv_text}) turns this study's work counters "
                 f"into {entry.get('target')} on that device. Rows: {entry.get('csv')}.")
-        rows = [[as_text(r.get("technique")), as_text(r.get("label")), fmt_ms_short(r.get("measured_ms")),
-                 fmt_ms_short(r.get("predicted_ms"))] for r in entry.get("rows", [])]
-        out.append({"device": as_text(entry.get("device")), "what": what, "rows": rows})
+        rows = [[as_text(r.get("technique")), as_text(r.get("label")), fmt_ms_short(r.get("measured_here_ms")),
+                 (fmt_ms_short(r.get("predicted_ms")) + (" (extrapolated: no such technique in the fitted rows)"
+                                                         if r.get("extrapolated") else ""))
+                 if r.get("predicted_ms") is not None
+                 else f"— (no cost for {as_text(r.get('unmodelled')) or 'its work'})"]
+                for r in entry.get("rows", [])]
+        out.append({"device": as_text(entry.get("device")), "what": what, "rows": rows,
+                    "here": as_text(meta.get("renderer")) or "here"})
     return out
 
 

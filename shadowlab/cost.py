@@ -37,7 +37,9 @@ from . import work
 DEFAULT_COUNTERS = ("draws", "vertices", "primitives_generated", "samples_passed", "bytes_written",
                     "bytes_cleared", "bytes_uploaded", "bytes_read", "dispatches", "compute_invocations",
                     "texture_taps", "stencil_updates", "cpu_triangles", "cpu_points", "rays")
-#: The constant term's name: a fixed cost per render (state changes, the finish).
+#: Work done on the CPU: left out of a model of a GPU timer's time (``gpu_time_ms_median``).
+CPU_COUNTERS = ("cpu_triangles", "cpu_points", "rays")
+#: The constant term's name: a fixed cost per render (per pass in a per-pass model).
 INTERCEPT = "render"
 #: How a predicted time is labelled wherever it is shown.
 PREDICTED_LABEL = "predicted"
@@ -117,23 +119,52 @@ def _timed(results: pd.DataFrame, target: str) -> pd.DataFrame:
     return ok[np.isfinite(t) & (t > 0)]
 
 
+def _check_work(rows: pd.DataFrame) -> None:
+    """CostModelError unless the rows have a scene and work counters on every row."""
+    if "scene" not in rows.columns:
+        raise CostModelError("the rows have no 'scene' column")
+    cols = [c for c in rows.columns if work.is_work_column(c)]
+    if not cols:
+        raise CostModelError("the rows have no work_ columns: the study predates work counters; run it again")
+    none = rows[cols].isna().all(axis=1)
+    if none.any():
+        first = rows[none].iloc[0]
+        raise CostModelError(f"{int(none.sum())} row(s) have no work counters (e.g. {first['scene']} / "
+                             f"{first.get('label', '?')}): rows from before work counters; run the study again")
+
+
+def _pass_names(rows: pd.DataFrame) -> list[str]:
+    """The passes named in the rows' ``work_<pass>_<counter>`` columns."""
+    names = {work.counter_of(c)[0] for c in rows.columns if work.counter_of(c) is not None}
+    return sorted(n for n in names if n)
+
+
+def _features(rows: pd.DataFrame, counters, pass_name: str | None = None) -> np.ndarray:
+    """(rows, counters) work of each row: the totals, or one pass's (0 where not done)."""
+    cols = []
+    for k in counters:
+        col = f"work_{k}" if pass_name is None else f"work_{pass_name}_{k}"
+        cols.append(pd.to_numeric(rows[col], errors="coerce").fillna(0.0).to_numpy(float) if col in rows
+                    else np.zeros(len(rows)))
+    return np.column_stack(cols) if cols else np.zeros((len(rows), 0))
+
+
 def design(results: pd.DataFrame, target: str = "time_ms_median", counters=DEFAULT_COUNTERS,
            per_pass: bool = False) -> pd.DataFrame:
     """The fitting table: one row per timed row (or per timed pass with ``per_pass``), columns
-    ``scene``, ``label``, ``light``, ``pass``, ``measured_ms`` and one per counter (0 where a
-    row did no such work). CostModelError when nothing is timed or no counter was recorded."""
+    ``scene``, ``label``, ``technique``, ``light``, ``pass``, ``measured_ms`` and one per
+    counter (0 where a row did no such work). CostModelError when nothing is timed, the rows
+    have no counters, or a timed row has none (a study from before the counters)."""
     rows = _timed(results, target)
-    if not any(c.startswith("work_") for c in rows.columns):
-        raise CostModelError("the rows have no work_ columns: the study predates work counters; run it again")
-    keys = [c for c in ("scene", "label", "light") if c in rows.columns]
+    _check_work(rows)
+    keys = [c for c in ("scene", "label", "technique", "light") if c in rows.columns]
+    counters = list(counters)
     out = []
     if not per_pass:
-        table = rows[keys].copy()
+        table = rows[keys].copy().reset_index(drop=True)
         table["pass"] = ""
         table["measured_ms"] = pd.to_numeric(rows[target]).to_numpy(float)
-        for k in counters:
-            col = f"work_{k}"
-            table[k] = pd.to_numeric(rows[col], errors="coerce").fillna(0.0).to_numpy(float) if col in rows else 0.0
+        table[counters] = _features(rows, counters)
         out.append(table)
     else:
         passes = sorted(c[len("pass_"):-len("_ms")] for c in rows.columns if c.startswith("pass_") and c.endswith("_ms"))
@@ -144,12 +175,10 @@ def design(results: pd.DataFrame, target: str = "time_ms_median", counters=DEFAU
             sel = rows[np.isfinite(t) & (t > 0)]
             if sel.empty:
                 continue
-            table = sel[keys].copy()
+            table = sel[keys].copy().reset_index(drop=True)
             table["pass"] = p
             table["measured_ms"] = t[sel.index].to_numpy(float)
-            for k in counters:
-                col = f"work_{p}_{k}"
-                table[k] = pd.to_numeric(sel[col], errors="coerce").fillna(0.0).to_numpy(float) if col in sel else 0.0
+            table[counters] = _features(sel, counters, p)
             out.append(table)
     table = pd.concat(out, ignore_index=True) if out else pd.DataFrame()
     if table.empty:
@@ -182,7 +211,9 @@ def fit(results: pd.DataFrame, device: str, target: str = "time_ms_median", coun
     the counters to use (default :data:`DEFAULT_COUNTERS`); an unknown name is an error, a
     counter no row ever did is dropped (it cannot be fitted). Leave-one-scene-out needs two or
     more scenes (otherwise the cross-validated errors are NaN)."""
-    counters = list(DEFAULT_COUNTERS if counters is None else counters)
+    if counters is None:  # a GPU timer does not see the CPU's work
+        counters = [k for k in DEFAULT_COUNTERS if not (target.startswith("gpu_") and k in CPU_COUNTERS)]
+    counters = list(counters)
     unknown = [k for k in counters if k not in work.COUNTERS]
     if unknown:
         from .validation import did_you_mean
@@ -216,50 +247,47 @@ def fit(results: pd.DataFrame, device: str, target: str = "time_ms_median", coun
                      cv_median_rel_error=float(np.nanmedian(cv_err)) if len(scenes) > 1 else float("nan"),
                      cv_mean_rel_error=float(np.nanmean(cv_err)) if len(scenes) > 1 else float("nan"),
                      cv_per_scene=per_scene, unseen=unseen, source=source,
-                     techniques=sorted(map(str, _timed(results, target)["technique"].dropna().unique()))
-                     if "technique" in results.columns else [])
+                     techniques=sorted(map(str, table["technique"].dropna().unique()))
+                     if "technique" in table.columns else [])
 
 
-def predict(results: pd.DataFrame, model: CostModel) -> pd.DataFrame:
-    """Per row (or per pass, for a per-pass model) of ``results`` with work counters: the time
-    measured here (``measured_here_ms``: ``time_ms_median``), the model's target where the rows
-    have it (``measured_ms``: NaN when the study did not run on the model's device), the
-    prediction and their relative error. Counters the rows lack count as 0 work; a row doing work
-    the model has no cost for (:attr:`CostModel.unseen`: the truth's rays under a GPU model
-    fitted without them) gets no prediction, and ``unmodelled`` names that work."""
+def predict(results: pd.DataFrame, model: CostModel, device: str | None = None) -> pd.DataFrame:
+    """Per row of ``results`` (its work counters): the time measured where the rows were run
+    (``measured_here_ms``: ``time_ms_median``), the model's prediction (``predicted_ms``; a
+    per-pass model sums the passes each row ran, each with the constant), and — only when
+    ``device`` (where the rows ran) is the model's own — the measured target (``measured_ms``)
+    and the relative error; NaN otherwise. A row doing work the model has no cost for
+    (:attr:`CostModel.unseen`: the truth's rays under a GPU model fitted without them) gets no
+    prediction and ``unmodelled`` names that work; ``extrapolated`` marks techniques the
+    model never saw."""
     rows = results
     if "status" in rows.columns:
         rows = rows[rows["status"] == "ok"]
-    if not any(c.startswith("work_") for c in rows.columns):
-        raise CostModelError("the rows have no work_ columns: the study predates work counters; run it again")
+    _check_work(rows)
     keys = [c for c in ("scene", "label", "short_label", "light", "technique") if c in rows.columns]
+    table = rows[keys].copy().reset_index(drop=True)
+    here = pd.to_numeric(rows["time_ms_median"], errors="coerce") if "time_ms_median" in rows else None
+    table["measured_here_ms"] = here.to_numpy(float) if here is not None else np.nan
+    same = device is not None and device == model.device and model.target in rows
+    table["measured_ms"] = pd.to_numeric(rows[model.target], errors="coerce").to_numpy(float) if same else np.nan
+    c = np.array([model.coefficients[k] for k in model.counters])
     if model.per_pass:
-        table = design(results, model.target, model.counters, per_pass=True)
+        predicted = np.zeros(len(rows))
+        for p in _pass_names(rows):
+            done = _features(rows, list(work.COUNTERS), p).any(axis=1)  # the row ran this pass
+            predicted += np.where(done, model.intercept_ms + _features(rows, model.counters, p) @ c, 0.0)
     else:
-        table = rows[keys].copy().reset_index(drop=True)
-        table["pass"] = ""
-        here = pd.to_numeric(rows["time_ms_median"], errors="coerce") if "time_ms_median" in rows else None
-        table["measured_here_ms"] = here.to_numpy(float) if here is not None else np.nan
-        measured = pd.to_numeric(rows[model.target], errors="coerce") if model.target in rows else None
-        table["measured_ms"] = measured.to_numpy(float) if measured is not None else np.nan
-        for k in model.counters:
-            col = f"work_{k}"
-            table[k] = pd.to_numeric(rows[col], errors="coerce").fillna(0.0).to_numpy(float) if col in rows else 0.0
-    unseen = {}
-    for k in model.unseen:
-        col = f"work_{k}" if not model.per_pass else None
-        if col and col in rows:
-            unseen[k] = pd.to_numeric(rows[col], errors="coerce").fillna(0.0).to_numpy(float) > 0
-    unmodelled = [", ".join(k for k, did in unseen.items() if did[i]) for i in range(len(table))] if unseen \
-        else [""] * len(table)
-    table["unmodelled"] = unmodelled
+        predicted = model.intercept_ms + _features(rows, model.counters) @ c
+    unseen = {k: _features(rows, [k])[:, 0] > 0 for k in model.unseen}
+    if model.target.startswith("gpu_"):  # a GPU timer's model: a row that drew and dispatched nothing has no GPU time
+        unseen["CPU work only"] = ~_features(rows, ["draws", "dispatches"]).any(axis=1)
+    table["unmodelled"] = [", ".join(k for k, did in unseen.items() if did[i]) for i in range(len(rows))]
+    predicted[table["unmodelled"].astype(bool).to_numpy()] = np.nan
     if model.techniques and "technique" in table.columns:  # no such technique among the fitted rows
         table["extrapolated"] = ~table["technique"].astype(str).isin(model.techniques)
-    predicted = model.predict(table)
-    predicted[np.array([bool(u) for u in unmodelled])] = np.nan
     table[f"{PREDICTED_LABEL}_ms"] = predicted
     table["rel_error"] = _relative_errors(predicted, table["measured_ms"].to_numpy(float))
-    return table[[c for c in table.columns if c not in model.counters]]
+    return table
 
 
 def summary_line(model: CostModel) -> str:

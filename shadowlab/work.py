@@ -44,8 +44,12 @@ UNNAMED = "unnamed"
 
 @dataclass(frozen=True)
 class Counter:
-    """One work counter: what it counts, whether it is exact (the same number on every
-    conformant driver) and why, and where it comes from (hook, pass query or the technique)."""
+    """One work counter: what it counts, whether it is exact and why, and where it comes from
+    (hook, pass query or the technique). *Exact* means defined to the unit by the GL spec or by
+    counting, given the rasterisation: two drivers that rasterise an edge pixel differently
+    (sub-pixel precision) differ by those pixels — measured against an H100, at most 1e-5 of
+    the evaluated pixels and 7e-4 of shadow volumes' stencil updates (docs/cost.md).
+    *Approximate* counters differ by design from driver to driver, or are models."""
 
     doc: str
     exact: bool
@@ -64,9 +68,10 @@ COUNTERS: dict[str, Counter] = {
                              "attachments written and of depth when depth writes are on", False,
                              "a model: blending reads, stencil writes, compression and shader image/buffer "
                              "stores are not counted", "hook"),
-    "bytes_cleared": Counter("bytes of attachments and buffers cleared (the scissor box when on)", True,
-                             "sizes of the cleared storage as allocated (24-bit depth counted as 4 bytes with "
-                             "its stencil)", "hook"),
+    "bytes_cleared": Counter("bytes of attachments and buffers cleared (the scissor box when on, write masks "
+                             "honoured)", True,
+                             "from the component sizes the driver reports for each attachment (a 24-bit depth "
+                             "attachment: 3 bytes, its 8-bit stencil 1)", "hook"),
     "bytes_uploaded": Counter("bytes written to buffers and textures from the CPU", True, "lengths of the data",
                               "hook"),
     "bytes_read": Counter("bytes read back from buffers and textures to the CPU", True, "lengths of the data",
@@ -80,7 +85,8 @@ COUNTERS: dict[str, Counter] = {
     "vs_invocations": Counter("vertex shader invocations", False,
                               "a post-transform vertex cache may skip repeated indices: driver-dependent",
                               "pass query (ARB_pipeline_statistics_query)"),
-    "gs_invocations": Counter("geometry shader invocations", True, "one per input primitive and instance",
+    "gs_invocations": Counter("geometry shader invocations", False,
+                              "drivers differ where no geometry shader is bound and in how they emulate the count",
                               "pass query (ARB_pipeline_statistics_query)"),
     "fs_invocations": Counter("fragment shader invocations", False,
                               "early depth tests, helper invocations in 2x2 quads and tiling differ by driver",
@@ -185,7 +191,8 @@ def _draw_buffers() -> list[int]:
 
 def _framebuffer_area() -> tuple[int, int, int]:
     """(width, height, layers) of the bound draw framebuffer's first attachment, from the
-    attachment's own storage."""
+    attachment's own storage (a layered attachment: its texture's depth; the lab attaches no
+    layered cube maps, whose six faces this would count as one)."""
     from OpenGL import GL
 
     for att in [GL.GL_COLOR_ATTACHMENT0 + i for i in range(8)] + [GL.GL_DEPTH_ATTACHMENT, GL.GL_STENCIL_ATTACHMENT]:
@@ -197,9 +204,11 @@ def _framebuffer_area() -> tuple[int, int, int]:
                                                  GL.GL_FRAMEBUFFER_ATTACHMENT_OBJECT_NAME, out)
         name = int(out[0])
         if kind == GL.GL_RENDERBUFFER:
+            bound = _get_int(GL.GL_RENDERBUFFER_BINDING)
             GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, name)
             w = int(GL.glGetRenderbufferParameteriv(GL.GL_RENDERBUFFER, GL.GL_RENDERBUFFER_WIDTH))
             h = int(GL.glGetRenderbufferParameteriv(GL.GL_RENDERBUFFER, GL.GL_RENDERBUFFER_HEIGHT))
+            GL.glBindRenderbuffer(GL.GL_RENDERBUFFER, bound)
             return w, h, 1
         GL.glGetFramebufferAttachmentParameteriv(GL.GL_DRAW_FRAMEBUFFER, att, GL.GL_FRAMEBUFFER_ATTACHMENT_TEXTURE_LEVEL,
                                                  out)
@@ -244,14 +253,33 @@ def _clear_bytes(color_buffers: list[int] | None, depth: bool, stencil: bool) ->
     per_pixel = 0
     buffers = _draw_buffers()
     for i in (range(len(buffers)) if color_buffers is None else color_buffers):
-        if i < len(buffers) and buffers[i] != GL.GL_NONE and _attachment_type(buffers[i]) != GL.GL_NONE:
+        if i < len(buffers) and buffers[i] != GL.GL_NONE and _attachment_type(buffers[i]) != GL.GL_NONE \
+                and _color_mask_on(i):
             per_pixel += _attachment_bytes_per_sample(buffers[i], _COLOR_SIZES)
     if (depth or stencil) and _get_int(GL.GL_DRAW_FRAMEBUFFER_BINDING):
-        if depth and _attachment_type(GL.GL_DEPTH_ATTACHMENT) != GL.GL_NONE:
+        if depth and _attachment_type(GL.GL_DEPTH_ATTACHMENT) != GL.GL_NONE and _depth_mask_on():
             per_pixel += _attachment_bytes_per_sample(GL.GL_DEPTH_ATTACHMENT, (_DEPTH_SIZE,))
-        if stencil and _attachment_type(GL.GL_STENCIL_ATTACHMENT) != GL.GL_NONE:
+        if stencil and _attachment_type(GL.GL_STENCIL_ATTACHMENT) != GL.GL_NONE and _get_int(GL.GL_STENCIL_WRITEMASK):
             per_pixel += _attachment_bytes_per_sample(GL.GL_STENCIL_ATTACHMENT, (_STENCIL_SIZE,))
     return per_pixel * _cleared_pixels() if per_pixel else 0
+
+
+def _color_mask_on(draw_buffer: int) -> bool:
+    """Whether any channel of draw buffer ``draw_buffer`` is written (glColorMaski)."""
+    from OpenGL import GL
+
+    mask = np.zeros(4, np.uint8)
+    GL.glGetBooleani_v(GL.GL_COLOR_WRITEMASK, draw_buffer, mask)
+    return bool(mask.any())
+
+
+def _depth_mask_on() -> bool:
+    """Whether depth writes are on (glDepthMask)."""
+    from OpenGL import GL
+
+    mask = np.zeros(1, np.uint8)
+    GL.glGetBooleanv(GL.GL_DEPTH_WRITEMASK, mask)
+    return bool(mask[0])
 
 
 def _written_bytes_per_sample() -> int:
@@ -265,31 +293,22 @@ def _written_bytes_per_sample() -> int:
     for i, buf in enumerate(_draw_buffers()):
         if buf == GL.GL_NONE or _attachment_type(buf) == GL.GL_NONE:
             continue
-        mask = np.zeros(4, np.uint8)
-        GL.glGetBooleani_v(GL.GL_COLOR_WRITEMASK, i, mask)
-        if mask.any():
+        if _color_mask_on(i):
             out += _attachment_bytes_per_sample(buf, _COLOR_SIZES)
-    depth_mask = np.zeros(1, np.uint8)
-    GL.glGetBooleanv(GL.GL_DEPTH_WRITEMASK, depth_mask)
-    if GL.glIsEnabled(GL.GL_DEPTH_TEST) and depth_mask[0]:
+    if GL.glIsEnabled(GL.GL_DEPTH_TEST) and _depth_mask_on():
         if _get_int(GL.GL_DRAW_FRAMEBUFFER_BINDING) and _attachment_type(GL.GL_DEPTH_ATTACHMENT):
             out += _attachment_bytes_per_sample(GL.GL_DEPTH_ATTACHMENT, (_DEPTH_SIZE,))
     return out
 
 
-_LOCAL_SIZES: dict[int, int] = {}
-
-
 def _local_size(compute_shader) -> int:
-    """Invocations per work group of a moderngl ComputeShader (its declared local size)."""
+    """Invocations per work group of a moderngl ComputeShader (its declared local size; asked
+    each time: a released program's name may be reused by another)."""
     from OpenGL import GL
 
-    glo = int(compute_shader.glo)
-    if glo not in _LOCAL_SIZES:
-        out = np.zeros(3, np.int32)
-        GL.glGetProgramiv(glo, _COMPUTE_WORK_GROUP_SIZE, out)
-        _LOCAL_SIZES[glo] = int(np.prod(out))
-    return _LOCAL_SIZES[glo]
+    out = np.zeros(3, np.int32)
+    GL.glGetProgramiv(int(compute_shader.glo), _COMPUTE_WORK_GROUP_SIZE, out)
+    return int(np.prod(out))
 
 
 class WorkCounter:
@@ -322,14 +341,16 @@ class WorkCounter:
             self._passes.setdefault(name, {})
             targets = {} if cpu else {"primitives_generated": _PRIMITIVES_GENERATED,
                                       **(_PIPELINE_TARGETS if self.statistics else {})}
-            for target in targets.values():
-                GL.glBeginQuery(target, _Queries.name(target))
+            begun = []
             try:
+                for counter, target in targets.items():
+                    GL.glBeginQuery(target, _Queries.name(target))
+                    begun.append((counter, target))
                 yield
             finally:
-                for target in targets.values():
+                for _, target in begun:
                     GL.glEndQuery(target)
-                for counter, target in targets.items():
+                for counter, target in begun:
                     self.add(counter, _Queries.result(_Queries.name(target)), name)
                 self._current = outer
 
@@ -352,7 +373,7 @@ class WorkCounter:
 
         def draw(original):
             def wrapped(vao, mode=None, vertices=-1, *args, **kwargs):
-                instances = kwargs.get("instances", args[2] if len(args) > 2 else -1)
+                instances = kwargs.get("instances", args[1] if len(args) > 1 else -1)  # args: first, instances
                 n = vao.vertices if vertices is None or vertices < 0 else vertices
                 per_sample = _written_bytes_per_sample()
                 q = _Queries.name(_SAMPLES_PASSED)
@@ -407,12 +428,17 @@ class WorkCounter:
 
         def fbo_clear(original):
             def wrapped(fbo, *args, **kwargs):
-                result = original(fbo, *args, **kwargs)  # binds fbo; counted with its viewport scissor gone
-                w, h = fbo.size
-                per = sum(_DTYPE_BYTES.get(t.dtype, 4) * t.components for t in fbo.color_attachments)
-                if fbo.depth_attachment is not None:
-                    per += 4
-                counter.add("bytes_cleared", per * w * h)
+                result = original(fbo, *args, **kwargs)  # binds fbo (moderngl clears through it)
+                # the whole framebuffer, by the same rule as glClear (a ``viewport`` argument's
+                # smaller box is not seen: the lab's techniques clear whole targets)
+                counter.add("bytes_cleared", _clear_bytes(None, True, False))
+                return result
+            return wrapped
+
+        def context_clear(original):
+            def wrapped(ctx, *args, **kwargs):
+                result = original(ctx, *args, **kwargs)
+                counter.add("bytes_cleared", _clear_bytes(None, True, False))
                 return result
             return wrapped
 
@@ -424,7 +450,11 @@ class WorkCounter:
 
         def upload(original):
             def wrapped(obj, data, *args, **kwargs):
-                counter.add("bytes_uploaded", len(memoryview(data).cast("B")))
+                try:
+                    n = len(memoryview(data).cast("B"))
+                except TypeError:  # Texture.write from a moderngl Buffer: a GPU-side copy, no upload
+                    n = 0
+                counter.add("bytes_uploaded", n)
                 return original(obj, data, *args, **kwargs)
             return wrapped
 
@@ -442,22 +472,36 @@ class WorkCounter:
         for name in ("glClearBufferfv", "glClearBufferiv", "glClearBufferuiv", "glClearBufferfi"):
             patch(GL, name, gl_clear_buffer)
         patch(moderngl.Framebuffer, "clear", fbo_clear)
+        patch(moderngl.Context, "clear", context_clear)
         patch(moderngl.Buffer, "clear", buffer_clear)
         for cls in (moderngl.Buffer, moderngl.Texture):
             patch(cls, "write", upload)
             patch(cls, "read", download)
+        if {(o, a) for o, a, _ in patches} != set(self.hooked()):  # the list tests hold must be the truth
+            for owner, attr, original in reversed(patches):
+                setattr(owner, attr, original)
+            raise RuntimeError("WorkCounter.hooked() does not list what counting() hooks")
         try:
             yield self
         finally:
             for owner, attr, original in reversed(patches):
                 setattr(owner, attr, original)
 
+    @staticmethod
+    def hooked() -> list[tuple[object, str]]:
+        """The (owner, attribute) pairs :meth:`counting` replaces for its block."""
+        import moderngl
+        from OpenGL import GL
+
+        return ([(moderngl.VertexArray, "render"), (moderngl.VertexArray, "transform"),
+                 (moderngl.ComputeShader, "run"), (GL, "glClear")]
+                + [(GL, n) for n in ("glClearBufferfv", "glClearBufferiv", "glClearBufferuiv", "glClearBufferfi")]
+                + [(moderngl.Framebuffer, "clear"), (moderngl.Context, "clear"), (moderngl.Buffer, "clear")]
+                + [(cls, m) for cls in (moderngl.Buffer, moderngl.Texture) for m in ("write", "read")])
+
     def passes(self) -> dict[str, dict[str, int]]:
         """{pass: {counter: value}} of what was counted (passes in the order first opened)."""
         return {p: dict(c) for p, c in self._passes.items()}
-
-
-_DTYPE_BYTES = {"f1": 1, "u1": 1, "i1": 1, "f2": 2, "u2": 2, "i2": 2, "f4": 4, "u4": 4, "i4": 4}
 
 
 def merge(into: dict[str, dict], more: dict[str, dict]) -> dict[str, dict]:

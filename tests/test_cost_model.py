@@ -62,9 +62,49 @@ def test_model_round_trips_and_predicts(tmp_path):
     model.save(tmp_path / "m.json")
     again = cost.CostModel.load(tmp_path / "m.json")
     assert again == model
-    table = cost.predict(rows, again)
+    table = cost.predict(rows, again, device="made-up device")
     assert np.allclose(table[f"{cost.PREDICTED_LABEL}_ms"], rows["time_ms_median"], rtol=1e-6)
     assert (table["rel_error"] < 1e-6).all()
+    # rows from another device: predicted, but never compared with that device's times
+    other = cost.predict(rows, again, device="another device")
+    assert other["measured_ms"].isna().all() and other["rel_error"].isna().all()
+    assert np.allclose(other["measured_here_ms"], rows["time_ms_median"])
+    # failed rows are left out, and the rows stay aligned whatever the index
+    shuffled = rows.iloc[::-1].copy()
+    shuffled.loc[shuffled.index[0], "status"] = "failed"
+    table = cost.predict(shuffled, again, device="made-up device")
+    assert len(table) == len(rows) - 1 and (table["rel_error"] < 1e-6).all()
+
+
+def test_work_the_model_never_saw_gets_no_prediction():
+    rows = synthetic()
+    model = cost.fit(rows, "d", counters=["samples_passed", "bytes_cleared", "draws", "rays", "texture_taps"])
+    assert model.unseen == ["texture_taps"]
+    rows.loc[3, "work_texture_taps"] = 10.0
+    table = cost.predict(rows, model)
+    assert np.isnan(table.loc[3, f"{cost.PREDICTED_LABEL}_ms"]) and table.loc[3, "unmodelled"] == "texture_taps"
+    assert table[f"{cost.PREDICTED_LABEL}_ms"].notna().sum() == len(rows) - 1
+    rows["technique"] = "never_seen"
+    assert cost.predict(rows, model)["extrapolated"].all()
+
+
+def test_a_gpu_time_model_leaves_the_cpu_work_out():
+    rows = synthetic()
+    rows["gpu_time_ms_median"] = rows["time_ms_median"]
+    model = cost.fit(rows, "gpu", target="gpu_time_ms_median")
+    assert "rays" not in model.counters and "rays" not in model.unseen
+    # a row that drew nothing (a CPU technique) has no GPU time to predict
+    rows.loc[0, ["work_draws", "work_lookup_draws"]] = 0
+    table = cost.predict(rows, model)
+    assert np.isnan(table.loc[0, f"{cost.PREDICTED_LABEL}_ms"]) and "CPU" in table.loc[0, "unmodelled"]
+    assert table[f"{cost.PREDICTED_LABEL}_ms"].notna().sum() == len(rows) - 1
+
+
+def test_rows_without_counters_are_refused():
+    rows = synthetic()
+    rows.loc[2, [c for c in rows.columns if c.startswith("work_")]] = np.nan
+    with pytest.raises(cost.CostModelError, match="1 row"):
+        cost.fit(rows, "d")
 
 
 def test_bad_input_is_refused(tmp_path):
@@ -99,6 +139,10 @@ def test_cli_fit_and_predict_write_their_files(tmp_path, capsys):
     study.mkdir()
     synthetic().to_csv(study / "results.csv", index=False)
     (study / "study.json").write_text(json.dumps({"device": "made-up device"}))
+    (study / "cost_model.json").write_text("earlier")
+    assert cli.main(["cost", "fit", str(study), "--counters", "draws,bogus"]) == cli.EXIT_BAD_INPUT
+    assert (study / "cost_model.json").read_text() == "earlier"  # a failed fit leaves it as it was
+    capsys.readouterr()
     assert cli.main(["cost", "fit", str(study)]) == 0
     out = capsys.readouterr().out
     assert "made-up device" in out and "R² 1.000" in out
@@ -110,13 +154,25 @@ def test_cli_fit_and_predict_write_their_files(tmp_path, capsys):
     out = capsys.readouterr().out
     assert out.startswith(cost.PREDICTED_LABEL)
     table = pd.read_csv(other / "cost" / "made_up_device.csv")
-    assert (table["rel_error"] < 1e-6).all()
+    assert table["rel_error"].isna().all()  # no study.json: not known to have run on the device
+    (other / "study.json").write_text("{not json")
+    assert cli.main(["cost", "predict", str(other), str(study / "cost_model.json")]) == cli.EXIT_BAD_INPUT
+    assert "not valid JSON" in capsys.readouterr().err
 
 
 def test_cli_bad_input_exits_2_with_one_line(tmp_path, capsys):
     assert cli.main(["cost", "fit", str(tmp_path / "missing")]) == cli.EXIT_BAD_INPUT
     err = capsys.readouterr().err.strip()
     assert "no results.csv" in err and len(err.splitlines()) == 1
+    (tmp_path / "empty.csv").write_text("")
+    assert cli.main(["cost", "fit", str(tmp_path / "empty.csv")]) == cli.EXIT_BAD_INPUT
+    assert "not a readable results CSV" in capsys.readouterr().err
+    good = tmp_path / "good.csv"
+    synthetic().to_csv(good, index=False)
+    for model in (tmp_path / "nothing.json", tmp_path / "empty.csv"):
+        assert cli.main(["cost", "predict", str(good), str(model)]) == cli.EXIT_BAD_INPUT
+        err = capsys.readouterr().err.strip()
+        assert "not a readable cost model" in err and len(err.splitlines()) == 1
     study = tmp_path / "s"
     study.mkdir()
     synthetic().to_csv(study / "results.csv", index=False)
@@ -144,3 +200,17 @@ def test_the_study_page_labels_predictions():
     assert table["rows"][0] == ["shadow_map", "shadow_map", "30.0", "0.50"]
     assert "no cost for rays" in table["rows"][1][3]
     assert "extrapolated" in table["rows"][2][3]
+
+
+def test_per_pass_model_predicts_without_pass_times():
+    """A per-pass model predicts a study without pass_<name>_ms columns: per row, the passes it ran."""
+    rows = synthetic().drop(columns="work_lookup_draws")
+    rows["work_lookup_samples_passed"] = rows["work_samples_passed"]
+    rows["work_depth_bytes_cleared"] = rows["work_bytes_cleared"]
+    rows["work_depth_draws"] = rows["work_draws"]
+    rows["pass_lookup_ms"] = TRUE_RENDER_MS + TRUE["samples_passed"] * rows["work_samples_passed"]
+    rows["pass_depth_ms"] = TRUE_RENDER_MS + TRUE["bytes_cleared"] * rows["work_bytes_cleared"] + \
+        TRUE["draws"] * rows["work_draws"]
+    model = cost.fit(rows, "d", counters=["samples_passed", "bytes_cleared", "draws"], per_pass=True)
+    table = cost.predict(rows.drop(columns=["pass_lookup_ms", "pass_depth_ms"]), model)
+    assert np.allclose(table[f"{cost.PREDICTED_LABEL}_ms"], rows["pass_lookup_ms"] + rows["pass_depth_ms"])

@@ -32,37 +32,69 @@ def _results_path(study: Path) -> Path:
     return path
 
 
-def _device_of(study: Path) -> str:
-    meta = study / "study.json" if study.is_dir() else study.with_name("study.json")
-    if meta.is_file():
-        try:
-            return str(json.loads(meta.read_text()).get("device") or "")
-        except json.JSONDecodeError:
-            pass
-    return ""
+def _read_results(study: Path) -> pd.DataFrame:
+    """The study's rows (RunError naming the file when it is not a readable CSV)."""
+    path = _results_path(study)
+    try:
+        return pd.read_csv(path)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as exc:
+        raise RunError(f"{path}: not a readable results CSV ({str(exc).splitlines()[0]})") from None
 
 
-def _replace(path: Path, write) -> None:
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    write(tmp)
-    os.replace(tmp, path)
+def _meta_path(study: Path) -> Path:
+    return study / "study.json" if study.is_dir() else study.with_name("study.json")
+
+
+def _read_meta(study: Path) -> dict:
+    """The study's study.json ({} when there is none; RunError when it is not JSON)."""
+    path = _meta_path(study)
+    if not path.is_file():
+        return {}
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise RunError(f"{path}: not valid JSON ({exc})") from None
+    if not isinstance(meta, dict):
+        raise RunError(f"{path}: not a study record (a JSON object is expected)")
+    return meta
+
+
+def _temp(path: Path) -> Path:
+    return path.with_name(f".{path.name}.tmp-{os.getpid()}")
+
+
+def _commit(pairs: list[tuple[Path, Path]]) -> None:
+    """Rename every written temporary file onto its final name (after all were written)."""
+    for tmp, path in pairs:
+        os.replace(tmp, path)
+
+
+def _discard(pairs: list[tuple[Path, Path]]) -> None:
+    for tmp, _ in pairs:
+        tmp.unlink(missing_ok=True)
 
 
 def fit_command(study, out=None, target: str = "time_ms_median", counters=None, per_pass: bool = False,
                 device: str | None = None) -> tuple[cost.CostModel, Path]:
     """Fit and write a model (module docstring); returns it and its path."""
     study = Path(study)
-    results = pd.read_csv(_results_path(study))
-    device = device or _device_of(study) or "unknown device"
+    results = _read_results(study)
+    device = device or str(_read_meta(study).get("device") or "") or "unknown device"
     try:
         model = cost.fit(results, device, target, counters, per_pass, source=str(_results_path(study)))
+        table = cost.design(results, target, model.counters, per_pass)
     except cost.CostModelError as exc:
         raise RunError(f"{study}: {exc}") from None
     out = Path(out) if out else (study if study.is_dir() else study.parent) / "cost_model.json"
     out.parent.mkdir(parents=True, exist_ok=True)
-    _replace(out, model.save)
-    table = cost.design(results, target, model.counters, per_pass)
-    _replace(out.with_name("cost_fit.png"), lambda p: fit_plot(model, table, p))
+    pairs = [(_temp(out), out), (_temp(out.with_name("cost_fit.png")), out.with_name("cost_fit.png"))]
+    try:  # both files written before either replaces an earlier one
+        model.save(pairs[0][0])
+        fit_plot(model, table, pairs[1][0])
+    except BaseException:
+        _discard(pairs)
+        raise
+    _commit(pairs)
     return model, out
 
 
@@ -80,10 +112,11 @@ def fit_plot(model: cost.CostModel, table: pd.DataFrame, path: Path) -> Path:
     if len(model.scenes) > 1:
         for s in model.scenes:
             held = (table["scene"].astype(str) == s).to_numpy()
-            sub = cost.fit(_as_results(table[~held], model), model.device, "measured_ms", model.counters,
-                           False) if (~held).any() else None
-            if sub is not None:
-                loso[held] = sub.predict(table[held])
+            try:
+                sub = cost.fit(_as_results(table[~held], model), model.device, "measured_ms", model.counters, False)
+            except cost.CostModelError:  # the other scenes did none of the work: no left-out point
+                continue
+            loso[held] = sub.predict(table[held])
     fig, ax = plt.subplots(figsize=(6.4, 5.2))
     ax.scatter(measured, fitted, s=14, alpha=0.6, label="fitted on every scene")
     if np.isfinite(loso).any():
@@ -128,26 +161,38 @@ def predict_command(study, model_path) -> tuple[pd.DataFrame, Path, cost.CostMod
     ``study.json`` and draw the study page again (when the directory is a study); returns the
     table, its path and the model."""
     study = Path(study)
-    model = cost.CostModel.load(Path(model_path))
-    results = pd.read_csv(_results_path(study))
     try:
-        table = cost.predict(results, model)
+        model = cost.CostModel.load(Path(model_path))
+    except cost.CostModelError as exc:
+        raise RunError(str(exc)) from None
+    results = _read_results(study)
+    meta = _read_meta(study)
+    try:
+        table = cost.predict(results, model, device=meta.get("device"))
     except cost.CostModelError as exc:
         raise RunError(f"{study}: {exc}") from None
     folder = (study if study.is_dir() else study.parent) / "cost"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{slug(model.device)}.csv"
-    _replace(path, lambda p: table.to_csv(p, index=False))
-    meta_path = study / "study.json" if study.is_dir() else None
-    if meta_path is not None and meta_path.is_file():
-        meta = json.loads(meta_path.read_text())
-        entries = [e for e in meta.get("cost_predictions", []) if e.get("device") != model.device]
-        entries.append(prediction_entry(model, table, path.relative_to(study).as_posix()))
-        meta["cost_predictions"] = entries
-        _replace(meta_path, lambda p: p.write_text(json.dumps(meta, indent=2, default=str)))
-        from ..study.report import write_study_html
+    pairs = [(_temp(path), path)]
+    page = study.is_dir() and _meta_path(study).is_file()
+    try:
+        table.to_csv(pairs[0][0], index=False)
+        if page:  # the record and the page: written before anything replaces the earlier files
+            from ..study.report import write_study_html
 
-        write_study_html(study, results, meta)
+            entries = [e for e in meta.get("cost_predictions", []) if e.get("device") != model.device]
+            entries.append(prediction_entry(model, table, path.relative_to(study).as_posix()))
+            meta["cost_predictions"] = entries
+            pairs.append((_temp(_meta_path(study)), _meta_path(study)))
+            pairs[-1][0].write_text(json.dumps(meta, indent=2, default=str))
+            html = study / "study.html"
+            pairs.append((_temp(html), html))
+            write_study_html(study, results, meta, out_name=pairs[-1][0].name)
+    except BaseException:
+        _discard(pairs)
+        raise
+    _commit(pairs)
     return table, path, model
 
 
@@ -163,7 +208,8 @@ def prediction_entry(model: cost.CostModel, table: pd.DataFrame, csv: str) -> di
         rows.append({"label": str(g["short_label"].iloc[0]) if "short_label" in g else str(label),
                      "technique": str(g["technique"].iloc[0]) if "technique" in g else "",
                      "measured_here_ms": float(np.nanmedian(here)) if here.notna().any() else None,
-                     "predicted_ms": float(np.nanmedian(g[predicted])) if g[predicted].notna().any() else None,
+                     # over the same rows as the measured median: none when any row has no prediction
+                     "predicted_ms": float(np.median(g[predicted])) if g[predicted].notna().all() else None,
                      "unmodelled": ", ".join(unmodelled),
                      "extrapolated": bool(g["extrapolated"].any()) if "extrapolated" in g else False})
     return {"device": model.device, "target": model.target, "r2": model.r2,

@@ -401,8 +401,10 @@ def _study_provenance(meta: dict) -> list[tuple[str, str]]:
     return items
 
 
-def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: str = "pareto.png") -> Path:
-    """Write ``study_dir/study.html`` (template ``study.html``) and return its path.
+def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: str = "pareto.png",
+                     out_name: str = "study.html") -> Path:
+    """Write ``study_dir/study.html`` (template ``study.html``; ``out_name``: another file name in
+    the same directory, e.g. a temporary one renamed later) and return its path.
 
     The page opens with the verdicts — scenes × technique families, each cell the family's best
     configuration on the scene with its error and time (best per row in bold, failures marked;
@@ -430,7 +432,7 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
                                                  if len(results) and "renderer" in results.columns else "")
     name = as_text(meta.get("name")) or "study"
     return render_page(
-        "study.html", study_dir / "study.html", title=f"shadowlab study: {name}", renderer=renderer,
+        "study.html", study_dir / out_name, title=f"shadowlab study: {name}", renderer=renderer,
         provenance=_study_provenance(meta), description=as_text(meta.get("description")),
         verdicts=verdict_grid(verdicts, scenes_meta), sentences=[s for _, s in verdict_sentences(verdicts)],
         thresholds={"error_rate": fmt_limit("error_rate", FAIL_ERROR_RATE),

@@ -342,10 +342,13 @@ class ShadowVolume(Technique):
 
     def work(self, counted: dict, stats: dict) -> dict:
         """Stencil updates of the volume passes (exact, from :meth:`stats`'s occlusion counts);
-        on the CPU silhouette path, the caster triangles tested for facing each render."""
+        the triangles of casters on the CPU silhouette path (``silhouette=cpu``, or a
+        non-manifold caster's fallback under ``gpu``), tested for facing each render."""
         out = {"volume": {"stencil_updates": stats["stencil_updates"]}}
-        if self.silhouette == "cpu":
-            out["silhouette"] = {"cpu_triangles": stats["zpass_caster_triangles"] + stats["zfail_caster_triangles"]}
+        objs = self.frame.scene.objects
+        cpu = sum(len(objs[p.index].faces) for p in self.plans if p.path == "cpu")
+        if cpu:
+            out["silhouette"] = {"cpu_triangles": cpu}
         return out
 
     def stats(self) -> dict:

@@ -41,7 +41,7 @@ from .aggregate import TUNED_MARK
 #: Scene-name prefixes → hard-case family (HARD_CASES.md), for the study's summary.
 FAMILIES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps", "pa_": "perspective aliasing",
             "pt_": "projective textures", "tm_": "temporal stability", "rm_": "real meshes", "rt_": "ground truth",
-            "soft_": "soft shadows"}
+            "soft_": "soft shadows", "city_": "city scale"}
 GENERAL_FAMILY = "general"
 
 

@@ -455,3 +455,13 @@ def test_dask_workers_read_scenes_from_bundles_not_the_source_files(tmp_path):
     for entry in entries:
         loaded = Path(cache.load_result(entry.stem)["meta"]["scene_file"])
         assert loaded.parent.parent == bundle_dir and src not in loaded.parents
+
+
+def test_a_scene_whose_timing_runs_all_failed_still_gets_its_plot(tmp_path):
+    """Every timing task of a scene can fail (its file edited mid-study): its rows then have no
+    time columns, and the speed-error plot says so instead of failing the whole study."""
+    from shadowlab.output import pictures
+
+    rows = pd.DataFrame({"short_label": ["shadow_map", "planar"], "light": [0, 0], "error_rate": [0.01, 0.02]})
+    pictures.speed_error_plot(rows, tmp_path / "speed_vs_error.png")
+    assert (tmp_path / "speed_vs_error.png").stat().st_size > 0

@@ -203,17 +203,24 @@ def encode_png(rgb: np.ndarray) -> bytes:
 
 
 def speed_error_plot(df: pd.DataFrame, path: Path) -> None:
-    """Scatter of error rate against median time, one point per configuration and light."""
+    """Scatter of error rate against median time, one point per configuration and light (a
+    note instead when no row has a time: every timing run of the scene failed)."""
     fig, ax = _figure((6.4, 4.2))
     key = "short_label" if "short_label" in df.columns else "label"
-    for (label, light), g in df.groupby([key, "light"], sort=False):
-        ax.errorbar(g["time_ms_median"], 100 * g["error_rate"], xerr=g["time_ms_iqr"] / 2, fmt="o", capsize=3,
+    timed = "time_ms_median" in df.columns and df["time_ms_median"].notna().any()
+    if not timed:
+        ax.text(0.5, 0.5, "no times: every timing run failed (see the notes)", ha="center", va="center",
+                transform=ax.transAxes)
+    for (label, light), g in (df.groupby([key, "light"], sort=False) if timed else []):
+        iqr = g["time_ms_iqr"] / 2 if "time_ms_iqr" in g else None
+        ax.errorbar(g["time_ms_median"], 100 * g["error_rate"], xerr=iqr, fmt="o", capsize=3,
                     label=f"{label} (light {light})" if df["light"].nunique() > 1 else label)
     ax.set_xlabel("time per frame, ms (median; bar = IQR)")
     ax.set_ylabel("error rate, % of evaluated pixels")
     ax.set_title("Speed vs error against the ray-traced ground truth")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="best")
+    if timed:
+        ax.legend(fontsize=7, loc="best")
     fig.tight_layout()
     fig.savefig(path)
 
@@ -236,7 +243,8 @@ def pass_time_plot(df: pd.DataFrame, path: Path) -> str | None:
         vals = rows[col].fillna(0.0).to_numpy()
         ax.barh(range(len(rows)), vals, left=left, color=colors(k % 20), label=col[len("pass_"):-len("_ms")])
         left += vals
-    ax.scatter(rows["time_ms_median"], range(len(rows)), marker="|", s=200, color="k", label="total (median)")
+    if "time_ms_median" in rows.columns:
+        ax.scatter(rows["time_ms_median"], range(len(rows)), marker="|", s=200, color="k", label="total (median)")
     ax.set_yticks(range(len(rows)), rows["short_label"], fontsize=7)
     ax.invert_yaxis()
     ax.set_xlabel("ms per frame (median per pass; timed in runs of their own)")

@@ -11,9 +11,14 @@ the offset ray origins (:func:`shadowlab.tracing.offset_points`), a rect light's
 (:meth:`shadowlab.scene.area_lights.RectLight.sample_for`), the sampled truth's horizon test and
 segment set-up (:func:`shadowlab.techniques.raytrace.area_chunk_rays`) and its per-pixel count of
 unoccluded rays, and the hard lights' shadow-ray directions
-(:meth:`shadowlab.scene.lights.PointLight.shadow_rays` and the directional lights'). In numpy each of those is a chain of (M, N, 3) temporaries; here each value is
-formed once, in a loop that touches every input once, and the kernels release the GIL
-(``nogil``) so the truth's worker threads overlap them with Embree.
+(:meth:`shadowlab.scene.lights.PointLight.shadow_rays` and the directional lights'). In numpy
+each of those is a chain of (M, N, 3) temporaries, or a broadcast whose inner loop runs over
+three elements per row; here each value is formed once, in a loop that touches every input
+once, into output arrays allocated by numpy (whose allocator reuses freed memory: arrays
+allocated inside a kernel page-fault fresh memory on every call, which cost more than the
+arithmetic). The kernels release the GIL (``nogil``): the sampled truth's worker threads
+overlap them with Embree, and the per-frame passes over every pixel run in row bands on the
+cores (:func:`in_parts`).
 
 Same bits: every value is formed by the same IEEE operations on the same operands, in the same
 order, as the numpy expression it replaces (quoted at each kernel). numba does not contract
@@ -21,8 +26,8 @@ order, as the numpy expression it replaces (quoted at each kernel). numba does n
 "numpy"`` makes x/0 give ±inf and 0/0 NaN as numpy does, instead of raising. One order is not
 obvious: numpy's ``einsum("ij,ij->i", a, b)`` over three columns sums ``(a0·b0 + a2·b2) +
 a1·b1`` (its two-lane SIMD inner loop; :func:`dot3_einsum`), and the kernels that replace an
-``einsum`` use that order; tests/test_ground_truth.py and tests/test_soft_truth.py hold every
-kernel to its numpy reference bit for bit.
+``einsum`` use that order; tests/test_compiled_truth.py and tests/test_ground_truth.py hold
+every kernel to its numpy reference bit for bit.
 
 The random stream is not touched: the jitter is still drawn by numpy's Generator
 (``rng.random((M, N, 2))``), so the samples are the same numbers as before.
@@ -32,7 +37,10 @@ or loads them once per process, outside any timed region.
 """
 from __future__ import annotations
 
+import os
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import njit
@@ -48,18 +56,19 @@ def dot3_einsum(a0, a1, a2, b0, b1, b2):
 
 @njit(**_JIT)
 def exact_points(covered, triangle_id, col_term, row_term, unit, numerator, tri_valid, eye,
-                 index, points, normals, valid):
+                 r0, r1, i0, index, points, normals, valid):
     """Exact float64 hits of the pixel-centre camera rays with the planes of the triangles the
-    G-buffer saw, at the covered pixels in row-major order, written into ``index`` (M,) int64
-    (into the flattened image), ``points`` (M, 3), ``normals`` (M, 3) turned to the camera and
-    ``valid`` (M,) bool; M = the number of covered pixels.
+    G-buffer saw, at the covered pixels of rows r0..r1 in row-major order, written from entry
+    ``i0`` (the covered pixels above row r0) into ``index`` (M,) int64 (into the flattened
+    image), ``points`` (M, 3), ``normals`` (M, 3) turned to the camera and ``valid`` (M,) bool;
+    M = the number of covered pixels. Row bands are independent (:func:`in_parts`).
 
     Bit for bit :func:`shadowlab.frame.plane_hits` on the rays ``col_term[col] + row_term[row]``:
     ``denom = einsum(d, n)``, ``t = numerator[tri] / denom``, ``p = d·t + eye``, the normal
     negated where denom > 0, valid = non-degenerate triangle & t > 0 & t < ∞."""
-    h, w = covered.shape
-    i = 0
-    for r in range(h):
+    w = covered.shape[1]
+    i = i0
+    for r in range(r0, r1):
         for c in range(w):
             if not covered[r, c]:
                 continue
@@ -195,6 +204,41 @@ def fill_rows(vec, out):
         out[i, 2] = v2
 
 
+#: Work items below this size run in the calling thread alone (a hand-over costs ~0.05 ms).
+MIN_PART = 1 << 15
+#: Helper threads for :func:`in_parts`, made on first use in each process (pid: a forked child
+#: has no threads of its parent's pool and makes its own).
+_POOL: tuple[int, ThreadPoolExecutor] | None = None
+_POOL_LOCK = threading.Lock()
+
+
+def in_parts(fn, bounds: list[tuple[int, int]]) -> list:
+    """``[fn(a, b) for a, b in bounds]``, the first part in the calling thread and the others
+    on helper threads at the same time (the kernels release the GIL): the per-frame passes over
+    every pixel use both cores. Each part writes its own slice of the outputs, so the bits do
+    not depend on the split."""
+    global _POOL
+    if len(bounds) == 1:
+        return [fn(*bounds[0])]
+    with _POOL_LOCK:
+        if _POOL is None or _POOL[0] != os.getpid():
+            _POOL = (os.getpid(), ThreadPoolExecutor(max(1, (os.cpu_count() or 1) - 1),
+                                                     thread_name_prefix="compiled_truth"))
+        pool = _POOL[1]
+    rest = [pool.submit(fn, a, b) for a, b in bounds[1:]]
+    first = fn(*bounds[0])
+    return [first] + [f.result() for f in rest]
+
+
+def split(total: int, work: int | None = None) -> list[tuple[int, int]]:
+    """``total`` items (rows, points) cut into one contiguous range per core, fewer when the
+    ``work`` (items of output, default ``total``) is under :data:`MIN_PART` per range."""
+    work = total if work is None else work
+    parts = max(1, min(os.cpu_count() or 1, work // MIN_PART, total))
+    edges = [total * k // parts for k in range(parts + 1)]
+    return [(edges[k], edges[k + 1]) for k in range(parts)]
+
+
 _warm_ms: float | None = None
 
 
@@ -207,7 +251,7 @@ def warm() -> float:
     t0 = time.perf_counter()
     f64, f32 = np.zeros((1, 3)), np.zeros((1, 3), np.float32)
     exact_points(np.ones((1, 1), bool), np.zeros((1, 1), np.int32), f64, f64, f64 + 1, np.ones(1), np.ones(1, bool),
-                 np.zeros(3), np.zeros(1, np.int64), f64.copy(), f64.copy(), np.zeros(1, bool))
+                 np.zeros(3), 0, 1, 0, np.zeros(1, np.int64), f64.copy(), f64.copy(), np.zeros(1, bool))
     offset_points(f64, f64, 1.0, 1e-6, f32.copy())
     s = np.zeros((1, 1, 3))
     rect_samples(np.zeros((1, 1, 2)), np.zeros((1, 2)), np.ones((1, 2)), np.zeros(3), np.ones(3), np.ones(3), s)

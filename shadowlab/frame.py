@@ -254,12 +254,17 @@ class Frame:
         unit = np.ascontiguousarray(self.triangle_normals, np.float64)
         numerator = plane_numerators(self.triangles, unit, eye)
         tri_valid = np.any(unit != 0, axis=1)  # negation keeps zero-ness
-        m = np.count_nonzero(self.covered)
+        per_row = np.count_nonzero(self.covered, axis=1)
+        first = np.concatenate([[0], np.cumsum(per_row)])  # covered pixels above each row
+        m = int(first[-1])
         # outputs allocated by numpy (its allocator reuses freed memory; numba's, called each
         # frame, page-faults fresh memory and costs more than the arithmetic)
         idx, points, normals, valid = np.empty(m, np.int64), np.empty((m, 3)), np.empty((m, 3)), np.empty(m, bool)
-        compiled_truth.exact_points(self.covered, self.triangle_id, col_term, row_term, unit, numerator, tri_valid,
-                                    eye, idx, points, normals, valid)
+        compiled_truth.in_parts(
+            lambda r0, r1: compiled_truth.exact_points(self.covered, self.triangle_id, col_term, row_term, unit,
+                                                       numerator, tri_valid, eye, r0, r1, int(first[r0]), idx,
+                                                       points, normals, valid),
+            compiled_truth.split(h, m))
         self.pixel_index = idx  # row-major covered pixels, as np.flatnonzero(covered)
         self.compact_position = points  # (M, 3) float64
         self.compact_normal = normals  # (M, 3) float64, unit, facing the camera (two-sided surfaces, DESIGN §7)

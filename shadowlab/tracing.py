@@ -80,8 +80,12 @@ def offset_points(points: np.ndarray, normals: np.ndarray, extent: float,
 
     points = np.ascontiguousarray(points, np.float64)
     normals = np.ascontiguousarray(normals, np.float64)
+    from .compiled_truth import in_parts, split
+
     origins = np.empty((len(points), 3), np.float32)
-    if kernel(points, normals, float(extent), float(offset_scale), origins):
+    nan_rows = in_parts(lambda a, b: kernel(points[a:b], normals[a:b], float(extent), float(offset_scale),
+                                            origins[a:b]), split(len(points)))
+    if sum(nan_rows):
         # Points with no hit (NaN coordinates) give NaN origins, never traced; the numpy formula
         # decides their NaNs' sign bits, and numpy's own choice depends on where in the array a
         # row lies (its SIMD lanes against the scalar tail), so only the whole array recomputed

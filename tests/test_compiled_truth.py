@@ -156,3 +156,31 @@ def test_hard_shadow_rays_are_bitwise_numpy(light):
     d64, _ = light.shadow_rays(origins.astype(np.float64), points)
     assert d64.shape == origins.shape
     assert same_bits(light.shadow_rays(origins[::2], points[::2])[0], want[::2])
+
+
+def test_split_over_threads_keeps_the_bits(monkeypatch):
+    """The per-frame passes cut into row bands and point ranges on helper threads (here three,
+    of 64 items at least) give the reference's bits, as in one piece."""
+    import os
+
+    from shadowlab import compiled_truth
+    from shadowlab.frame import Frame
+    from shadowlab.scene import load_scene
+    from test_ground_truth import assert_exact_points_match_reference
+
+    monkeypatch.setattr(compiled_truth, "MIN_PART", 64)
+    monkeypatch.setattr(os, "cpu_count", lambda: 3)
+    assert len(compiled_truth.split(151, 20000)) == 3
+    frame = Frame(load_scene("spot_scene"), 203, 151)
+    try:
+        assert_exact_points_match_reference(frame)
+    finally:
+        frame.release()
+
+
+def test_small_ray_buffers_are_refused():
+    """Buffers too small for M·n rays (the compiled pass does not check bounds) are an error."""
+    points, normals, origins = receivers(10)
+    small = (np.empty((10 * 8 - 1, 3), np.float32), np.empty((10 * 8, 3), np.float32))
+    with pytest.raises(ValueError, match="ray buffers"):
+        area_chunk_rays(LIGHTS["rect"], points, normals, origins, 8, np.random.default_rng(0), out=small)

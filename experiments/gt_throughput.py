@@ -4,14 +4,28 @@ For each scene and size: the ground truth's per-light work (ray generation from 
 offset origins + Embree occlusion + bookkeeping) in shadow rays per second, beside a raw
 ``embreex`` occlusion query over exactly the same rays. The per-frame work the ground truth
 shares with evaluation (exact float64 hit points) and its own per-frame work (offset origins)
-are reported separately, and amortised over one light in ``gt_end_to_end_rays_per_s``.
+are reported separately, and amortised over one light in ``gt_end_to_end_rays_per_s``;
+``gt_end_to_end_over_raw`` is that against raw Embree — the hard truth's "fraction of raw
+Embree at one light" of issue 27.
 Area lights (``--area-scenes``): the scene's first light is replaced by a rect area light at its
 position (``--area-edge`` square, emitting down) and the sampled truth (``--area-samples`` rays
 per pixel, its worker threads) is timed end to end per light (sample generation, horizon test,
 ray set-up, Embree, counting), beside raw Embree occlusion of exactly the same rays (generated
 chunk by chunk outside the timed region, with the same chunks and seeds), run on the same
-number of threads (``raw_embree_rays_per_s``) and on one (``raw_embree_1thread_rays_per_s``).
-Writes results/gt_throughput.csv and its provenance (.json).
+number of threads (``raw_embree_rays_per_s``) and on one (``raw_embree_1thread_rays_per_s``);
+``gt_over_raw`` is the soft truth's fraction of raw Embree.
+
+Timing (issue 27): the truth, raw Embree and the per-frame steps are timed in turn, round after
+round (``--repeat`` rounds; area lights ``--area-repeat``), and each figure is the median of its
+rounds, so that load from other processes on a shared machine falls on all of them alike.
+Besides wall-clock seconds, ``cpu_gt_over_raw`` and ``cpu_gt_end_to_end_over_raw`` give the same
+fractions in CPU seconds of this process (all threads), which other processes' load disturbs
+far less.
+
+Before and after issue 27 (compiled per-ray passes, :mod:`shadowlab.compiled_truth`; same bits),
+measured with this script's protocol on the same 2-core machine (Intel Xeon, llvmpipe — Embree
+runs on the CPU either way), the old and new code run alternately under the same load:
+see docs/guide.md (the ``raytrace`` row and the gt_throughput entry) for the figures.
 
     python experiments/gt_throughput.py [--sizes 320x240] [--repeat 5]
     (the figures in the notes: --sizes 800x600,1600x1200 --repeat 9)
@@ -35,35 +49,57 @@ from shadowlab.scene.lights import T_LIGHT
 from shadowlab.scene import load_scene, parse_scene, resolve_scene_path
 from shadowlab.tracing import occluded, offset_origins
 from shadowlab.techniques.raytrace import RayTraced, area_chunk_rays, area_chunks, area_workers
-from shadowlab.timing import time_passes
 
 
-def median_s(fn, repeat):
-    """Median wall-clock seconds of ``fn`` (CPU work: no GL finish), after one warm-up."""
-    return time_passes(fn, repeat=repeat, warmup=1, gpu=False).median_ms / 1e3
+def void(_result) -> None:
+    """Drop a timed call's result (:func:`interleaved` reads a returned value as its own timing)."""
+    return None
+
+
+def interleaved(fns: dict, repeat: int) -> tuple[dict, dict]:
+    """Median wall-clock and CPU seconds (this process, all threads) of each function in ``fns``
+    (name → callable returning None, or (wall, cpu) seconds of its own timed part), called in turn,
+    round after round (``repeat`` rounds, after one warm-up round): load from elsewhere falls on
+    every function alike. CPU work only (no GL finish)."""
+    wall = {k: [] for k in fns}
+    cpu = {k: [] for k in fns}
+    for rnd in range(repeat + 1):
+        for k, fn in fns.items():
+            w0, c0 = time.perf_counter(), time.process_time()
+            own = fn()
+            w, c = time.perf_counter() - w0, time.process_time() - c0
+            if own is not None:  # the function timed its own part: (wall, cpu)
+                w, c = own
+            if rnd:
+                wall[k].append(w)
+                cpu[k].append(c)
+    return ({k: float(np.median(v)) for k, v in wall.items()}, {k: float(np.median(v)) for k, v in cpu.items()})
 
 
 def measure(scene_name, size, repeat):
     scene = load_scene(scene_name)
     frame = Frame(scene, *size)
-    t_exact = median_s(frame.compute_exact_points, repeat)
     gt = RayTraced()
     gt.prepare(frame, 0)
-    t_origins = median_s(lambda: offset_origins(frame, gt.offset_scale, cached=False), repeat)
-    t_gt = median_s(gt.render, repeat)
     # The identical rays, prepared outside the timed region, through embreex alone.
     light = scene.lights[0]
     org = gt.eval_origins
     dirs, tfar = light.shadow_rays(org, gt.eval_points)
-    t_raw = median_s(lambda: occluded(gt.scene, org, dirs, tfar), repeat)
+    wall, cpu = interleaved({"raw": lambda: void(occluded(gt.scene, org, dirs, tfar)), "gt": gt.render,
+                             "exact": frame.compute_exact_points,
+                             "origins": lambda: void(offset_origins(frame, gt.offset_scale, cached=False))}, repeat)
     frame.release()
     n = len(org)
+    t_raw, t_gt, t_exact, t_origins = wall["raw"], wall["gt"], wall["exact"], wall["origins"]
     return {
         "scene": scene_name, "width": size[0], "height": size[1], "light": light.type_name, "rays": n,
         "raw_embree_rays_per_s": n / t_raw, "gt_rays_per_s": n / t_gt, "gt_over_raw": t_raw / t_gt,
         "gt_per_light_ms": 1e3 * t_gt, "raw_embree_ms": 1e3 * t_raw,
         "exact_points_ms_per_frame": 1e3 * t_exact, "offset_origins_ms_per_frame": 1e3 * t_origins,
         "gt_end_to_end_rays_per_s": n / (t_gt + t_exact + t_origins),
+        "gt_end_to_end_over_raw": t_raw / (t_gt + t_exact + t_origins),
+        "cpu_gt_over_raw": cpu["raw"] / cpu["gt"],
+        "cpu_gt_end_to_end_over_raw": cpu["raw"] / (cpu["gt"] + cpu["exact"] + cpu["origins"]),
     }
 
 
@@ -79,10 +115,12 @@ def area_scene(scene_name, edge):
 
 
 def raw_area_seconds(gt, threads):
-    """Seconds of Embree occlusion alone over the sampled truth's rays (same chunks and seeds),
-    ``threads`` chunks at a time; the rays of each group are generated outside the timed region."""
+    """Wall-clock and CPU seconds (this process) of Embree occlusion alone over the sampled
+    truth's rays (same chunks and seeds), ``threads`` chunks at a time as the truth's workers
+    run them, and the number of rays; the rays of each group are generated outside the timed
+    region (all of them at once would not fit in memory at 640x480 × 1024 samples)."""
     chunks = area_chunks(len(gt.eval_points), gt.samples, gt.seed, gt.decorrelate)
-    total, rays = 0.0, 0
+    wall, cpu, rays = 0.0, 0.0, 0
     with ThreadPoolExecutor(threads) as pool:
         for g in range(0, len(chunks), threads):
             group = []
@@ -91,36 +129,42 @@ def raw_area_seconds(gt, threads):
                                                   gt.eval_origins[a:b], gt.samples, rng)
                 group.append((org, dirs, np.full(len(org), T_LIGHT, np.float32)))
                 rays += len(org)
-            t0 = time.perf_counter()
+            w0, c0 = time.perf_counter(), time.process_time()
             list(pool.map(lambda r: occluded(gt.scene, *r), group))
-            total += time.perf_counter() - t0
-    return total, rays
+            wall += time.perf_counter() - w0
+            cpu += time.process_time() - c0
+    return wall, cpu, rays
 
 
 def measure_area(scene_name, size, repeat, samples, edge):
     """The sampled truth of a rect area light against raw Embree on the same rays."""
     scene = area_scene(scene_name, edge)
     frame = Frame(scene, *size)
-    t_exact = median_s(frame.compute_exact_points, repeat)
     gt = RayTraced(samples=samples)
     gt.prepare(frame, 0)
-    t_origins = median_s(lambda: offset_origins(frame, gt.offset_scale, cached=False), repeat)
-    t_gt = median_s(gt.render, repeat)
+    gt.render()
     n = gt.stats()["rays"]
     threads = area_workers(samples, len(area_chunks(len(gt.eval_points), samples, gt.seed, gt.decorrelate)))
-    t_raw, raw_rays = raw_area_seconds(gt, threads)
-    t_raw1, _ = raw_area_seconds(gt, 1)
+    *_, raw_rays = raw_area_seconds(gt, 1)
     assert raw_rays == n, (raw_rays, n)
+    wall, cpu = interleaved({"raw": lambda: raw_area_seconds(gt, threads)[:2], "gt": gt.render,
+                             "raw1": lambda: raw_area_seconds(gt, 1)[:2],
+                             "exact": frame.compute_exact_points,
+                             "origins": lambda: void(offset_origins(frame, gt.offset_scale, cached=False))}, repeat)
     tris = sum(len(o.faces) for o in scene.objects)
     frame.release()
+    t_raw, t_gt, t_exact, t_origins = wall["raw"], wall["gt"], wall["exact"], wall["origins"]
     return {
         "scene": scene.name, "width": size[0], "height": size[1], "light": "area/rect", "samples": samples,
         "triangles": tris, "pixels": int(len(gt.eval_points)), "threads": threads, "rays": n,
-        "raw_embree_rays_per_s": n / t_raw, "raw_embree_1thread_rays_per_s": n / t_raw1,
+        "raw_embree_rays_per_s": n / t_raw, "raw_embree_1thread_rays_per_s": n / wall["raw1"],
         "gt_rays_per_s": n / t_gt, "gt_over_raw": t_raw / t_gt,
         "gt_per_light_ms": 1e3 * t_gt, "raw_embree_ms": 1e3 * t_raw,
         "exact_points_ms_per_frame": 1e3 * t_exact, "offset_origins_ms_per_frame": 1e3 * t_origins,
         "gt_end_to_end_rays_per_s": n / (t_gt + t_exact + t_origins),
+        "gt_end_to_end_over_raw": t_raw / (t_gt + t_exact + t_origins),
+        "cpu_gt_over_raw": cpu["raw"] / cpu["gt"],
+        "cpu_gt_end_to_end_over_raw": cpu["raw"] / (cpu["gt"] + cpu["exact"] + cpu["origins"]),
     }
 
 
@@ -133,7 +177,7 @@ def main():
     ap.add_argument("--area-sizes", default="320x240")
     ap.add_argument("--area-samples", type=int, default=1024)
     ap.add_argument("--area-edge", type=float, default=1.0, help="side of the square area light")
-    ap.add_argument("--area-repeat", type=int, default=1)
+    ap.add_argument("--area-repeat", type=int, default=3)
     ap.add_argument("--out", default="results/gt_throughput.csv")
     args = ap.parse_args()
     names = [s for s in args.scenes.split(",") if s]
@@ -144,11 +188,11 @@ def main():
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     df.to_csv(out, index=False)
-    provenance.write_record(out, {"timing": f"wall clock, median of {args.repeat} (area lights: "
-                                            f"{args.area_repeat}) after 1 warm-up"})
+    provenance.write_record(out, {"timing": f"wall clock and process CPU time, median of {args.repeat} interleaved "
+                                            f"rounds (area lights: {args.area_repeat}) after 1 warm-up round"})
     with pd.option_context("display.width", 250):
         print(df.to_string(index=False, float_format=lambda x: f"{x:.4g}"))
-    print(f"renderer: {gl.renderer()}  (timings: wall clock, median of {args.repeat})")
+    print(f"renderer: {gl.renderer()}  (timings: wall clock, median of {args.repeat} interleaved rounds)")
     print(f"wrote {out} and {out.with_suffix('.json')}")
 
 

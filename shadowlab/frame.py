@@ -243,19 +243,30 @@ class Frame:
         tests/test_ground_truth.py) — but only on covered pixels and with every arithmetic result
         formed by the same operation on the same operands: the rays from per-column and per-row
         tables (the same two terms :meth:`Camera.pixel_rays` adds), the plane's numerator
-        (v0 − eye)·n once per triangle and gathered, N·d with the same ``einsum``."""
+        (v0 − eye)·n once per triangle and gathered, N·d summed in ``einsum``'s order. The
+        per-pixel work is one compiled pass (:func:`shadowlab.compiled_truth.exact_points`,
+        issue 27; :func:`plane_hits` is the same arithmetic in numpy)."""
+        from . import compiled_truth
+
+        compiled_truth.warm()  # load every compiled pass with the first frame, not in a timed render
         w, h = self.width, self.height
-        idx = np.flatnonzero(self.covered)  # row-major, so rows ascend
-        self.pixel_index = idx
-        tri = np.take(self.triangle_id.reshape(-1), idx)
-        per_row = np.count_nonzero(self.covered, axis=1)
-        col = idx - np.repeat(np.arange(h), per_row) * w
         col_term, row_term = _pixel_ray_terms(self.camera, w, h)
-        dirs = np.take(col_term, col, axis=0)  # (M, 3): (−back + x·right) + y·up, as in pixel_rays
-        dirs += np.repeat(row_term, per_row, axis=0)
         eye = np.asarray(self.camera.eye, np.float64)
-        numerator = plane_numerators(self.triangles, self.triangle_normals, eye)
-        points, normals, valid = plane_hits(eye, dirs, tri, self.triangle_normals, numerator)
+        unit = np.ascontiguousarray(self.triangle_normals, np.float64)
+        numerator = plane_numerators(self.triangles, unit, eye)
+        tri_valid = np.any(unit != 0, axis=1)  # negation keeps zero-ness
+        per_row = np.count_nonzero(self.covered, axis=1)
+        first = np.concatenate([[0], np.cumsum(per_row)])  # covered pixels above each row
+        m = int(first[-1])
+        # outputs allocated by numpy (its allocator reuses freed memory; numba's, called each
+        # frame, page-faults fresh memory and costs more than the arithmetic)
+        idx, points, normals, valid = np.empty(m, np.int64), np.empty((m, 3)), np.empty((m, 3)), np.empty(m, bool)
+        compiled_truth.in_parts(
+            lambda r0, r1: compiled_truth.exact_points(self.covered, self.triangle_id, col_term, row_term, unit,
+                                                       numerator, tri_valid, eye, r0, r1, int(first[r0]), idx,
+                                                       points, normals, valid),
+            compiled_truth.split(h, m))
+        self.pixel_index = idx  # row-major covered pixels, as np.flatnonzero(covered)
         self.compact_position = points  # (M, 3) float64
         self.compact_normal = normals  # (M, 3) float64, unit, facing the camera (two-sided surfaces, DESIGN §7)
         self.compact_object = np.take(self.object_id.reshape(-1), idx)

@@ -73,10 +73,32 @@ def offset_points(points: np.ndarray, normals: np.ndarray, extent: float,
     camera-facing ``normals`` (K, 3): float32 (K, 3) ``float32(P + offset_scale · max(‖P‖∞,
     extent) · N)``. The one formula behind :func:`offset_origins` (pixel centres) and
     :class:`shadowlab.subpixel.SubpixelSamples` (sub-pixel samples), so both round alike."""
+    # float32(p + (offset_scale · max(|p|∞, extent)) · n), bit for bit, in one compiled pass
+    # (issue 27): the row maximum over the three columns (max is exact, in any order), the
+    # product and sum in float64, rounded once to float32 (offset_points_reference in numpy).
+    from .compiled_truth import offset_points as kernel
+
+    points = np.ascontiguousarray(points, np.float64)
+    normals = np.ascontiguousarray(normals, np.float64)
+    from .compiled_truth import in_parts, split
+
+    origins = np.empty((len(points), 3), np.float32)
+    nan_rows = in_parts(lambda a, b: kernel(points[a:b], normals[a:b], float(extent), float(offset_scale),
+                                            origins[a:b]), split(len(points)))
+    if sum(nan_rows):
+        # Points with no hit (NaN coordinates) give NaN origins, never traced; the numpy formula
+        # decides their NaNs' sign bits, and numpy's own choice depends on where in the array a
+        # row lies (its SIMD lanes against the scalar tail), so only the whole array recomputed
+        # the old way keeps those bits.
+        return offset_points_reference(points, normals, extent, offset_scale)
+    return origins
+
+
+def offset_points_reference(points: np.ndarray, normals: np.ndarray, extent: float,
+                            offset_scale: float = DEFAULT_OFFSET_SCALE) -> np.ndarray:
+    """:func:`offset_points` in numpy (the formula before issue 27), the reference the compiled
+    pass is tested against bit for bit."""
     p, n = points, normals
-    # float32(p + (offset_scale · max(|p|∞, extent)) · n), bit for bit, with fewer temporaries:
-    # the row maximum over the three columns (max is exact, in any order), the product and sum
-    # in float64, rounded once to float32 on the way into ``origins``.
     scale = np.abs(p[:, 0])
     np.maximum(scale, np.abs(p[:, 1]), out=scale)
     np.maximum(scale, np.abs(p[:, 2]), out=scale)
@@ -106,6 +128,15 @@ def occluded(scene, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarra
         return np.zeros(0, bool)
     hit = scene.run(origins, directions, dists=tfar, query="OCCLUDED")
     return hit != -1  # embreex returns -1 for unoccluded rays
+
+
+def occlusion_ids(scene, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray) -> np.ndarray:
+    """Embree occlusion of float32 rays (N, 3) up to ``tfar`` (N,) as embreex answers it: int32
+    (N,), −1 where the ray is unoccluded (what :func:`occluded` compares against), for callers
+    that count the answers in compiled code without a bool copy."""
+    if len(origins) == 0:
+        return np.zeros(0, np.int32)
+    return scene.run(origins, directions, dists=tfar, query="OCCLUDED")
 
 
 def nearest_hits(scene, origins: np.ndarray, directions: np.ndarray, tfar: np.ndarray) -> dict:

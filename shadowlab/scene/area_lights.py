@@ -171,6 +171,21 @@ class RectLight(AreaLight):
     def _surface(self, uv):
         return self.position + (uv[..., :1] - 0.5) * self.u + (uv[..., 1:] - 0.5) * self.v
 
+    def sample_for(self, points, n, rng):
+        """:meth:`AreaLight.sample_for` (the same jitter from ``rng``, the same bits), with the
+        strata's jitter mapped onto the rectangle in one compiled pass
+        (:func:`shadowlab.compiled_truth.rect_samples`) instead of numpy's (M, n, 3) temporaries:
+        the sampled truth's largest cost besides Embree (issue 27)."""
+        from ..compiled_truth import rect_samples
+
+        lo, size = strata(n)
+        jitter = np.ascontiguousarray(rng.random((len(points), n, 2)), np.float64)
+        samples = np.empty((len(points), n, 3))
+        rect_samples(jitter, np.ascontiguousarray(lo, np.float64), np.ascontiguousarray(size, np.float64),
+                     *(np.ascontiguousarray(a, np.float64) for a in (self.position, self.u, self.v)), samples)
+        facing = np.broadcast_to(self.emits_towards(points)[:, None], (len(points), n))
+        return samples, facing
+
     def corners(self) -> np.ndarray:
         """The four corners (4, 3), counter-clockwise seen from the emitting side."""
         return self._surface(np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]))

@@ -52,6 +52,24 @@ def _vec(v) -> tuple:
     return tuple(map(float, v))
 
 
+def _plain_f32_rows(a) -> bool:
+    """True for a C-contiguous float32 ndarray (K, 3): what the compiled shadow-ray passes take."""
+    return isinstance(a, np.ndarray) and a.dtype == np.float32 and a.ndim == 2 and a.shape[1] == 3 \
+        and a.flags.c_contiguous
+
+
+def _constant_rows(vec: np.ndarray, origins) -> np.ndarray:
+    """``np.broadcast_to(vec, origins.shape).copy()`` (the same bits), in one compiled pass for
+    float32 origins (K, 3)."""
+    if not _plain_f32_rows(origins):
+        return np.broadcast_to(vec, origins.shape).copy()
+    from ..compiled_truth import fill_rows
+
+    out = np.empty((len(origins), 3), vec.dtype)
+    fill_rows(vec, out)
+    return out
+
+
 @dataclass
 class Light:
     """Base class: colour (diffuse and specular intensity) and ambient intensity."""
@@ -128,8 +146,18 @@ class PointLight(Light):
             return v / d[:, None], d
 
     def shadow_rays(self, origins, points):
-        """Unnormalised rays (light − origin), stopping at :data:`T_LIGHT` of the way."""
-        return self.position.astype(np.float32) - origins, np.full(len(origins), T_LIGHT, np.float32)
+        """Unnormalised rays (light − origin), stopping at :data:`T_LIGHT` of the way. Float32
+        origins (K, 3) take a compiled pass, bit for bit numpy's broadcast subtraction, which
+        loops over three elements per row (issue 27)."""
+        pos = self.position.astype(np.float32)
+        tfar = np.full(len(origins), T_LIGHT, np.float32)
+        if not _plain_f32_rows(origins):
+            return pos - origins, tfar
+        from ..compiled_truth import vector_minus_rows
+
+        dirs = np.empty((len(origins), 3), np.float32)
+        vector_minus_rows(pos, origins, dirs)
+        return dirs, tfar
 
     def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):
         """``projection=frustum``: one frustum around the points; ``cube``: six faces; ``auto``:
@@ -179,8 +207,8 @@ class DirectionalLight(Light):
 
     def shadow_rays(self, origins, points):
         """Along −direction, to :data:`T_INFINITE`."""
-        dirs = np.broadcast_to((-self.direction).astype(np.float32), origins.shape).copy()
-        return dirs, np.full(len(origins), T_INFINITE, np.float32)
+        return _constant_rows((-self.direction).astype(np.float32), origins), np.full(len(origins), T_INFINITE,
+                                                                                       np.float32)
 
     def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):
         """Orthographic along the light, sideways fitted to the points, in depth from the
@@ -279,7 +307,7 @@ class TargetDirectLight(Light):
 
     def shadow_rays(self, origins, points):
         """Along −direction, back to the light's plane (nothing behind the disc casts)."""
-        dirs = np.broadcast_to((-self.direction).astype(np.float32), origins.shape).copy()
+        dirs = _constant_rows((-self.direction).astype(np.float32), origins)
         return dirs, ((points - self.position) @ self.direction).astype(np.float32)
 
     def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):

@@ -62,12 +62,21 @@ is correlated across the image (visible banding), useful to compare with the lig
 average of the hard techniques. Same seed, same samples → the same bits.
 
 Pixels are processed in chunks of at most :data:`CHUNK_RAYS` samples, at most
-:data:`MAX_RAYS_HELD` held at once across the worker threads (Embree and most of numpy release
-the GIL); only samples that face P and lie above its horizon are traced.
+:data:`MAX_RAYS_HELD` held at once across the worker threads (Embree, numpy's generator and the
+compiled passes release the GIL); only samples that face P and lie above its horizon are traced.
+
+Speed (issue 27): around the Embree calls, the per-sample work — a rect light's samples, the
+horizon test, the segments, the per-pixel count of Embree's answers — runs in compiled passes
+(:mod:`shadowlab.compiled_truth`) into ray buffers each worker thread reuses
+(:class:`ChunkBuffers`), instead of numpy's chain of (M, N, 3) temporaries. The random stream
+is unchanged (numpy's ``Generator.random`` draws the jitter as before) and so are the bits:
+:func:`area_chunk_rays_reference` keeps the numpy formulation, and tests/test_compiled_truth.py
+holds the compiled path to it bit for bit.
 """
 from __future__ import annotations
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -75,7 +84,7 @@ import numpy as np
 from ..scene.area_lights import AreaLight, above_horizon
 from ..scene.lights import T_LIGHT
 from ..subpixel import MAX_SAMPLES, sample_visibility, subpixel_samples
-from ..tracing import DEFAULT_OFFSET_SCALE, caster_scene, occluded, offset_origins
+from ..tracing import DEFAULT_OFFSET_SCALE, caster_scene, occluded, occlusion_ids, offset_origins
 from .base import FIRST, SUM, Param, PlotStyle, Technique, TechniqueError
 
 #: Samples (shadow rays) per chunk of pixels of an area light.
@@ -100,15 +109,45 @@ class SharedJitter:
 
 
 def area_chunk_rays(light: AreaLight, points: np.ndarray, normals: np.ndarray, origins: np.ndarray, n: int,
-                    rng) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray]:
+                    rng, rows: bool = True, out: tuple[np.ndarray, np.ndarray] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray]:
     """The shadow rays of an area light for M points: samples that face the point and lie above
     its horizon, per point (M,) int64; the point of each ray (K,) int64 (None when all M·n
-    samples are live: then ray k belongs to point k // n); origins (K, 3) and unnormalised
-    directions (K, 3) float32 (the light sample is reached at t = 1).
+    samples are live — then ray k belongs to point k // n — or when ``rows`` is false); origins
+    (K, 3) and unnormalised directions (K, 3) float32 (the light sample is reached at t = 1).
+    The rays of a point are consecutive, in sample order.
 
     ``points`` (M, 3) float64 exact surface points, ``normals`` (M, 3) their camera-facing unit
     normals, ``origins`` (M, 3) float32 their offset ray origins; ``rng`` a Generator (or
-    :class:`SharedJitter`) for :meth:`AreaLight.sample_for`."""
+    :class:`SharedJitter`) for :meth:`AreaLight.sample_for`. ``out``: float32 buffers (at least
+    M·n, 3) for the origins and directions, which are then returned as views of them (the
+    worker threads of :func:`area_visibility` reuse theirs from chunk to chunk).
+
+    The horizon test and the segments are one compiled pass
+    (:func:`shadowlab.compiled_truth.segment_rays`, issue 27), bit for bit
+    :func:`area_chunk_rays_reference` (tests/test_compiled_truth.py holds them equal)."""
+    from ..compiled_truth import segment_rays
+
+    m = len(points)
+    samples, facing = light.sample_for(points, n, rng)
+    if out is None:
+        out = (np.empty((m * n, 3), np.float32), np.empty((m * n, 3), np.float32))
+    elif any(b.dtype != np.float32 or b.shape[1:] != (3,) or len(b) < m * n or not b.flags.c_contiguous for b in out):
+        raise ValueError(f"ray buffers must be C-contiguous float32 (>= {m * n}, 3) for {m} points x {n} samples")
+    counts = np.empty(m, np.int64)
+    k = segment_rays(np.ascontiguousarray(samples, np.float64), np.ascontiguousarray(facing, bool),
+                     np.ascontiguousarray(points, np.float64), np.ascontiguousarray(normals, np.float64),
+                     np.ascontiguousarray(origins, np.float32), counts, out[0], out[1])
+    which = None
+    if rows and k != m * n:
+        which = np.repeat(np.arange(m), counts)
+    return counts, which, out[0][:k], out[1][:k]
+
+
+def area_chunk_rays_reference(light: AreaLight, points: np.ndarray, normals: np.ndarray, origins: np.ndarray,
+                              n: int, rng) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray]:
+    """:func:`area_chunk_rays` in plain numpy (the truth's code before issue 27): the reference
+    the compiled path must equal bit for bit, and the definition to read."""
     samples, facing = light.sample_for(points, n, rng)
     live = facing & above_horizon(samples, points, normals)
     counts = live.sum(axis=1)
@@ -124,19 +163,39 @@ def area_chunk_rays(light: AreaLight, points: np.ndarray, normals: np.ndarray, o
 
 
 def area_chunk_counts(scene, light: AreaLight, points: np.ndarray, normals: np.ndarray, origins: np.ndarray,
-                      n: int, rng) -> tuple[np.ndarray, int]:
+                      n: int, rng, buffers: "ChunkBuffers | None" = None) -> tuple[np.ndarray, int]:
     """Unoccluded sample counts of an area light for M points: int64 (M,) out of ``n``, and the
     number of shadow rays traced. A sample counts if it faces the point, lies above the point's
     tangent plane and the float32 segment from the origin to it is unoccluded up to
     :data:`shadowlab.scene.lights.T_LIGHT` (:func:`area_chunk_rays` for the arguments); ``scene`` is
-    the Embree scene of the casters (None: nothing casts)."""
-    counts, rows, org, dirs = area_chunk_rays(light, points, normals, origins, n, rng)
-    if scene is None:
+    the Embree scene of the casters (None: nothing casts). Each point's rays are consecutive,
+    so the unblocked ones are counted per point in one compiled pass over Embree's answers
+    (:func:`shadowlab.compiled_truth.unoccluded_counts`). ``buffers``: a worker thread's
+    reusable ray buffers (:class:`ChunkBuffers`), else fresh ones."""
+    from ..compiled_truth import unoccluded_counts
+
+    if buffers is None:
+        buffers = ChunkBuffers(len(points) * n)
+    counts, _, org, dirs = area_chunk_rays(light, points, normals, origins, n, rng, rows=False,
+                                           out=(buffers.org, buffers.dirs))
+    if scene is None or len(org) == 0:
         return counts, len(org)
-    blocked = occluded(scene, org, dirs, np.full(len(org), T_LIGHT, np.float32))
-    if rows is None:
-        return counts - blocked.reshape(len(points), n).sum(axis=1), len(org)
-    return counts - np.bincount(rows[blocked], minlength=len(points)), len(org)
+    hit = occlusion_ids(scene, org, dirs, buffers.tfar[:len(org)])
+    free = np.empty(len(points), np.int64)
+    unoccluded_counts(counts, hit, free)
+    return free, len(org)
+
+
+class ChunkBuffers:
+    """Float32 ray buffers for ``rays`` shadow rays — origins and directions (rays, 3) and tfar
+    (rays,) = :data:`~shadowlab.scene.lights.T_LIGHT` — that one worker thread reuses for every
+    chunk of :func:`area_visibility`: fresh arrays per chunk would page-fault their memory in
+    again each time."""
+
+    def __init__(self, rays: int):
+        self.org = np.empty((rays, 3), np.float32)
+        self.dirs = np.empty((rays, 3), np.float32)
+        self.tfar = np.full(rays, T_LIGHT, np.float32)
 
 
 def area_chunks(m: int, n: int, seed: int, decorrelate: bool) -> list[tuple[int, int, object]]:
@@ -166,10 +225,14 @@ def area_visibility(scene, light: AreaLight, points: np.ndarray, normals: np.nda
     on :func:`area_workers` threads; the result depends only on (seed, n, decorrelate), not on
     the thread count."""
     chunks = area_chunks(len(points), n, seed, decorrelate)
+    rays = max((b - a for a, b, _ in chunks), default=0) * n
+    local = threading.local()
 
     def run(chunk):
         a, b, rng = chunk
-        return area_chunk_counts(scene, light, points[a:b], normals[a:b], origins[a:b], n, rng)
+        if not hasattr(local, "buffers"):
+            local.buffers = ChunkBuffers(rays)
+        return area_chunk_counts(scene, light, points[a:b], normals[a:b], origins[a:b], n, rng, local.buffers)
 
     workers = area_workers(n, len(chunks))
     if workers == 1:
@@ -210,6 +273,9 @@ class RayTraced(Technique):
     def setup(self, frame, slot) -> None:
         """Offset origins (per frame) and the evaluated pixels of this light; with
         ``pixel_samples`` > 1 (hard lights only) the frame's sub-pixel samples."""
+        from .. import compiled_truth
+
+        compiled_truth.warm()  # compile or load the kernels here, not in the timed pass
         self.is_area = isinstance(self.light, AreaLight)
         if self.is_area and self.pixel_samples > 1:
             raise TechniqueError(f"{self.name}: pixel_samples={self.pixel_samples} is for hard lights only; "

@@ -11,10 +11,11 @@ cached, the accuracy phase in parallel and the timing phase alone):
 2. **pixels**: the suite at ``--pixel-scene`` (default the 40k torus) at each ``--pixel-sizes``
    (a suite has one image size, so each size is a study of its own, ``study-scaling-WxH``);
 3. **corners** (``--corners``, on by default): the smallest and the largest torus at the
-   largest size, so that the fit sees the two axes together (does fill cost depend on triangles?).
+   largest size, where the law fitted on the cross is tested (does fill cost depend on triangles?).
 
 Per family (technique name; the truth ``raytrace`` is a family too) the medians of render time
-are fitted jointly over every measured (P, T) with :func:`fit_law`: P in Mpx, T in millions of
+are fitted jointly over the cross (sweeps 1 and 2; ``--fit-corners``: the corners too) with
+:func:`fit_law`: P in Mpx, T in millions of
 triangles (the scene's, floor included), non-linear least squares on relative residuals
 (scipy ``curve_fit``, sigma = the measured time), 95 % intervals from the covariance (linearised,
 Student t with n − 5 degrees of freedom). :func:`crossovers` then finds, from the fitted laws, the
@@ -22,13 +23,13 @@ triangle count or pixel count at which one family's cost crosses another's withi
 were measured on.
 
 Writes under ``--out`` (default ``results/scaling_laws``): ``points.csv`` (one row per family and
-measured point: time, its IQR, setup, error rate, boundary error), ``fits.csv``, ``crossovers.csv``,
-``fits.md`` (both as markdown tables),
+measured point: time, its IQR, setup, error rate, boundary error), ``fits.csv`` (with measured /
+predicted time at each corner), ``crossovers.csv``, ``fits.md`` (both as markdown tables),
 the figures ``scaling_time.png`` and ``scaling_error.png`` (into ``--figures``, default the same
 folder) and the provenance record ``scaling_laws.json``.
 
     python experiments/scaling_laws.py [--out results/scaling_laws] [--figures docs/images]
-        [--quick] [--repeat N] [--workers N] [--force] [--no-corners]
+        [--quick] [--repeat N] [--workers N] [--force] [--no-corners] [--fit-corners]
         [--pixel-sizes 640x480,...] [--pixel-scene scaling_torus_40k]
         [--triangle-study DIR]  (read that study's results.csv instead of running the suite)
         [--points CSV]          (refit and redraw from an earlier points.csv, measuring nothing)
@@ -363,7 +364,8 @@ def main(argv=None) -> None:
                    "intervals": f"{LEVEL:.0%}, covariance at the optimum, Student t with n-5 dof",
                    "seconds": round(time.perf_counter() - t_start, 1)})
     provenance.write_record(out / "scaling_laws", record, gl_info=False)
-    print(f"\nrenderer: {renderer}; wrote {out / 'points.csv'}, fits.csv, fits.md, crossovers.csv, scaling_laws.json, "
+    wrote = f"{out / 'points.csv'}, fits.csv" if not args.points else f"{out / 'fits.csv'}"
+    print(f"\nrenderer: {renderer}; wrote {wrote}, fits.md, crossovers.csv, scaling_laws.json, "
           f"{figures / 'scaling_time.png'} and {figures / 'scaling_error.png'} ({record['seconds']:.0f} s)")
 
 

@@ -73,14 +73,16 @@ PIPELINE_STATS = {**{k: FIRST for k in texel_footprint.COLUMNS}, "light_samples"
 
 def measure(tech: Technique, frame: Frame, light: LightSlot | int, repeat: int = 5, warmup: int = 1,
             on_step: Callable[[], None] | None = None, release: bool = True,
-            pass_timing: bool = False) -> Measurement:
+            pass_timing: bool = False, count: bool = True) -> Measurement:
     """Set ``tech`` up for one light slot (or a scene light's index), time ``warmup`` +
     ``repeat`` renders of its passes, read its visibility and cost figures, check GL errors,
     and (``release``) free its GL objects — also when any step fails.
 
     ``pass_timing``: then ``repeat`` further renders time each named pass
     (:class:`shadowlab.timing.PassTimer`); they run after the timed renders, so the finishes
-    between passes do not perturb ``time_ms_median``.
+    between passes do not perturb ``time_ms_median``. ``count`` (default): one more render
+    counts the work (:func:`count_work`, ``Measurement.work``); False leaves ``work`` empty (the
+    test suite's shared measurements, which do not read it, save that render).
 
     A light-sampled technique (``LIGHT_SAMPLED``) on an area light is measured as the average of
     ``light_samples`` hard measurements, one per point of the light, each on a stand-in slot
@@ -90,11 +92,11 @@ def measure(tech: Technique, frame: Frame, light: LightSlot | int, repeat: int =
     ``footprint`` and the ``texel_footprint_*`` columns (light-sampled: the first sample's)."""
     slot = frame.as_slot(light)
     if light_sampling.is_sampled(tech, slot.light):
-        return measure_sampled(tech, frame, slot, repeat, warmup, on_step, release, pass_timing)
+        return measure_sampled(tech, frame, slot, repeat, warmup, on_step, release, pass_timing, count)
     note = light_sampling.ignored_note(tech, slot)
     if note is not None:
         tech.notes.append(note)
-    m = _measure_hard(tech, frame, slot, repeat, warmup, on_step, release, pass_timing)
+    m = _measure_hard(tech, frame, slot, repeat, warmup, on_step, release, pass_timing, count=count)
     if note is not None:
         m.notes.insert(0, note)
     if tech.LIGHT_SAMPLED:
@@ -129,7 +131,7 @@ class _EveryNth:
 
 def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 5, warmup: int = 1,
                     on_step: Callable[[], None] | None = None, release: bool = True,
-                    pass_timing: bool = False) -> Measurement:
+                    pass_timing: bool = False, count: bool = True) -> Measurement:
     """The light-sampling loop (:mod:`shadowlab.light_sampling`): ``tech`` measured on a stand-in
     point-light slot at each of the ``light_samples`` points of ``slot``'s area light, one
     sample set up, rendered and released at a time, combined into one Measurement — the
@@ -148,7 +150,8 @@ def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int 
     for i, point_light in enumerate(points):
         try:
             m = _measure_hard(tech, frame, frame.stand_in(slot, point_light), repeat, warmup, step,
-                              release=release or i < n - 1, pass_timing=pass_timing, footprint=i == 0)
+                              release=release or i < n - 1, pass_timing=pass_timing, footprint=i == 0,
+                              count=count)
         except Exception as exc:
             exc.add_note(f"{tech.name}: light sample {i + 1} of {n} at {point_light.position.tolist()} "
                          f"of light {slot.index}")
@@ -174,7 +177,7 @@ def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int 
 
 def _measure_hard(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 5, warmup: int = 1,
                   on_step: Callable[[], None] | None = None, release: bool = True,
-                  pass_timing: bool = False, footprint: bool = True) -> Measurement:
+                  pass_timing: bool = False, footprint: bool = True, count: bool = True) -> Measurement:
     """:func:`measure` for one slot, rendered once per run; with ``footprint``, a technique with
     ``texel_coordinates`` also gets its texel-footprint image and columns
     (:mod:`shadowlab.texel_footprint`), taken before it is released. Whatever fails — setup
@@ -198,13 +201,14 @@ def _measure_hard(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 
             finally:
                 tech.pass_timer = None
             pass_times = timer.columns()
-        counted = count_work(tech)
+        counted = count_work(tech) if count else {}
         vis = tech.visibility()
         stats = tech.stats()
         undeclared = [k for k in stats if k not in tech.STATS]
         if undeclared:
             raise TypeError(f"{tech.name}: stats {undeclared} are not declared in {type(tech).__name__}.STATS")
-        counted = work.merge(counted, tech.work(counted, stats))
+        if count:
+            counted = work.merge(counted, tech.work(counted, stats))
         m_image = None
         if footprint and texel_footprint.has_texel_mapping(tech):
             m_image = texel_footprint.footprint_image(frame, slot, tech)

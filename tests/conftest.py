@@ -132,8 +132,9 @@ class Lab:
         return self.evaluator(scene, size).truth(light).visibility
 
     def measure(self, scene, spec: str, size, light: int = 0) -> Measurement:
-        """One configuration measured on the shared frame (one untimed-in-effect render)."""
-        return measure(from_spec(spec), self.frame(scene, size), light, repeat=1, warmup=0)
+        """One configuration measured on the shared frame (one untimed-in-effect render; no work
+        counting render: tests/test_work.py measures the counters itself)."""
+        return measure(from_spec(spec), self.frame(scene, size), light, repeat=1, warmup=0, count=False)
 
     def rows(self, scene, specs, size, light: int = 0) -> pd.DataFrame:
         """Metrics rows of several configurations (ground truth row dropped), indexed by the specs."""

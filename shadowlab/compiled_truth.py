@@ -43,9 +43,31 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-from numba import njit
+from numba import njit as _numba_njit
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
+
+
+def njit(*args, **kwargs):
+    """numba's ``njit``, compiled into numba's on-disk cache where one can be written, and
+    without it where none can (a read-only install with no writable ``NUMBA_CACHE_DIR``: numba
+    refuses ``cache=True`` there when the function is decorated)."""
+    def decorate(fn):
+        try:
+            return _numba_njit(**kwargs)(fn)
+        except RuntimeError as exc:  # "cannot cache function ...: no locator available"
+            if not kwargs.get("cache") or "cannot cache" not in str(exc):
+                raise
+            return _numba_njit(**{**kwargs, "cache": False})(fn)
+    return decorate(args[0]) if args and callable(args[0]) else decorate
+
+
+def cores() -> int:
+    """The CPUs this process may run on (its affinity; cgroup-limited containers included)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # not Linux
+        return max(1, os.cpu_count() or 1)
 
 
 @njit(inline="always", **_JIT)
@@ -222,7 +244,7 @@ def in_parts(fn, bounds: list[tuple[int, int]]) -> list:
         return [fn(*bounds[0])]
     with _POOL_LOCK:
         if _POOL is None or _POOL[0] != os.getpid():
-            _POOL = (os.getpid(), ThreadPoolExecutor(max(1, (os.cpu_count() or 1) - 1),
+            _POOL = (os.getpid(), ThreadPoolExecutor(max(1, cores() - 1),
                                                      thread_name_prefix="compiled_truth"))
         pool = _POOL[1]
     rest = [pool.submit(fn, a, b) for a, b in bounds[1:]]
@@ -234,7 +256,7 @@ def split(total: int, work: int | None = None) -> list[tuple[int, int]]:
     """``total`` items (rows, points) cut into one contiguous range per core, fewer when the
     ``work`` (items of output, default ``total``) is under :data:`MIN_PART` per range."""
     work = total if work is None else work
-    parts = max(1, min(os.cpu_count() or 1, work // MIN_PART, total))
+    parts = max(1, min(cores(), work // MIN_PART, total))
     edges = [total * k // parts for k in range(parts + 1)]
     return [(edges[k], edges[k + 1]) for k in range(parts)]
 

@@ -76,11 +76,11 @@ def offset_points(points: np.ndarray, normals: np.ndarray, extent: float,
     # float32(p + (offset_scale · max(|p|∞, extent)) · n), bit for bit, in one compiled pass
     # (issue 27): the row maximum over the three columns (max is exact, in any order), the
     # product and sum in float64, rounded once to float32 (offset_points_reference in numpy).
+    from .compiled_truth import in_parts, split
     from .compiled_truth import offset_points as kernel
 
     points = np.ascontiguousarray(points, np.float64)
     normals = np.ascontiguousarray(normals, np.float64)
-    from .compiled_truth import in_parts, split
 
     origins = np.empty((len(points), 3), np.float32)
     nan_rows = in_parts(lambda a, b: kernel(points[a:b], normals[a:b], float(extent), float(offset_scale),

@@ -96,7 +96,7 @@ def reference_counts(scene, light, points, normals, origins, n, rng):
 
 
 @pytest.mark.parametrize("key", list(LIGHTS))
-def test_unoccluded_counts_are_the_reference(key):
+def test_unoccluded_counts_are_the_reference(key, monkeypatch):
     """area_chunk_counts (compiled count of Embree's answers per point) equals the reference's
     blocked-ray bincount, with a caster that blocks part of every light."""
     light = LIGHTS[key]
@@ -108,9 +108,18 @@ def test_unoccluded_counts_are_the_reference(key):
     ref = reference_counts(scene, light, points, normals, origins, 64, np.random.default_rng([1, 0]))
     assert same_bits(got, ref)
     assert rays > 0 and 0 < (got < 64).sum()
-    # the threaded truth over several chunks: the same counts as chunk by chunk
+    # the threaded truth over eight chunks of 50 points on worker threads that reuse their ray
+    # buffers from chunk to chunk: the same counts as the reference, chunk by chunk
+    import shadowlab.techniques.raytrace as rt
+    from shadowlab import compiled_truth
+
+    monkeypatch.setattr(rt, "CHUNK_RAYS", 50 * 64)
     vis, _ = area_visibility(scene, light, points, normals, origins, 64, seed=1)
-    assert np.all(vis * 64 == np.round(vis * 64))
+    chunks = rt.area_chunks(len(points), 64, 1, True)
+    assert len(chunks) == 8 and rt.area_workers(64, len(chunks)) >= min(2, compiled_truth.cores())
+    expected = np.concatenate([reference_counts(scene, light, points[a:b], normals[a:b], origins[a:b], 64, rng)
+                               for a, b, rng in chunks])
+    assert same_bits(vis, expected / 64)
     del keep
 
 
@@ -161,15 +170,13 @@ def test_hard_shadow_rays_are_bitwise_numpy(light):
 def test_split_over_threads_keeps_the_bits(monkeypatch):
     """The per-frame passes cut into row bands and point ranges on helper threads (here three,
     of 64 items at least) give the reference's bits, as in one piece."""
-    import os
-
     from shadowlab import compiled_truth
     from shadowlab.frame import Frame
     from shadowlab.scene import load_scene
     from test_ground_truth import assert_exact_points_match_reference
 
     monkeypatch.setattr(compiled_truth, "MIN_PART", 64)
-    monkeypatch.setattr(os, "cpu_count", lambda: 3)
+    monkeypatch.setattr(compiled_truth, "cores", lambda: 3)
     assert len(compiled_truth.split(151, 20000)) == 3
     frame = Frame(load_scene("spot_scene"), 203, 151)
     try:
@@ -184,3 +191,25 @@ def test_small_ray_buffers_are_refused():
     small = (np.empty((10 * 8 - 1, 3), np.float32), np.empty((10 * 8, 3), np.float32))
     with pytest.raises(ValueError, match="ray buffers"):
         area_chunk_rays(LIGHTS["rect"], points, normals, origins, 8, np.random.default_rng(0), out=small)
+
+
+def test_kernels_compile_without_a_writable_cache(monkeypatch):
+    """Where numba cannot write its on-disk cache (a read-only install) it refuses cache=True when
+    a function is decorated; compiled_truth.njit then compiles without the cache."""
+    from shadowlab import compiled_truth
+
+    asked, real = [], compiled_truth._numba_njit
+
+    def refusing(**kw):
+        asked.append(kw.get("cache"))
+        if kw.get("cache"):
+            raise RuntimeError("cannot cache function 'f': no locator available for file 'f.py'")
+        return real(**kw)
+
+    monkeypatch.setattr(compiled_truth, "_numba_njit", refusing)
+
+    @compiled_truth.njit(cache=True, nogil=True)
+    def plus_one(x):
+        return x + 1
+
+    assert plus_one(1) == 2 and asked == [True, False]

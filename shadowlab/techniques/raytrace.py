@@ -75,7 +75,6 @@ holds the compiled path to it bit for bit.
 """
 from __future__ import annotations
 
-import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
@@ -215,7 +214,9 @@ def area_workers(n: int, chunks: int) -> int:
     """Worker threads for :func:`area_visibility`: the cores, at most :data:`MAX_RAYS_HELD`
     samples alive at once, no more than the chunks."""
     per = max(1, CHUNK_RAYS // n)
-    return max(1, min(os.cpu_count() or 1, MAX_RAYS_HELD // (per * n), chunks))
+    from ..compiled_truth import cores
+
+    return max(1, min(cores(), MAX_RAYS_HELD // (per * n), chunks))
 
 
 def area_visibility(scene, light: AreaLight, points: np.ndarray, normals: np.ndarray, origins: np.ndarray,

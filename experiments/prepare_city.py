@@ -38,7 +38,6 @@ in meshes/README.md and tests/test_city.py.
 from __future__ import annotations
 
 import argparse
-import gzip
 import io
 import re
 import zipfile
@@ -47,7 +46,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from prepare_meshes import components, gz, ply_bytes, sha256, welded  # same directory
+from prepare_meshes import components, sha256, welded, write_outputs  # same directory
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -119,16 +118,7 @@ def main() -> None:
         "city_sf_buildings": (concatenated([positions_mesh(blobs[n]) for n in building_names]),
                               f"every building's walls and roofs {tag}"),
     }
-    total = 0
-    for name, (mesh, comment) in outputs.items():
-        data = gz(ply_bytes(mesh, comment))
-        path = args.out / f"{name}.ply.gz"
-        path.write_bytes(data)
-        total += len(data)
-        back = welded(trimesh.load(io.BytesIO(gzip.decompress(data)), file_type="ply", force="mesh",
-                                   process=False))
-        print(f"{path.name}: {len(data)} bytes, SHA-256 {sha256(data)}; {describe(back)}")
-    print(f"total {total} bytes")
+    write_outputs(outputs, args.out, describe)
 
 
 if __name__ == "__main__":

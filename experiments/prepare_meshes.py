@@ -234,6 +234,22 @@ def describe(mesh: trimesh.Trimesh) -> str:
             f"bounds={np.round(mesh.bounds, 5).tolist()}")
 
 
+def write_outputs(outputs: dict, out: Path, describe_mesh) -> None:
+    """Write each ``name: (mesh, comment)`` of ``outputs`` as ``out/<name>.ply.gz`` (:func:`ply_bytes`,
+    :func:`gz`), read it back exactly as the scene loader does and print its size, SHA-256 and
+    ``describe_mesh(mesh)``; then the total (also prepare_city.py's writer)."""
+    total = 0
+    for name, (mesh, comment) in outputs.items():
+        data = gz(ply_bytes(mesh, comment))
+        path = out / f"{name}.ply.gz"
+        path.write_bytes(data)
+        total += len(data)
+        back = welded(trimesh.load(io.BytesIO(gzip.decompress(data)), file_type="ply", force="mesh",
+                                   process=False))
+        print(f"{path.name}: {len(data)} bytes, SHA-256 {sha256(data)}; {describe_mesh(back)}")
+    print(f"total {total} bytes")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--deb", type=Path, required=True, help="libcgal-demo_5.5.1-2_all.deb")
@@ -255,17 +271,7 @@ def main() -> None:
         "elephant_dense": (outward(read_off(src["refined_elephant.off"]), "refined_elephant.off"),
                            f"CGAL 5.5.1 data/meshes/refined_elephant.off, unchanged {tag}"),
     }
-    total = 0
-    for name, (mesh, comment) in outputs.items():
-        data = gz(ply_bytes(mesh, comment))
-        path = args.out / f"{name}.ply.gz"
-        path.write_bytes(data)
-        total += len(data)
-        # read back exactly as the scene loader does, and describe what was written
-        back = welded(trimesh.load(io.BytesIO(gzip.decompress(data)), file_type="ply", force="mesh",
-                                   process=False))
-        print(f"{path.name}: {len(data)} bytes, SHA-256 {sha256(data)}; {describe(back)}")
-    print(f"total {total} bytes")
+    write_outputs(outputs, args.out, describe)
 
 
 if __name__ == "__main__":

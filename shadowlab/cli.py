@@ -377,10 +377,10 @@ def _cmd_cost(args) -> int:
         return 0
     table, path, model = cost_cmd.predict_command(args.study_dir, args.model)
     print(f"{PREDICTED_LABEL} {model.target} on {model.device} (a prediction: the model's leave-one-scene-out "
-          f"median error is {cost_cmd._pct(model.cv_median_rel_error)})")
+          f"median error is {cost_cmd.pct(model.cv_median_rel_error)})")
     if table["measured_ms"].notna().any():
         print(f"the study ran on that device: median relative error of the predictions "
-              f"{cost_cmd._pct(float(table['rel_error'].median()))}")
+              f"{cost_cmd.pct(float(table['rel_error'].median()))}")
     key = next(c for c in ("short_label", "label", "scene") if c in table.columns)
     here = "measured_here_ms" if "measured_here_ms" in table.columns else "measured_ms"
     summary = table.groupby(key, sort=False)[[here, f"{PREDICTED_LABEL}_ms"]].median()

@@ -205,6 +205,20 @@ def _relative_errors(predicted: np.ndarray, measured: np.ndarray) -> np.ndarray:
     return np.abs(predicted - measured) / measured
 
 
+def left_out_predictions(table: pd.DataFrame, counters: list[str]) -> np.ndarray:
+    """Each row of a :func:`design` table predicted by the model fitted without its scene
+    (leave one scene out); NaN everywhere when the table has a single scene."""
+    out = np.full(len(table), np.nan)
+    scenes = table["scene"].astype(str)
+    if scenes.nunique() < 2:
+        return out
+    for s in scenes.unique():
+        held = (scenes == s).to_numpy()
+        c0, c = _nnls(table[~held], counters)
+        out[held] = c0 + table.loc[held, counters].to_numpy(float) @ c
+    return out
+
+
 def fit(results: pd.DataFrame, device: str, target: str = "time_ms_median", counters=None, per_pass: bool = False,
         source: str = "") -> CostModel:
     """Fit a :class:`CostModel` for ``device`` from study rows (module docstring). ``counters``:
@@ -231,13 +245,11 @@ def fit(results: pd.DataFrame, device: str, target: str = "time_ms_median", coun
     ss_res = float(np.sum((predicted - measured) ** 2))
     ss_tot = float(np.sum((measured - measured.mean()) ** 2))
     scenes = sorted(table["scene"].astype(str).unique())
-    cv_pred = np.full(len(table), np.nan)
+    cv_pred = left_out_predictions(table, counters)
     per_scene = {}
     if len(scenes) > 1:
         for s in scenes:
             held = (table["scene"].astype(str) == s).to_numpy()
-            c0_s, c_s = _nnls(table[~held], counters)
-            cv_pred[held] = c0_s + table.loc[held, counters].to_numpy(float) @ c_s
             per_scene[s] = float(np.median(_relative_errors(cv_pred[held], measured[held])))
     cv_err = _relative_errors(cv_pred, measured)
     return CostModel(device=device, target=target, counters=counters,

@@ -120,15 +120,21 @@ def test_bad_input_is_refused(tmp_path):
         cost.CostModel.load(tmp_path / "bad.json")
 
 
-def test_per_pass_fit_shares_coefficients():
+def two_pass_rows() -> pd.DataFrame:
+    """synthetic() rows with two passes, each timed by the TRUE device: the lookup does the
+    samples, the depth pass the clears and draws."""
     rows = synthetic().drop(columns="work_lookup_draws")
-    # two passes: the lookup does the samples, the depth pass the clears and draws
     rows["work_lookup_samples_passed"] = rows["work_samples_passed"]
     rows["work_depth_bytes_cleared"] = rows["work_bytes_cleared"]
     rows["work_depth_draws"] = rows["work_draws"]
     rows["pass_lookup_ms"] = TRUE_RENDER_MS + TRUE["samples_passed"] * rows["work_samples_passed"]
     rows["pass_depth_ms"] = TRUE_RENDER_MS + TRUE["bytes_cleared"] * rows["work_bytes_cleared"] + \
         TRUE["draws"] * rows["work_draws"]
+    return rows
+
+
+def test_per_pass_fit_shares_coefficients():
+    rows = two_pass_rows()
     model = cost.fit(rows, "d", counters=["samples_passed", "bytes_cleared", "draws"], per_pass=True)
     assert model.per_pass and model.rows == 2 * len(rows)
     assert model.coefficients["samples_passed"] == pytest.approx(TRUE["samples_passed"], rel=1e-6)
@@ -204,13 +210,7 @@ def test_the_study_page_labels_predictions():
 
 def test_per_pass_model_predicts_without_pass_times():
     """A per-pass model predicts a study without pass_<name>_ms columns: per row, the passes it ran."""
-    rows = synthetic().drop(columns="work_lookup_draws")
-    rows["work_lookup_samples_passed"] = rows["work_samples_passed"]
-    rows["work_depth_bytes_cleared"] = rows["work_bytes_cleared"]
-    rows["work_depth_draws"] = rows["work_draws"]
-    rows["pass_lookup_ms"] = TRUE_RENDER_MS + TRUE["samples_passed"] * rows["work_samples_passed"]
-    rows["pass_depth_ms"] = TRUE_RENDER_MS + TRUE["bytes_cleared"] * rows["work_bytes_cleared"] + \
-        TRUE["draws"] * rows["work_draws"]
+    rows = two_pass_rows()
     model = cost.fit(rows, "d", counters=["samples_passed", "bytes_cleared", "draws"], per_pass=True)
     table = cost.predict(rows.drop(columns=["pass_lookup_ms", "pass_depth_ms"]), model)
     assert np.allclose(table[f"{cost.PREDICTED_LABEL}_ms"], rows["pass_lookup_ms"] + rows["pass_depth_ms"])

@@ -108,15 +108,7 @@ def fit_plot(model: cost.CostModel, table: pd.DataFrame, path: Path) -> Path:
 
     measured = table["measured_ms"].to_numpy(float)
     fitted = model.predict(table)
-    loso = np.full(len(table), np.nan)
-    if len(model.scenes) > 1:
-        for s in model.scenes:
-            held = (table["scene"].astype(str) == s).to_numpy()
-            try:
-                sub = cost.fit(_as_results(table[~held], model), model.device, "measured_ms", model.counters, False)
-            except cost.CostModelError:  # the other scenes did none of the work: no left-out point
-                continue
-            loso[held] = sub.predict(table[held])
+    loso = cost.left_out_predictions(table, model.counters)
     fig, ax = plt.subplots(figsize=(6.4, 5.2))
     ax.scatter(measured, fitted, s=14, alpha=0.6, label="fitted on every scene")
     if np.isfinite(loso).any():
@@ -131,7 +123,7 @@ def fit_plot(model: cost.CostModel, table: pd.DataFrame, path: Path) -> Path:
     ax.set_xlabel(f"measured {model.target} (ms)")
     ax.set_ylabel(f"{cost.PREDICTED_LABEL} (ms)")
     ax.set_title(f"cost model: {model.device[:60]}\nR² {model.r2:.3f}, "
-                 f"leave-one-scene-out median error {_pct(model.cv_median_rel_error)}", fontsize=9)
+                 f"leave-one-scene-out median error {pct(model.cv_median_rel_error)}", fontsize=9)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
     fig.savefig(path, format="png", dpi=110)
@@ -139,15 +131,8 @@ def fit_plot(model: cost.CostModel, table: pd.DataFrame, path: Path) -> Path:
     return path
 
 
-def _as_results(table: pd.DataFrame, model: cost.CostModel) -> pd.DataFrame:
-    """A design table as study rows again (``work_<counter>`` and the target ``measured_ms``)."""
-    out = table[["scene", "measured_ms"]].copy()
-    for k in model.counters:
-        out[f"work_{k}"] = table[k].to_numpy(float)
-    return out
-
-
-def _pct(x: float) -> str:
+def pct(x: float) -> str:
+    """A fraction as a whole percentage ("n/a" when missing)."""
     return "n/a" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.0f} %"
 
 

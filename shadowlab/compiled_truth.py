@@ -76,20 +76,59 @@ def dot3_einsum(a0, a1, a2, b0, b1, b2):
     return (a0 * b0 + a2 * b2) + a1 * b1
 
 
+@njit(inline="always", **_JIT)
+def _np_maximum(a, b):
+    """``np.maximum(a, b)`` on two floats: NaN if either is NaN."""
+    return a if (a >= b or a != a) else b
+
+
+@njit(inline="always", **_JIT)
+def _offset_point(p0, p1, p2, n0, n1, n2, extent, offset_scale, out, i):
+    """Writes float32 ``float32(N · (offset_scale · max(|P|∞, extent)) + P)`` into ``out[i]``
+    (the truth's ray origin, :func:`shadowlab.tracing.offset_points`): the row maximum taken
+    column by column (NaN-propagating, like ``np.maximum``), the product and sum in float64,
+    rounded once. Returns 1 if the origin holds a NaN, else 0."""
+    s = _np_maximum(_np_maximum(_np_maximum(abs(p0), abs(p1)), abs(p2)), extent) * offset_scale
+    o0 = n0 * s + p0
+    o1 = n1 * s + p1
+    o2 = n2 * s + p2
+    out[i, 0], out[i, 1], out[i, 2] = np.float32(o0), np.float32(o1), np.float32(o2)
+    return 1 if (o0 != o0 or o1 != o1 or o2 != o2) else 0
+
+
 @njit(**_JIT)
-def exact_points(covered, triangle_id, col_term, row_term, unit, numerator, tri_valid, eye,
-                 r0, r1, i0, index, points, normals, valid):
+def covered_above_rows(covered, out):
+    """Writes into ``out`` (H + 1,) int64 the covered pixels above each row of ``covered``
+    (H, W) bool and, last, their total: where each row band of :func:`exact_points` starts
+    (``concatenate([[0], cumsum(count_nonzero(covered, axis=1))])`` in one pass)."""
+    total = 0
+    for r in range(covered.shape[0]):
+        out[r] = total
+        for c in range(covered.shape[1]):
+            if covered[r, c]:
+                total += 1
+    out[covered.shape[0]] = total
+
+
+@njit(**_JIT)
+def exact_points(covered, triangle_id, object_id, col_term, row_term, unit, numerator, tri_valid, eye,
+                 extent, offset_scale, r0, r1, i0, index, objects, points, normals, valid, origins):
     """Exact float64 hits of the pixel-centre camera rays with the planes of the triangles the
     G-buffer saw, at the covered pixels of rows r0..r1 in row-major order, written from entry
     ``i0`` (the covered pixels above row r0) into ``index`` (M,) int64 (into the flattened
-    image), ``points`` (M, 3), ``normals`` (M, 3) turned to the camera and ``valid`` (M,) bool;
-    M = the number of covered pixels. Row bands are independent (:func:`in_parts`).
+    image), ``objects`` (M,) (the pixel's ``object_id``), ``points`` (M, 3), ``normals`` (M, 3)
+    turned to the camera, ``valid`` (M,) bool and — in the same pass, while the point is in
+    registers — the truth's float32 ray ``origins`` (M, 3) at ``offset_scale``
+    (:func:`_offset_point`); M = the number of covered pixels. Row bands are independent
+    (:func:`in_parts`). Returns how many origins hold a NaN (the caller then forms all of them
+    with the numpy formula, :func:`offset_points`).
 
     Bit for bit :func:`shadowlab.frame.plane_hits` on the rays ``col_term[col] + row_term[row]``:
     ``denom = einsum(d, n)``, ``t = numerator[tri] / denom``, ``p = d·t + eye``, the normal
     negated where denom > 0, valid = non-degenerate triangle & t > 0 & t < ∞."""
     w = covered.shape[1]
     i = i0
+    bad = 0
     for r in range(r0, r1):
         for c in range(w):
             if not covered[r, c]:
@@ -102,20 +141,18 @@ def exact_points(covered, triangle_id, col_term, row_term, unit, numerator, tri_
             denom = dot3_einsum(d0, d1, d2, n0, n1, n2)
             t = numerator[tri] / denom
             index[i] = r * w + c
-            points[i, 0] = d0 * t + eye[0]
-            points[i, 1] = d1 * t + eye[1]
-            points[i, 2] = d2 * t + eye[2]
+            objects[i] = object_id[r, c]
+            p0 = d0 * t + eye[0]
+            p1 = d1 * t + eye[1]
+            p2 = d2 * t + eye[2]
+            points[i, 0], points[i, 1], points[i, 2] = p0, p1, p2
             if denom > 0:
                 n0, n1, n2 = -n0, -n1, -n2
             normals[i, 0], normals[i, 1], normals[i, 2] = n0, n1, n2
             valid[i] = tri_valid[tri] and t > 0 and t < np.inf
+            bad += _offset_point(p0, p1, p2, n0, n1, n2, extent, offset_scale, origins, i)
             i += 1
-
-
-@njit(inline="always", **_JIT)
-def _np_maximum(a, b):
-    """``np.maximum(a, b)`` on two floats: NaN if either is NaN."""
-    return a if (a >= b or a != a) else b
+    return bad
 
 
 @njit(**_JIT)
@@ -129,14 +166,8 @@ def offset_points(points, normals, extent, offset_scale, out):
     reference's bits are pinned NaNs included."""
     bad = 0
     for i in range(points.shape[0]):
-        p0, p1, p2 = points[i, 0], points[i, 1], points[i, 2]
-        s = _np_maximum(_np_maximum(_np_maximum(abs(p0), abs(p1)), abs(p2)), extent) * offset_scale
-        o0 = normals[i, 0] * s + p0
-        o1 = normals[i, 1] * s + p1
-        o2 = normals[i, 2] * s + p2
-        out[i, 0], out[i, 1], out[i, 2] = np.float32(o0), np.float32(o1), np.float32(o2)
-        if o0 != o0 or o1 != o1 or o2 != o2:
-            bad += 1
+        bad += _offset_point(points[i, 0], points[i, 1], points[i, 2], normals[i, 0], normals[i, 1], normals[i, 2],
+                             extent, offset_scale, out, i)
     return bad
 
 
@@ -272,8 +303,10 @@ def warm() -> float:
         return 0.0
     t0 = time.perf_counter()
     f64, f32 = np.zeros((1, 3)), np.zeros((1, 3), np.float32)
-    exact_points(np.ones((1, 1), bool), np.zeros((1, 1), np.int32), f64, f64, f64 + 1, np.ones(1), np.ones(1, bool),
-                 np.zeros(3), 0, 1, 0, np.zeros(1, np.int64), f64.copy(), f64.copy(), np.zeros(1, bool))
+    exact_points(np.ones((1, 1), bool), np.zeros((1, 1), np.int32), np.zeros((1, 1), np.int32), f64, f64, f64 + 1,
+                 np.ones(1), np.ones(1, bool), np.zeros(3), 1.0, 1e-6, 0, 1, 0, np.zeros(1, np.int64),
+                 np.zeros(1, np.int32), f64.copy(), f64.copy(), np.zeros(1, bool), f32.copy())
+    covered_above_rows(np.ones((1, 1), bool), np.zeros(2, np.int64))
     offset_points(f64, f64, 1.0, 1e-6, f32.copy())
     s = np.zeros((1, 1, 3))
     rect_samples(np.zeros((1, 1, 2)), np.zeros((1, 2)), np.ones((1, 2)), np.zeros(3), np.ones(3), np.ones(3), s)

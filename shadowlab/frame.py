@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import gl, glstate
+from . import gl, glstate, heap
 from .glstate import PassState
 from .geometry.triangles import triangle_normals
 from .scene.lights import Light
@@ -137,6 +137,7 @@ class Frame:
         self.view = self.camera.view()
         self.projection = self.camera.projection(self.width / self.height)
         self.view_projection = self.projection @ self.view
+        heap.keep_freed_memory()  # per-pixel arrays reuse freed memory (shadowlab.heap)
         self.ctx = gl.context()
         self._upload()
         self._render_gbuffer()
@@ -245,8 +246,12 @@ class Frame:
         tables (the same two terms :meth:`Camera.pixel_rays` adds), the plane's numerator
         (v0 − eye)·n once per triangle and gathered, N·d summed in ``einsum``'s order. The
         per-pixel work is one compiled pass (:func:`shadowlab.compiled_truth.exact_points`,
-        issue 27; :func:`plane_hits` is the same arithmetic in numpy)."""
-        from . import compiled_truth
+        issue 27; :func:`plane_hits` is the same arithmetic in numpy), which also forms the
+        truth's shadow-ray origins at the default offset (:func:`shadowlab.tracing.offset_origins`,
+        bit for bit :func:`shadowlab.tracing.offset_points`): every CPU ray tracer of the lab
+        starts from them, and forming them while the point is in registers saves a second pass
+        over 48 bytes per pixel."""
+        from . import compiled_truth, tracing
 
         compiled_truth.warm()  # load every compiled pass with the first frame, not in a timed render
         w, h = self.width, self.height
@@ -255,22 +260,30 @@ class Frame:
         unit = np.ascontiguousarray(self.triangle_normals, np.float64)
         numerator = plane_numerators(self.triangles, unit, eye)
         tri_valid = np.any(unit != 0, axis=1)  # negation keeps zero-ness
-        per_row = np.count_nonzero(self.covered, axis=1)
-        first = np.concatenate([[0], np.cumsum(per_row)])  # covered pixels above each row
+        extent, scale = float(self.scene.extent()), tracing.DEFAULT_OFFSET_SCALE
+        first = np.empty(h + 1, np.int64)  # covered pixels above each row, then their total
+        compiled_truth.covered_above_rows(self.covered, first)
         m = int(first[-1])
-        # outputs allocated by numpy (its allocator reuses freed memory; numba's, called each
-        # frame, page-faults fresh memory and costs more than the arithmetic)
-        idx, points, normals, valid = np.empty(m, np.int64), np.empty((m, 3)), np.empty((m, 3)), np.empty(m, bool)
-        compiled_truth.in_parts(
-            lambda r0, r1: compiled_truth.exact_points(self.covered, self.triangle_id, col_term, row_term, unit,
-                                                       numerator, tri_valid, eye, r0, r1, int(first[r0]), idx,
-                                                       points, normals, valid),
+        # outputs allocated by numpy, in memory earlier frames freed (shadowlab.heap)
+        idx, objects = np.empty(m, np.int64), np.empty(m, self.object_id.dtype)
+        points, normals, valid = np.empty((m, 3)), np.empty((m, 3)), np.empty(m, bool)
+        origins = np.empty((m, 3), np.float32)
+        bad = compiled_truth.in_parts(
+            lambda r0, r1: compiled_truth.exact_points(self.covered, self.triangle_id, self.object_id, col_term,
+                                                       row_term, unit, numerator, tri_valid, eye, extent, scale,
+                                                       r0, r1, int(first[r0]), idx, objects, points, normals,
+                                                       valid, origins),
             compiled_truth.split(h, m))
         self.pixel_index = idx  # row-major covered pixels, as np.flatnonzero(covered)
         self.compact_position = points  # (M, 3) float64
         self.compact_normal = normals  # (M, 3) float64, unit, facing the camera (two-sided surfaces, DESIGN §7)
-        self.compact_object = np.take(self.object_id.reshape(-1), idx)
+        self.compact_object = objects
         self.compact_valid = valid
+        # The truth's default ray origins came out of the same pass (a NaN among them: the numpy
+        # formula decides all of them, tracing.offset_points); any others are formed on demand.
+        if sum(bad):
+            origins = tracing.offset_points_reference(points, normals, extent, scale)
+        tracing.set_frame_origins(self, {scale: origins})
 
     def to_image(self, compact: np.ndarray, fill=np.nan, dtype=np.float32) -> np.ndarray:
         """Scatter a compact per-pixel array (M,) or (M, C) into a (height, width[, C]) image."""

@@ -109,6 +109,13 @@ def offset_points_reference(points: np.ndarray, normals: np.ndarray, extent: flo
     return moved.astype(np.float32)
 
 
+def set_frame_origins(frame, origins: dict) -> None:
+    """Replace the frame's cached origins with ``origins`` ({offset_scale: float32 (M, 3)}):
+    :meth:`shadowlab.frame.Frame.compute_exact_points` forms the default ones in its own pass,
+    and a recomputed frame must not keep origins of its earlier points."""
+    _ORIGINS[frame] = dict(origins)
+
+
 def offset_origins(frame, offset_scale: float = DEFAULT_OFFSET_SCALE, cached: bool = True) -> np.ndarray:
     """Shadow-ray origins of every covered pixel, float32 (M, 3) in compact order: the exact
     point moved ``offset_scale · max(‖P‖∞, scene extent)`` along the camera-facing normal

@@ -26,7 +26,7 @@ from shadowlab.frame import Frame
 from shadowlab.commands.compare import compare
 from shadowlab.scene import load_scene
 from shadowlab.techniques.raytrace import RayTraced
-from shadowlab.tracing import occluded, offset_origins
+from shadowlab.tracing import DEFAULT_OFFSET_SCALE, occluded, offset_origins
 
 from conftest import floor_points, make_scene
 
@@ -321,6 +321,8 @@ def assert_exact_points_match_reference(frame):
     assert same_bits(frame.compact_object, frame.object_id.ravel()[idx])
     for scale in (2.0 ** -18, 1e-3):
         assert same_bits(offset_origins(frame, scale, cached=False), reference_offset_origins(frame, scale))
+    # the default origins, formed in the exact points' own pass (and replaced when it reruns)
+    assert same_bits(offset_origins(frame), reference_offset_origins(frame, DEFAULT_OFFSET_SCALE))
 
 
 @pytest.mark.parametrize("name", ["box_on_plane", "rm_bunny", "sm_far_origin"])

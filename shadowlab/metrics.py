@@ -360,6 +360,10 @@ COLUMNS: tuple[Column, ...] = (
     _metric("lit_error_pixels", "fully lit pixels V has shadowed", _lit_error_pixels, "count"),
     Column("truth_stderr_max", "the sampled truth's per-pixel standard error bound (<= 0.5/sqrt(samples); 0 for "
                                "a point-like light): soft-shadow errors mean something only well above it", "value"),
+    Column("flip_mean", "mean FLIP error (Andersson et al. 2020) of the shaded image against the truth's, over covered "
+                        "pixels; 0 = identical (optional: shadowlab[perceptual])", "value", report=True),
+    Column("ssim", "mean SSIM (Wang et al. 2004; Gaussian window 1.5) of the shaded image against the truth's, over "
+                   "covered pixels; 1 = identical (optional: shadowlab[perceptual])", "value", report=True),
     _metric("contact_gap_px", "peter-panning: mean width of the false-lit band along shadowed contact lines, pixels",
             _contact_gap_px, "px", report=True, needs=("contact",), tolerance=(0.5, 0.1)),
     _metric("over_darkening_px", "over-darkening: mean width of the false shadow (weighted by the missing light) "

@@ -11,13 +11,14 @@ import datetime as _dt
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
-from .. import gl, metrics, provenance, timing
+from .. import gl, metrics, perceptual, provenance, timing
 from ..output import pictures
 from ..output.rundir import ConfigImages, RunDirectory, write_comparison
 from ..validation import RunError
 from ..frame import Frame
-from ..pipeline import Comparison, StepCallback, build_techniques, check_lights, compare_frame
+from ..pipeline import Comparison, StepCallback, build_techniques, check_lights, compare_frame, pass_order
 from ..scene import Scene, load_scene
 from ..shading import ShadingPass
 
@@ -82,18 +83,23 @@ def write_run(rd: RunDirectory, result: Comparison, repeat: int, warmup: int, pa
             return pictures.to_display(shading.shade(vis_all), frame.covered)
 
         truth = result.truth[0].technique
+        truth_shaded = shaded(gt_vis)
         configs = [ConfigImages(truth.spec(), truth.short_label(), truth.name, truth.params(), True,
                                 _masked(gt_vis[0], ev0),
-                                pictures.config_pictures(shaded(gt_vis), gt_vis[0], None, ev0, frame.covered))]
+                                pictures.config_pictures(truth_shaded, gt_vis[0], None, ev0, frame.covered))]
+        judged = {}  # spec → perceptual metrics of its shaded image against the truth's
         for ms in result.results:
             tech = ms[0].technique
             signed = (diffs[tech.spec()], limit) if tech.spec() in diffs else None
+            picture = shaded([m.visibility for m in ms])
+            judged[tech.spec()] = perceptual.compare_pictures(picture, truth_shaded, frame.covered)
             configs.append(ConfigImages(
                 tech.spec(), tech.short_label(), tech.name, tech.params(), False, _masked(ms[0].visibility, ev0),
-                pictures.config_pictures(shaded([m.visibility for m in ms]), ms[0].visibility, gt_vis[0], ev0,
+                pictures.config_pictures(picture, ms[0].visibility, gt_vis[0], ev0,
                                          frame.covered, signed, ms[0].footprint)))
     finally:
         shading.release()
+    df = with_perceptual(df, judged)
     cam = frame.camera
     record = {
         "scene": frame.scene.describe(),
@@ -110,10 +116,20 @@ def write_run(rd: RunDirectory, result: Comparison, repeat: int, warmup: int, pa
         "warmup": warmup,
         # per light: the sampled truth's per-pixel standard error bound (DESIGN §9; 0 for a point-like light)
         "truth_stderr_max": [float(m.stats.get("truth_stderr_max", 0.0)) for m in result.truth],
-        "notes": result.notes,
+        "notes": result.notes + [n for n in [perceptual.missing_note()] if n],
         **provenance.record(),
     }
     write_comparison(rd, df, configs, record, signed_limit=limit, pass_timing=pass_timing)
+
+
+def with_perceptual(df: pd.DataFrame, judged: dict) -> pd.DataFrame:
+    """``df`` with each configuration's perceptual metrics (``judged``: spec → {column: value})
+    on every one of its rows (one shaded picture covers every light), columns in CSV order."""
+    df = df.copy()
+    for spec, values in judged.items():
+        for col, value in values.items():
+            df.loc[df["label"] == spec, col] = value
+    return df[metrics.order_columns(df.columns, pass_order())]
 
 
 def _masked(vis: np.ndarray, evaluated: np.ndarray) -> np.ndarray:

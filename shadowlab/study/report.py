@@ -10,7 +10,10 @@ Three files in the study directory, all made from ``results.csv`` and the tables
   and fails (:func:`write_summary_md`);
 - ``study.html`` — the verdicts first, then the Pareto panels, the configurations, the failed
   runs and per scene every configuration with the same zoom insets (:func:`write_study_html`,
-  Jinja2 template ``study.html`` on the pages' base template).
+  Jinja2 template ``study.html`` on the pages' base template);
+- ``rank_agreement.csv`` — per scene family, how the perceptual metrics rank configurations
+  against the exact ones (Kendall τ, :func:`shadowlab.study.agreement.rank_agreement`), also a
+  section of both pages.
 """
 from __future__ import annotations
 
@@ -20,6 +23,7 @@ from urllib.parse import quote
 
 import pandas as pd
 
+from .. import perceptual
 from ..metrics import COLUMN_BY_NAME
 from ..output.pages import fmt_ms as fmt_ms_short
 from ..output.pages import fmt_num
@@ -28,6 +32,7 @@ from .aggregate import (FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, TIM
                         family_table, fmt_limit, fmt_ms, fmt_pct, is_missing, judged_metric, names_text, normalised,
                         per_configuration, scenes_in_order, summary_table, verdict_sentences, verdict_table,
                         write_text_atomic)
+from .agreement import MIN_CONFIGURATIONS, agreement_sentences, rank_agreement
 
 
 def _md_cell(value) -> str:
@@ -184,6 +189,7 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> P
               fmt_ms(r["fastest_time_ms"]), r["fastest_ok"] or "(none)", fmt_ms(r["fastest_ok_time_ms"])]
              for _, r in fams.iterrows()]))
         lines.append("")
+    lines += agreement_markdown(results)
     conf = cfg[~cfg["reference"].astype(bool)]
     if len(conf):
         lines += ["## By scene", ""]
@@ -204,6 +210,33 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> P
         lines.append("")
     write_text_atomic(path, "\n".join(lines))
     return path
+
+
+def agreement_markdown(results: pd.DataFrame) -> list[str]:
+    """summary.md's section on what people see: the Kendall τ table of
+    :func:`~shadowlab.study.agreement.rank_agreement` and one sentence per scene family, or the
+    line saying why there is none (packages missing, too few configurations)."""
+    table = rank_agreement(results)
+    lines = ["## What people see: perceptual metrics against pixel error", ""]
+    note = perceptual.missing_note()
+    if not len(table):
+        return lines + [note or f"No scene has {MIN_CONFIGURATIONS} or more configurations with perceptual "
+                                "metrics: no rank agreement.", ""]
+    lines += ["Kendall τ between each perceptual metric (FLIP; SSIM as 1 − SSIM) and each exact metric, taken "
+              "per scene over its configurations and averaged over the family's scenes: 1 = the same order, "
+              "0 = unrelated, < 0 = reversed.", ""]
+    lines.append(_md_table(["scene family", "perceptual", "exact", "τ (mean)", "τ range", "scenes", "pairs",
+                            "most discordant pair"], agreement_rows(table)))
+    lines += [""] + [f"- {s}" for s in agreement_sentences(table)] + [""] + ([note, ""] if note else [])
+    return lines
+
+
+def agreement_rows(table: pd.DataFrame) -> list[list[str]]:
+    """The τ table's rows as text (summary.md and study.html)."""
+    return [[as_text(r["scene_family"]) or "general", r["perceptual"], r["exact"], f"{r['tau']:.2f}",
+             f"{r['tau_min']:.2f} – {r['tau_max']:.2f}", str(r["scenes"]), str(r["pairs"]),
+             f"{r['discordant_pair']} ({r['discordant_scene']})" if r["discordant_pair"] else ""]
+            for _, r in table.iterrows()]
 
 
 def _rel(study_dir: Path, value) -> str | None:
@@ -442,7 +475,17 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
         summary=_summary_rows(results),
         failed=[[as_text(r["scene"]), as_text(r["label"]), as_text(r["error"])] for _, r in fails.iterrows()],
         scenes=sections, error_colors=error_legend(), tuned=tuned_tables(meta),
-        predictions=prediction_tables(meta))
+        predictions=prediction_tables(meta), agreement=agreement_section(results))
+
+
+def agreement_section(results: pd.DataFrame) -> dict:
+    """The study page's section on what people see: the τ table's rows, the sentences, and the
+    note when perceptual metrics are missing (:func:`agreement_markdown` in HTML)."""
+    table = rank_agreement(results)
+    return {"rows": agreement_rows(table), "sentences": agreement_sentences(table),
+            "note": perceptual.missing_note() or ("" if len(table) else
+                                                  f"No scene has {MIN_CONFIGURATIONS} or more configurations with "
+                                                  "perceptual metrics: no rank agreement.")}
 
 
 def prediction_tables(meta: dict) -> list[dict]:
@@ -475,6 +518,7 @@ def write_study_report(study_dir, results: pd.DataFrame, meta: dict) -> dict:
     study_dir = Path(study_dir)
     study_dir.mkdir(parents=True, exist_ok=True)
     pareto = pareto_plot(results, study_dir / "pareto.png")
+    write_text_atomic(study_dir / "rank_agreement.csv", rank_agreement(results).to_csv(index=False))
     summary = write_summary_md(results, study_dir / "summary.md", meta)
     page = write_study_html(study_dir, results, meta, pareto.name)
     return {"pareto": pareto, "html": page, "summary": summary}

@@ -28,7 +28,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from .. import provenance, timing
+from .. import perceptual, provenance, timing
 from ..output.rundir import safe_name
 from ..validation import RunError
 from ..techniques import from_spec
@@ -384,10 +384,12 @@ def _plan(suite: Suite, revision: str, device: str) -> list[_Run]:
     vendor, driver): per scene the truth, then its configurations."""
     runs = []
     timing_settings = {"repeat": suite.repeat, "warmup": suite.warmup, "pass_timing": suite.pass_timing}
+    # the perceptual columns this process can compute: installing their packages redoes the runs
+    judged = perceptual.available()
     for scene in suite.scenes:
         h = scene_content_hash(scene.path)
         for spec, ref in [(suite.truth, True)] + [(s, False) for s in suite.configurations[scene.name]]:
-            acc = run_key(h, spec, suite.size, revision, device)
+            acc = run_key(h, spec, suite.size, revision, device, perceptual=judged)
             runs.append(_Run(scene, spec, ref, acc, run_key(h, spec, suite.size, revision, device, **timing_settings),
                              h))
     return runs

@@ -131,30 +131,39 @@ def _accuracy_row(row: dict) -> dict:
     return {k: v for k, v in row.items() if not is_time_column(k)}
 
 
-def _images(frame, visibilities, truth0, footprint=None) -> dict:
+def _images(frame, visibilities, truth=None, footprint=None) -> tuple[dict, dict]:
     """PNG bytes of a configuration's pictures (:func:`shadowlab.output.pictures.config_pictures`):
-    the shaded image, the first light's visibility and, given the truth, the error map, the signed
-    map of a soft configuration (on :data:`STUDY_SIGNED_LIMIT`) and the texel-footprint map."""
+    the shaded image, the first light's visibility and, given the truth (one visibility per
+    light), the error map, the signed map of a soft configuration (on :data:`STUDY_SIGNED_LIMIT`)
+    and the texel-footprint map; and, given the truth, the perceptual metrics of the shaded
+    image against the truth's (:func:`shadowlab.perceptual.compare_pictures`; {} without it)."""
+    from .. import perceptual
     from ..output import pictures
     from ..shading import ShadingPass
 
     shading = ShadingPass(frame)
     try:
         shaded = pictures.to_display(shading.shade(list(visibilities)), frame.covered)
+        judged = {}
+        if truth is not None and perceptual.available():
+            truth_shaded = pictures.to_display(shading.shade(list(truth)), frame.covered)
+            judged = perceptual.compare_pictures(shaded, truth_shaded, frame.covered)
     finally:
         shading.release()
+    truth0 = None if truth is None else truth[0]
     ev0 = frame.evaluated(0)
     signed = None
     if truth0 is not None:
         diff = pictures.signed_difference(frame.scene.lights[0], visibilities[0], truth0, ev0)
         signed = None if diff is None else (diff, STUDY_SIGNED_LIMIT)
     made = pictures.config_pictures(shaded, visibilities[0], truth0, ev0, frame.covered, signed, footprint)
-    return {f"{kind}.png": data for kind, data in made.items()}  # the cache's file names
+    return {f"{kind}.png": data for kind, data in made.items()}, judged  # the cache's file names
 
 
 def _truth(task: dict) -> dict:
     """The ground truth of every light of a scene, with what the configurations of that scene
     need to be judged: the truth's visibility per light (float32 (H, W), row 0 = top)."""
+    from .. import perceptual
     from ..pipeline import Evaluator
     from ..techniques import from_spec
 
@@ -163,13 +172,14 @@ def _truth(task: dict) -> dict:
     lights = range(len(frame.scene.lights))
     truths = [evaluator.truth(li) for li in lights]
     rows = [_accuracy_row(evaluator.row(m, reference=True)) for m in truths]
-    files = _images(frame, [m.visibility for m in truths], None)
+    files, _ = _images(frame, [m.visibility for m in truths])
     ev0 = frame.evaluated(0)
     arrays = {f"truth_{li}": m.visibility.astype(np.float32) for li, m in zip(lights, truths)}
     arrays["mask_0"] = np.where(ev0, truths[0].visibility, np.nan).astype(np.float32)
     cam = frame.camera
     notes = [f"{frame.degenerate_triangles} degenerate (zero-area) triangles in the scene"] \
         if frame.degenerate_triangles else []
+    notes += [n for n in [perceptual.missing_note()] if n]
     meta = {"rows": rows, "notes": notes + list(dict.fromkeys(evaluator.truth_technique.notes)),
             "scene": frame.scene.describe(), "lights": len(lights),
             "camera": {"eye": cam.eye.tolist(), "target": cam.target.tolist(), "fov_y": cam.fov_y,
@@ -193,7 +203,9 @@ def _config(task: dict) -> dict:
     rows = [_accuracy_row(evaluator.row(m)) for m in ms]
     for row, m in zip(rows, ms):
         row["notes"] = "; ".join(m.notes)
-    files = _images(frame, [m.visibility for m in ms], task["truth"][0], ms[0].footprint)
+    files, judged = _images(frame, [m.visibility for m in ms], task["truth"], ms[0].footprint)
+    for row in rows:  # one shaded picture per configuration: its perceptual figures on every light's row
+        row.update(judged)
     ev0 = frame.evaluated(0)
     arrays = {"mask_0": np.where(ev0, ms[0].visibility, np.nan).astype(np.float32)}
     meta = {"rows": rows, "notes": list(dict.fromkeys(tech.notes))}

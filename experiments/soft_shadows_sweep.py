@@ -23,63 +23,93 @@ import pandas as pd
 from shadowlab.study.experiment import run_experiment_suite
 
 SUITE = "soft_shadows"
-FAMILIES = ["shadow_map", "shadow_volume", "planar", "shadow_polygons"]  # plot order
-COLUMNS = ["scene", "technique", "short_label", "param_light_samples", "visibility_mae", "visibility_rmse",
+#: Hard families averaged over light samples (``light_samples``), in plot order.
+FAMILIES = ["shadow_map", "shadow_volume", "planar", "shadow_polygons"]
+#: Techniques drawn as curves over a sample count: technique → its count parameter.
+COUNTS = {**{f: "light_samples" for f in FAMILIES}, "rt_soft": "samples"}
+#: Techniques drawn as one point per configuration (no count), in legend order.
+POINTS = ["exact_soft", "pcss", "moment_soft", "penumbra_wedges"]
+COLUMNS = ["scene", "technique", "short_label", "count", "visibility_mae", "visibility_rmse",
            "penumbra_mae", "penumbra_pixels", "umbra_error_rate", "lit_error_rate", "error_rate",
-           "truth_stderr_max", "time_ms_median", "setup_ms"]
+           "flip_mean", "ssim", "truth_stderr_max", "time_ms_median", "setup_ms"]
+
+
+def curve_label(row) -> str:
+    """A configuration's curve: its short label without the count parameter (N is on the points)."""
+    param = COUNTS.get(row["technique"])
+    if not param:
+        return row["short_label"]
+    tech, _, rest = str(row["short_label"]).partition(":")
+    kept = [kv for kv in rest.split(",") if kv and not kv.startswith(f"{param}=")]
+    return tech + (":" + ",".join(kept) if kept else "")
 
 
 def sweep_rows(results: pd.DataFrame) -> pd.DataFrame:
-    """The study's configuration rows (light 0), in scene, family, N order."""
+    """The study's configuration rows (light 0) with ``count`` (the sample count of a curve's
+    technique, NaN for the others) and ``curve``, in scene, technique, curve, count order."""
     df = results[~results["reference"].astype(bool) & (results["light"] == 0)].copy()
-    df["param_light_samples"] = pd.to_numeric(df.get("param_light_samples"), errors="coerce")
-    rank = {t: i for i, t in enumerate(FAMILIES + ["pcss"])}
+    df["count"] = [pd.to_numeric(r.get(f"param_{COUNTS[r['technique']]}"), errors="coerce")
+                   if r["technique"] in COUNTS else float("nan") for _, r in df.iterrows()]
+    df["curve"] = [curve_label(r) for _, r in df.iterrows()]
+    rank = {t: i for i, t in enumerate(FAMILIES + ["rt_soft"] + POINTS)}
     df["_rank"] = df["technique"].map(lambda t: rank.get(t, len(rank)))
-    df = df.sort_values(["scene", "_rank", "param_light_samples", "short_label"], kind="stable")
+    df = df.sort_values(["scene", "_rank", "curve", "count", "short_label"], kind="stable")
     return df.drop(columns="_rank").reset_index(drop=True)
 
 
 def plot(df, path, size, renderer):
     """One column per scene: visibility_mae (top) and penumbra_mae (bottom) against time,
-    log-log, a curve per family."""
+    log-log, a curve per family and sample-count technique, a marker per other technique."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     scenes = list(dict.fromkeys(df["scene"]))
-    fig, axes = plt.subplots(2, len(scenes), figsize=(5.5 * len(scenes), 9), dpi=100, squeeze=False)
+    fig, axes = plt.subplots(2, len(scenes), figsize=(4.6 * len(scenes), 9), dpi=100, squeeze=False)
     for col, scene in enumerate(scenes):
         for row, metric in enumerate(("visibility_mae", "penumbra_mae")):
             _panel(axes[row, col], df[df["scene"] == scene], scene, metric)
-    axes[0, 0].legend(fontsize=7, loc="lower left")
-    axes[1, 0].legend(fontsize=7, loc="lower left")
-    fig.suptitle(f"soft shadows: error against time, N = light samples ({size[0]}x{size[1]}, {renderer})",
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="lower center", ncol=min(6, len(labels)))
+    fig.suptitle(f"soft shadows: error against time, N = samples ({size[0]}x{size[1]}, {renderer})",
                  fontsize=10)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.06, 1, 0.97))
     fig.savefig(path)
     plt.close(fig)
 
 
 def _panel(ax, d, scene, metric):
-    """One scene's curves of ``metric`` against time."""
-    for fam in FAMILIES:
-        g = d[d["technique"] == fam].sort_values("param_light_samples")
-        if g.empty:
-            continue
-        line, = ax.loglog(g["time_ms_median"], g[metric], "o-", label=fam)
+    """One scene's curves and points of ``metric`` against time."""
+    for curve, g in d[d["technique"].isin(list(COUNTS))].groupby("curve", sort=False):
+        g = g.sort_values("count")
+        line, = ax.loglog(g["time_ms_median"], g[metric].clip(lower=1e-5), "o-", label=curve, markersize=4)
         for _, r in g.iterrows():
-            ax.annotate(f"{int(r['param_light_samples'])}", (r["time_ms_median"], r[metric]),
+            ax.annotate(f"{int(r['count'])}", (r["time_ms_median"], max(r[metric], 1e-5)),
                         textcoords="offset points", xytext=(4, 3), fontsize=7, color=line.get_color())
-    for _, r in d[d["technique"] == "pcss"].iterrows():
-        ax.loglog([r["time_ms_median"]], [r[metric]], "*", markersize=12, label=r["short_label"])
+    for _, r in d[~d["technique"].isin(list(COUNTS))].iterrows():
+        ax.loglog([r["time_ms_median"]], [max(r[metric], 1e-5)], "*", markersize=11, label=r["short_label"])
     bound = float(d["truth_stderr_max"].max())
-    if metric == "penumbra_mae" and bound > 0:
+    if bound > 0:
         ax.axhline(bound, color="grey", linestyle=":", linewidth=1, label="truth's stderr bound (per pixel)")
     ax.set_title(f"{scene}: {metric}", fontsize=10)
-    ax.set_xlabel("time per frame, ms (median; N renders)")
+    ax.set_xlabel("time per frame, ms (median)")
     ax.set_ylabel(f"{metric} (mean |V − G|)")
     ax.grid(True, which="both", alpha=0.3)
+
+
+def penumbra_table(df: pd.DataFrame) -> str:
+    """Markdown: per configuration (rows) and scene (columns), penumbra_mae and time — the
+    soft techniques on the soft hard cases in one table."""
+    scenes = list(dict.fromkeys(df["scene"]))
+    lines = ["| configuration | " + " | ".join(scenes) + " |", "|---|" + "---|" * len(scenes)]
+    for label in dict.fromkeys(df["short_label"]):
+        cells = []
+        for scene in scenes:
+            r = df[(df["short_label"] == label) & (df["scene"] == scene)]
+            cells.append("" if r.empty else f"{r['penumbra_mae'].iloc[0]:.4f} / {r['time_ms_median'].iloc[0]:.3g} ms")
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def main():
@@ -88,10 +118,12 @@ def main():
     size = run.save_table(df, COLUMNS)
     out = run.out
     plot(df, out.with_suffix(".png"), size, run.renderer)
-    with pd.option_context("display.width", 220, "display.max_rows", 200):
+    out.with_suffix(".md").write_text(f"penumbra_mae / time per frame ({size[0]}x{size[1]}, {run.renderer})\n\n"
+                                      + penumbra_table(df))
+    with pd.option_context("display.width", 220, "display.max_rows", 300):
         print(df[["scene", "short_label", "visibility_mae", "penumbra_mae", "time_ms_median"]].to_string(
             index=False, float_format=lambda x: f"{x:.4g}"))
-    print(run.summary_line(out.with_suffix(".csv"), out.with_suffix(".png")))
+    print(run.summary_line(out.with_suffix(".csv"), out.with_suffix(".png"), out.with_suffix(".md")))
 
 
 if __name__ == "__main__":

@@ -300,6 +300,7 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
                     for tech in techniques:
                         step = None if on_step is None else (lambda what=f"frame {k + 1}/{n} {tech.short_label()} light {li}":
                                                              on_step(what, total))
+                        tech.begin_frame(temporal.FrameStep(k, li))  # state across frames, if it keeps any
                         measured.append((tech.spec(), measure(tech, frame, li, repeat, warmup, step), False))
                     truth_track = tracks.get((TRUTH_KEY, li))
                     truth_prev = truth_track.prev_vis if truth_track is not None else None
@@ -332,6 +333,7 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
     finally:
         for tech in techniques:
             tech.keep_across_frames = False
+            tech.begin_frame(None)  # the animation is over: no state carries into another run
             tech.forget()
 
     df = pd.DataFrame(rows)

@@ -14,7 +14,8 @@ lines (soft_contact_hardening above all).
 Animation — ``shadowlab animate`` on ``soft_moving_caster`` (a crate slides under a rect light
 while the camera pans): ``flip_rate`` and ``temporal_error`` (means over the frame pairs) and the
 mean ``visibility_mae`` / ``penumbra_mae`` over frames, at 1 / 4 / 16 samples, with and without
-temporal accumulation (``temporal_alpha`` = 0.8 / 0) and the denoiser.
+temporal accumulation (``temporal_alpha`` = 0.8 / 0; without the neighbourhood clamp too,
+``temporal_clamp=0``, to show the trail a moving shadow leaves) and the denoiser.
 
 Writes results/rt_soft_sweep.csv (stills and animation rows, ``part`` says which), .png (error
 against samples per scene; flicker against samples) and .json (provenance,
@@ -52,6 +53,7 @@ STILL_STAGES = {
 #: Animated configurations: stage name → parameters.
 ANIMATED_STAGES = {
     "ratio": "iterations=0,temporal_alpha=0",
+    "ratio+temporal(no clamp)": "iterations=0,temporal_alpha=0.8,temporal_clamp=0",
     "ratio+temporal": "iterations=0,temporal_alpha=0.8",
     "ratio+denoise": "temporal_alpha=0",
     "ratio+denoise+temporal": "temporal_alpha=0.8",

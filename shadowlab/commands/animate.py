@@ -4,7 +4,8 @@ scene, with per-frame metrics, temporal metrics and the flicker pictures.
 Per frame k (time t_k = k / (n − 1), :func:`shadowlab.scene.animation.frame_times`): the scene at t_k
 (:func:`shadowlab.scene.animation.scene_at`) → a :class:`~shadowlab.frame.Frame` → the truth and each
 technique on every light through :mod:`shadowlab.pipeline` (``measure``; one untimed-in-effect
-render unless ``repeat`` says otherwise) → the usual metrics row plus ``frame``, ``t`` and, from
+render unless ``repeat`` says otherwise; before each, ``Technique.begin_frame`` tells the technique
+which frame and light it is measuring, for state it keeps across frames) → the usual metrics row plus ``frame``, ``t`` and, from
 frame 1 on, the temporal columns of :mod:`shadowlab.temporal` against frame k−1.
 
 Outputs (through the one run-directory writer, :class:`shadowlab.output.rundir.RunDirectory`:

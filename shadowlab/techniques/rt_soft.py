@@ -33,11 +33,13 @@ by P's tangent plane: :func:`rect_unshadowed`). The ratio estimator of V is then
     V̂_ratio = U(P) · Σ_k f_k u_k / Σ_k f_k = U · free / live       (u_k: segment unoccluded),
 
 against the plain average V̂_plain = (1/N) Σ_k f_k u_k = free / N (the truth's estimator at N
-samples). **Where the whole light faces P and is above its horizon (U = 1, f ≡ 1 — every
-pixel of the shipped soft scenes but where a light dips below a receiver's plane,
-soft_below_plane) the two are the same number, bit for bit, denoised or not**: live = N, so
-the à-trous filter of the numerator over the filter of the denominator is the filter of
-free / N. They differ only where the horizon or the light's plane cuts the light: there the
+samples). **Where the whole light faces P and is above its horizon (U = 1, f ≡ 1: the floors
+and tops under the shipped soft scenes' lights, over 90 % of their evaluated pixels) the two
+are the same number** — bit for bit without the denoiser (live = N); with it, the filter of
+the numerator over the filter of a denominator that is 1 all around is the filter of free / N,
+up to rounding (and to the few taps from cut pixels nearby). They differ only where P's
+tangent plane or the light's plane cuts the light — the sides of boxes facing the light,
+soft_below_plane's slab (41 % of the light below its plane): there the
 ratio takes the clipped part exactly from U and spends all its samples' information on the
 shadow of the visible part — lower variance, a small bias of the ratio of estimates
 (consistent: it vanishes as N grows) — and where no live sample is left (live = 0, U > 0) it

@@ -195,6 +195,12 @@ def test_temporal_accumulation_blends_the_reprojected_history(lab):
     f2, _, _ = _vis(lab, "soft_overlap", spec, step=FrameStep(2, 0), tech=tech2)
     assert stats["history_pixels"] == ev.sum()
     np.testing.assert_allclose(blended[ev], 0.5 * (f2[ev] + fresh1[ev]), atol=1e-6)
+    # renders are repeatable: warm-up and timed repeats blend the same history, not each other's
+    tech3 = from_spec(spec)
+    _vis(lab, "soft_overlap", spec, step=FrameStep(2, 0), tech=tech3)
+    tech3.begin_frame(FrameStep(3, 0))
+    repeated = measure(tech3, lab.frame("soft_overlap", SMALL), 0, repeat=3, warmup=1, count=False).visibility
+    assert np.array_equal(repeated, blended)
     tech.begin_frame(None)  # the end of an animation: no history is left
     again, _, stats = _vis(lab, "soft_overlap", spec, step=FrameStep(4, 0), tech=tech)
     assert stats["history_pixels"] == 0

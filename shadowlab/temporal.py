@@ -95,9 +95,12 @@ def project_to_pixels(points: np.ndarray, view_projection: np.ndarray, width: in
 
 
 def reproject(curr: FrameGeometry, prev: FrameGeometry, curr_evaluated: np.ndarray,
-              prev_evaluated: np.ndarray) -> Reprojection:
+              prev_evaluated: np.ndarray, footprints: float = SAME_SURFACE_FOOTPRINTS) -> Reprojection:
     """Match the evaluated pixels of frame k (``curr``, bool mask (H, W)) to frame k−1
-    (``prev``) by exact reprojection (module docstring); same image size required."""
+    (``prev``) by exact reprojection (module docstring); same image size required. A match is
+    valid within ``footprints`` pixel footprints (the metrics' :data:`SAME_SURFACE_FOOTPRINTS`
+    by default; temporal accumulation, which must find the nearest pixel of the same surface,
+    passes a looser one)."""
     if curr.shape != prev.shape:
         raise ValueError(f"frames of different sizes: {curr.shape} and {prev.shape}")
     h, w = curr.shape
@@ -117,12 +120,25 @@ def reproject(curr: FrameGeometry, prev: FrameGeometry, curr_evaluated: np.ndarr
     prev_pts = prev.position.reshape(-1, 3)[np.where(ok, q, 0)]
     dist = np.linalg.norm(prev_pts - pts, axis=1)
     with np.errstate(invalid="ignore"):
-        ok &= dist <= SAME_SURFACE_FOOTPRINTS * curr.footprint.reshape(-1)[idx]
+        ok &= dist <= footprints * curr.footprint.reshape(-1)[idx]
     source = np.full(h * w, -1, np.int64)
     source[idx[ok]] = q[ok]
     valid = np.zeros(h * w, bool)
     valid[idx[ok]] = True
     return Reprojection(source.reshape(h, w), valid.reshape(h, w))
+
+
+@dataclass(frozen=True)
+class FrameStep:
+    """What ``shadowlab animate`` tells a technique before it measures light ``light`` of frame
+    ``index`` (:meth:`shadowlab.techniques.base.Technique.begin_frame`): which frame of the
+    animation this is, so that a technique can keep state across frames (a history) and draw a
+    fresh random stream per frame. The frames themselves reach it as always, through ``setup``;
+    a technique that reprojects keeps its own previous frame's geometry
+    (:meth:`FrameGeometry.of`) and calls :func:`reproject` with the tolerance it needs."""
+
+    index: int
+    light: int
 
 
 @dataclass

@@ -4,7 +4,8 @@ scene, with per-frame metrics, temporal metrics and the flicker pictures.
 Per frame k (time t_k = k / (n − 1), :func:`shadowlab.scene.animation.frame_times`): the scene at t_k
 (:func:`shadowlab.scene.animation.scene_at`) → a :class:`~shadowlab.frame.Frame` → the truth and each
 technique on every light through :mod:`shadowlab.pipeline` (``measure``; one untimed-in-effect
-render unless ``repeat`` says otherwise) → the usual metrics row plus ``frame``, ``t`` and, from
+render unless ``repeat`` says otherwise; before each, ``Technique.begin_frame`` tells the technique
+which frame and light it is measuring, for state it keeps across frames) → the usual metrics row plus ``frame``, ``t`` and, from
 frame 1 on, the temporal columns of :mod:`shadowlab.temporal` against frame k−1.
 
 Outputs (through the one run-directory writer, :class:`shadowlab.output.rundir.RunDirectory`:
@@ -300,6 +301,7 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
                     for tech in techniques:
                         step = None if on_step is None else (lambda what=f"frame {k + 1}/{n} {tech.short_label()} light {li}":
                                                              on_step(what, total))
+                        tech.begin_frame(temporal.FrameStep(k, li))  # state across frames, if it keeps any
                         measured.append((tech.spec(), measure(tech, frame, li, repeat, warmup, step), False))
                     truth_track = tracks.get((TRUTH_KEY, li))
                     truth_prev = truth_track.prev_vis if truth_track is not None else None
@@ -332,6 +334,7 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
     finally:
         for tech in techniques:
             tech.keep_across_frames = False
+            tech.begin_frame(None)  # the animation is over: no state carries into another run
             tech.forget()
 
     df = pd.DataFrame(rows)

@@ -262,6 +262,9 @@ class Technique:
         #: Set by a caller that renders this technique frame after frame (``shadowlab animate``):
         #: what :meth:`keep` holds then survives :meth:`release` until :meth:`forget`.
         self.keep_across_frames = False
+        #: What ``shadowlab animate`` said about the frame being measured (:meth:`begin_frame`):
+        #: a :class:`shadowlab.temporal.FrameStep`, or None outside an animation.
+        self.animation_step = None
         self._programs: list = []  # cache keys of the programs held
         self._visibility_texture = None
 
@@ -409,6 +412,15 @@ class Technique:
     def kept(self, key):
         """The object :meth:`keep` holds under ``key``, or None."""
         return self._kept.get(key)
+
+    def begin_frame(self, step) -> None:
+        """Called by ``shadowlab animate`` before it measures one light of one frame, with a
+        :class:`shadowlab.temporal.FrameStep` (the frame's index and the light's), and with None
+        once the animation is over. The default keeps it as :attr:`animation_step`, where :meth:`setup`
+        can read it; a technique that keeps state across frames (temporal accumulation,
+        ``rt_soft``) overrides this to roll that state forward — it gets what it needs from the
+        step, never from shared state. Compare and study never call it (still frames: None)."""
+        self.animation_step = step
 
     def forget(self) -> None:
         """Free what :meth:`keep` holds (the end of an animation; :meth:`release` otherwise)."""

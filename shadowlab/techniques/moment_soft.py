@@ -54,6 +54,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import gl, glstate
+from ..geometry import frusta
 from ..geometry.frusta import LightView
 from ..geometry.transforms import BIAS, look_at
 from ..scene.area_lights import RectLight
@@ -105,6 +106,39 @@ def unsigned_bias_target(signed=SIGNED_BIAS_TARGET) -> tuple[float, float, float
 
     m = (1.0,) + tuple(float(v) for v in signed)
     return tuple(sum(comb(k, j) * m[j] for j in range(k + 1)) / 2.0 ** k for k in range(1, 5))
+
+
+def normal_view(light, receivers: np.ndarray, caster_bounds: np.ndarray, resolution: int) \
+        -> tuple[LightView, list[str]]:
+    """A square perspective view from a one-sided light's centre along its normal, wide enough
+    for the ``receivers`` (M, 3) in front of the light (their largest angle from the normal,
+    capped at :data:`~shadowlab.geometry.frusta.MAX_POINT_HALF_ANGLE`), and notes for the run.
+
+    Along the normal the planes parallel to the light are the map's planes of constant depth,
+    and each projects onto the map by a similarity: the region at one height is an exact
+    rectangle (with :func:`aligned_face`), and a box average over it in texels is a uniform
+    average over the light's copy. The map toolkit's fit looks along the receivers' mean
+    direction instead (47° from the normal on ``soft_banding``, a 160° frustum), where the
+    same light-sized region covers texels of very different sizes and the box average weighed
+    its far side less: the whole penumbra moved towards the near side (visibility_mae 0.037
+    against pcss's 0.0094 at 160x120)."""
+    p = np.asarray(light.position, np.float64)
+    axis = np.asarray(light.normal, np.float64)
+    d = np.asarray(receivers, np.float64) - p
+    dist = np.linalg.norm(d, axis=1)
+    cos = (d @ axis) / np.where(dist > 0, dist, 1.0)
+    front = cos > 0.0  # behind the emitting plane: V = 0 in the lookup, no need to map them
+    notes = []
+    if not front.any():
+        return frusta.perspective_view(p, axis, 2 * frusta.MAX_POINT_HALF_ANGLE, 1.0, 2.0, resolution), notes
+    half = float(np.degrees(np.arccos(np.clip(cos[front], -1.0, 1.0))).max()) * (1 + frusta.PAD)
+    if half > frusta.MAX_POINT_HALF_ANGLE:
+        outside = int(np.sum(np.degrees(np.arccos(np.clip(cos[front], -1.0, 1.0))) > frusta.MAX_POINT_HALF_ANGLE))
+        notes.append(f"moment_soft: receivers lie up to {half:.1f} degrees from the light's normal, more than the map's "
+                     f"{frusta.MAX_POINT_HALF_ANGLE}; {outside} of them lie outside the map and are treated as lit")
+        half = frusta.MAX_POINT_HALF_ANGLE
+    near, far = frusta.perspective_range(p, d[front] + p, caster_bounds, axis[None], 2 * half)
+    return frusta.perspective_view(p, axis, 2 * half, near, far, resolution), notes
 
 
 def aligned_face(face: LightView, edge: np.ndarray) -> LightView:
@@ -202,10 +236,17 @@ class MomentSoftShadows(TexelMapping, Technique):
         receivers' search regions, the textures and the three programs."""
         ctx, light = frame.ctx, slot.light
         res = self.resolution
-        # Every evaluated receiver (fit=receivers), as pcss: the outer penumbra stays on the map.
-        faces, notes = fit_light_views(frame, slot, res, "frustum", 0.0, "receivers")
+        # Every evaluated receiver, as pcss (the outer penumbra stays on the map); a one-sided
+        # light's map looks along its normal (normal_view), a sphere's along the fitted axis.
+        receivers = frame.compact_position[slot.evaluated]
+        if light.one_sided:
+            face, notes = normal_view(light, receivers, frame.caster_bounds(), res)
+        else:
+            faces, notes = fit_light_views(frame, slot, res, "frustum", 0.0, "receivers")
+            face = faces[0]
         self.notes.extend(notes)
-        face = aligned_face(faces[0], light.u) if isinstance(light, RectLight) else faces[0]
+        if isinstance(light, RectLight):
+            face = aligned_face(face, light.u)
         self.atlas = Atlas.grid([face], res, self.name)
         proj, view = face.proj, face.view
         near, _ = near_far(proj)
@@ -214,7 +255,6 @@ class MomentSoftShadows(TexelMapping, Technique):
         axis = height_axis(light, view)
         bounds = frame.caster_bounds()
         self.search_height = search_height(axis, centre, bounds, near, -view[2, :3], self.name)
-        receivers = frame.compact_position[slot.evaluated]
         heights = (receivers - centre) @ axis
         # Heights of the casters' box corners and of the receivers: the range z = 0 … 1 spans.
         corners = np.stack(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"), -1).reshape(-1, 3)

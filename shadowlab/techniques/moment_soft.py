@@ -95,6 +95,8 @@ GBUFFER_TAPS, SEARCH_TAPS, FILTER_TAPS = 2, 4, 16
 #: floor at z = 1 (soft_overlap's high plank over the floor) stays singular after biasing, and
 #: float32 gave d33 < 0 there — white speckles in the umbra (441 of 19200 pixels at 160x120).
 SIGNED_BIAS_TARGET = (0.0, 0.628, 0.0, 0.628)
+#: The height range's top lies this fraction above the highest caster or receiver.
+HEIGHT_PAD = 1e-3
 #: Corners of the unit square centred on 0: the light's corners are centre + extents · these.
 CORNERS = np.array([[-0.5, -0.5], [0.5, -0.5], [-0.5, 0.5], [0.5, 0.5]])
 
@@ -259,11 +261,9 @@ class MomentSoftShadows(TexelMapping, Technique):
         # Heights of the casters' box corners and of the receivers: the range z = 0 … 1 spans.
         corners = np.stack(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"), -1).reshape(-1, 3)
         caster_heights = ((bounds[:, corners, [0, 1, 2]].reshape(-1, 3) - centre) @ axis) if len(bounds) else heights
+        # (padded: a floor alone still has a range, and it lies below the empty texels' z = 1)
         self.h_lo = self.search_height
-        self.h_hi = float(max(caster_heights.max(initial=self.h_lo), heights.max(initial=self.h_lo)))
-        if not self.h_hi > self.h_lo:
-            raise TechniqueError(f"{self.name}: nothing lies below the casters' lowest height {self.h_lo:.4g} "
-                                 f"(the height range is empty)")
+        self.h_hi = float(max(caster_heights.max(initial=self.h_lo), heights.max(initial=self.h_lo))) * (1 + HEIGHT_PAD)
         light_matrix = BIAS @ face.view_proj
         shadowed = heights > self.search_height
         if self.blocker_search:

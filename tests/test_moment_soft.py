@@ -159,11 +159,15 @@ LIGHTS = {
 
 
 @pytest.mark.parametrize("shape", sorted(LIGHTS))
-def test_nothing_blocks_fully_lit(lab, shape):
+@pytest.mark.parametrize("spec", ["moment_soft", "moment_soft:blocker_search=false,fixed_filter=64"])
+def test_nothing_blocks_fully_lit(lab, shape, spec):
     """A floor alone under each area light: V = 1 on every evaluated pixel (measured exactly 1):
-    the floor is its own only depth in the map, and it never blocks itself."""
+    the floor is its own only depth in the map, and it never blocks itself — with the blocker
+    search (the floor is the casters' lowest height: nothing to search) and through a fixed
+    64-texel region compared at the receiver's depth minus the bias (seen: the bias added
+    instead of subtracted shadows the whole floor there)."""
     scene = make_scene([{"mesh": "plane", "size": [8.0, 8.0]}], [LIGHTS[shape]], eye=(3.0, 5.0, 6.0))
-    vis = lab.measure(scene, "moment_soft", SMALL).visibility
+    vis = lab.measure(scene, spec, SMALL).visibility
     evaluated = lab.frame(scene, SMALL).evaluated(0)
     assert evaluated.sum() > 1000
     assert np.all(vis[evaluated] == 1.0), f"{np.sum(vis[evaluated] < 1.0)} pixels below 1"

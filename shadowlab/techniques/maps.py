@@ -1,6 +1,6 @@
 """The map toolkit: what every technique that renders the scene from the light into a texture
-shares — shadow_map, lispsm, cascaded_map, pcss, filtered_map and projective are built on it,
-not on each other.
+shares — shadow_map, lispsm, cascaded_map, pcss, moment_soft, filtered_map and projective are
+built on it, not on each other.
 
 - **Fitting** (DESIGN §11): :func:`fit_light_views` fits a map's views (1, or 6 for a point
   light's cube) to the receivers the camera sees — those that can be shadowed at all
@@ -15,6 +15,9 @@ not on each other.
   :func:`lookup_pass` (one full-screen pass over the G-buffer reading the atlas).
 - **The texel mapping** (:class:`TexelMapping`): which face a world point looks up and where its
   texels lie, for the texel-footprint metric (:mod:`shadowlab.texel_footprint`).
+- **Soft shadows' parallel planes** (pcss, moment_soft): heights above an area light's plane
+  (:func:`height_axis`), its extents (:func:`light_extents`) and size (:func:`light_size`), the
+  blocker search's slice (:func:`search_height`), a perspective map's planes (:func:`near_far`).
 - **Depth-map techniques** (:class:`DepthMapTechnique`): the depth atlas, its optional second
   layer (two-layer comparisons), the comparison lookup with the bias family and PCF, and their
   cost figures; a subclass supplies only its views (:meth:`DepthMapTechnique.fit_views`) and its

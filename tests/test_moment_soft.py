@@ -30,12 +30,12 @@ def mae(lab, scene, spec, size=SMALL) -> float:
 #: visibility_mae bounds at 160x120 against 256 samples. Measured (moment_soft / pcss, same
 #: figures at 320x240 against 1024 samples in docs/guide.md):
 #:   soft_contact_hardening 0.0014 / 0.0022   soft_overlap     0.0071 / 0.0110
-#:   soft_banding           0.0052 / 0.0094   soft_large_close 0.058  / 0.060
+#:   soft_banding           0.0052 / 0.0094   soft_large_close 0.061  / 0.060
 #:   soft_two_heights       0.0041 / 0.0144
-#: Bounds: about 1.5x the measured value (the truth's own noise is ~0.003 of mae at 256
-#: samples), and below pcss's where moment_soft measured clearly below it.
-SOFT_BOUNDS = {"soft_contact_hardening": 0.0025, "soft_overlap": 0.011, "soft_banding": 0.008,
-               "soft_large_close": 0.075, "soft_two_heights": 0.007}
+#: Bounds: about 1.5x the measured value (1.25x on soft_large_close, where the error is the
+#: method's and not the truth's noise), below pcss's measured value except on soft_large_close.
+SOFT_BOUNDS = {"soft_contact_hardening": 0.0021, "soft_overlap": 0.0105, "soft_banding": 0.008,
+               "soft_large_close": 0.075, "soft_two_heights": 0.0065}
 
 
 @pytest.mark.slow
@@ -67,8 +67,8 @@ def widths(lab):
 
 def test_penumbra_grows_with_blocker_distance(widths):
     """Contact hardening. Measured (160x120, 256 samples): truth 0.43 → 1.94 (x4.5), moment_soft
-    0.43 → 1.92 (x4.5), the fixed 8-texel region 0.31 → 0.32 (x1.0). moment_soft must grow
-    x3 or more, which the fixed region fails."""
+    0.50 → 2.02 (x4.0), pcss 0.47 → 1.99 (x4.3), the fixed 8-texel region 0.23 → 0.36 (x1.56).
+    moment_soft must grow x3 or more, which the fixed region fails."""
     t_near, t_far = widths["truth"]
     near, far = widths["moment_soft"]
     f_near, f_far = widths["moment_soft:blocker_search=false"]
@@ -78,20 +78,21 @@ def test_penumbra_grows_with_blocker_distance(widths):
 
 
 def test_penumbra_width_matches_truth(widths):
-    """moment_soft's widths within 20 % of the truth's at both strips (measured −0.2 %, −1 %)."""
+    """moment_soft's widths within 25 % of the truth's at both strips (measured +17 %, +4 %; the
+    box region bounds the light's square exactly here, the 1-texel minimum widens the contact)."""
     for i in (0, 1):
-        assert widths["moment_soft"][i] == pytest.approx(widths["truth"][i], rel=0.2)
+        assert widths["moment_soft"][i] == pytest.approx(widths["truth"][i], rel=0.25)
 
 
 def test_float32_table_is_measurably_worse(lab):
     """The SAT's precision (the method's known artefact): summed in float32, rectangles far from
     the table's origin lose the low bits of their moments and the 4-moment reconstruction
     speckles the penumbra with false light. soft_overlap at 160x120 (1024² map): mae 0.0071
-    (fixed32) against 0.0117 (float32), +65 %; at 2048² float32 reaches 0.015. Asserted: float32
-    at least 1.3x the fixed-point table's."""
+    (fixed32) against 0.0180 (float32), x2.5 (pcss: 0.0110); at 2048² float32 0.0188. Asserted:
+    float32 at least 1.5x the fixed-point table's."""
     fixed = mae(lab, "soft_overlap", "moment_soft")
     floating = mae(lab, "soft_overlap", "moment_soft:sat_precision=float32")
-    assert floating > 1.3 * fixed, (fixed, floating)
+    assert floating > 1.5 * fixed, (fixed, floating)
 
 
 @pytest.mark.parametrize("precision", ["fixed32", "float32"])

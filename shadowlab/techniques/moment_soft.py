@@ -72,7 +72,7 @@ from ..geometry.frusta import LightView
 from ..geometry.transforms import BIAS, look_at
 from ..scene.area_lights import RectLight
 from ..glstate import PassState
-from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
+from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TuneRange
 from .filtered_map import MSM_DEQUANTIZE, MSM_QUANTIZE, MSM_QUANTIZE_OFFSET, VARIANT_DEFINES, \
     VARIANT_ID, msm_quantize
 from .maps import (BASIS_HELPERS, BASIS_SWITCH, Atlas, TexelMapping, fit_light_views, height_axis, light_extents,
@@ -108,6 +108,8 @@ GBUFFER_TAPS, SEARCH_TAPS, FILTER_TAPS = 2, 4, 16
 #: floor at z = 1 (soft_overlap's high plank over the floor) stays singular after biasing, and
 #: float32 gave d33 < 0 there — white speckles in the umbra (441 of 19200 pixels at 160x120).
 SIGNED_BIAS_TARGET = (0.0, 0.628, 0.0, 0.628)
+#: Near and far planes of the map when no receiver lies in front of the light (nothing to map).
+EMPTY_NEAR_FAR = (1.0, 2.0)
 #: The height range's top lies this fraction above the highest caster or receiver.
 HEIGHT_PAD = 1e-3
 #: Corners of the unit square centred on 0: the light's corners are centre + extents · these.
@@ -144,13 +146,14 @@ def normal_view(light, receivers: np.ndarray, caster_bounds: np.ndarray, resolut
     cos = (d @ axis) / np.where(dist > 0, dist, 1.0)
     front = cos > 0.0  # behind the emitting plane: V = 0 in the lookup, no need to map them
     notes = []
-    if not front.any():
-        return frusta.perspective_view(p, axis, 2 * frusta.MAX_POINT_HALF_ANGLE, 1.0, 2.0, resolution), notes
-    half = float(np.degrees(np.arccos(np.clip(cos[front], -1.0, 1.0))).max()) * (1 + frusta.PAD)
+    if not front.any():  # nothing to answer (every receiver sees V = 0): any valid frustum will do
+        return frusta.perspective_view(p, axis, 2 * frusta.MAX_POINT_HALF_ANGLE, *EMPTY_NEAR_FAR, resolution), notes
+    angles = np.degrees(np.arccos(np.clip(cos[front], -1.0, 1.0)))
+    half = float(angles.max()) * (1 + frusta.PAD)
     if half > frusta.MAX_POINT_HALF_ANGLE:
-        outside = int(np.sum(np.degrees(np.arccos(np.clip(cos[front], -1.0, 1.0))) > frusta.MAX_POINT_HALF_ANGLE))
-        notes.append(f"moment_soft: receivers lie up to {half:.1f} degrees from the light's normal, more than the map's "
-                     f"{frusta.MAX_POINT_HALF_ANGLE}; {outside} of them lie outside the map and are treated as lit")
+        outside = int(np.sum(angles > frusta.MAX_POINT_HALF_ANGLE))
+        notes.append(f"moment_soft: receivers lie up to {half:.1f} degrees from the light's normal, more than the "
+                     f"map's {frusta.MAX_POINT_HALF_ANGLE}; {outside} of them lie outside the map and are treated as lit")
         half = frusta.MAX_POINT_HALF_ANGLE
     near, far = frusta.perspective_range(p, d[front] + p, caster_bounds, axis[None], 2 * half)
     return frusta.perspective_view(p, axis, 2 * half, near, far, resolution), notes

@@ -59,8 +59,8 @@ from ..geometry.transforms import BIAS
 from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TuneRange
 # The parallel-planes geometry is the map toolkit's, shared with moment_soft (imported here by
 # name, so ``pcss.near_far`` and the others stay where the tests and older code look for them).
-from .maps import (BASIS_HELPERS, BASIS_SWITCH, CLEAR_DEPTH, Atlas, TexelMapping, depth_pass, fit_light_views,  # noqa: F401
-                   height_axis, light_extents, light_size, lookup_pass, near_far, search_height)
+from .maps import (BASIS_HELPERS, BASIS_SWITCH, CLEAR_DEPTH, Atlas, TexelMapping, depth_pass,  # noqa: F401
+                   fit_light_views, height_axis, light_extents, light_size, lookup_pass, near_far, search_height)
 
 #: Depth format of the map (24-bit fixed point, as the shadow map's default).
 DEPTH_BITS = 24

@@ -1,6 +1,6 @@
-// Moment soft shadow mapping (Peters, Münstermann, Wreninge & Klein, "Beyond Hard Shadows:
+// Moment soft shadow mapping (Peters, Münstermann, Wetzstein & Klein, "Beyond Hard Shadows:
 // Moment Shadow Maps for Single Scattering, Soft Shadows and Translucent Occluders", I3D 2016,
-// §4 "Moment soft shadow mapping"; the JCGT 2017 extension, §5) over the G-buffer: one
+// its section on moment soft shadow mapping; the extended version, JCGT 6(1) 2017) over the G-buffer: one
 // visibility value per screen pixel from the summed-area table (SAT, moment_soft_sat.glsl) of a
 // four-moment shadow map (filtered_depth.glsl with HEIGHT_DEPTH: moments of the normalised
 // height above the light's plane, in the optimised basis of Peters & Klein 2015).
@@ -10,7 +10,7 @@
 //      give the canonical three-point distribution of the Hamburger 4MSM (msm.glsl) with one
 //      point at the receiver's depth t; the average blocker depth is the mean of its other
 //      support points in front of t, weighted by their weights (the paper's estimate), plus a
-//      small fully-lit bias ε · t (JCGT 2017, §5.1) that pulls it to the receiver where almost
+//      small fully-lit bias ε · t (10⁻³ in the authors' published shader code) that pulls it to the receiver where almost
 //      nothing blocks; no weight in front of t: lit;
 //   2. penumbra estimate, parallel planes (as pcss.glsl): the filter region is the light seen
 //      from P cut by the plane at the blockers' height h_b, projected from the light's centre;
@@ -137,7 +137,7 @@ vec4 biased(vec4 stored) {
 
 // Step 1: from the search region's moments b and the receiver's depth t, the blockers' share
 // `blocked` of the region (the weight in front of t) and their average depth (Peters et al.
-// 2016, §4; JCGT 2017, §5.1). The canonical three-point distribution has support t, z2, z3
+// 2016 and JCGT 2017, their soft-shadow sections). The canonical three-point distribution has support t, z2, z3
 // and weights w_i = E[(z - x_j)(z - x_k)] / ((x_i - x_j)(x_i - x_k)) (Lagrange: the one
 // distribution on these three points with the moments 1, b1, b2).
 float blocker_depth(vec4 b, float t, out float blocked) {

@@ -1,4 +1,4 @@
-// Moment soft shadow mapping (Peters, Münstermann, Wreninge & Klein, I3D 2016), the summed-area
+// Moment soft shadow mapping (Peters, Münstermann, Wetzstein & Klein, I3D 2016), the summed-area
 // table (Crow 1984) of the moment map: S[x, y] = Σ_{i <= x, j <= y} m[i, j] over the four stored
 // moments (the 16-bit optimised basis of Peters & Klein 2015, in [0, 1]), built in two passes
 // of prefix sums — u_pass ROW_PASS: one invocation per row sums along x from the moments

@@ -1,10 +1,10 @@
-"""Moment soft shadow mapping (Peters, Münstermann, Wreninge & Klein, I3D 2016) from an area light.
+"""Moment soft shadow mapping (Peters, Münstermann, Wetzstein & Klein, I3D 2016) from an area light.
 
 Christoph Peters, Cedrick Münstermann, Nico Wetzstein, Reinhard Klein, "Beyond Hard Shadows:
-Moment Shadow Maps for Single Scattering, Soft Shadows and Translucent Occluders", I3D 2016, §4
-(and its extended version, JCGT 6(1) 2017, §5): PCSS's three steps (Fernando 2005) on a moment
-shadow map, each region read from a summed-area table (SAT, Crow 1984) of its four moments in
-a constant number of taps whatever its size.
+Moment Shadow Maps for Single Scattering, Soft Shadows and Translucent Occluders", I3D 2016, its
+section on moment soft shadow mapping (and the extended version, JCGT 6(1) 2017): PCSS's three
+steps (Fernando 2005) on a moment shadow map, each region read from a summed-area table (SAT,
+Crow 1984) of its four moments in a constant number of taps whatever its size.
 
 Passes:
 
@@ -100,7 +100,8 @@ REGION_MARGIN = 2.0
 #: Map texels read per fragment or invocation: the G-buffer (position and normal), the search's
 #: rectangle (4 SAT taps), the filter's with fractional edges (16).
 GBUFFER_TAPS, SEARCH_TAPS, FILTER_TAPS = 2, 4, 16
-#: The moment bias target of Peters et al., JCGT 2017 §3.3 ("Improved Moment Shadow Maps..."),
+#: The moment bias target of Peters et al., JCGT 2017 ("Improved Moment Shadow Maps...", their
+#: improvements to moment shadow mapping itself, and the authors' published shader code),
 #: for signed depth s in [−1, 1]: (E[s], E[s²], E[s³], E[s⁴]) = (0, 0.628, 0, 0.628), the moments of
 #: the three points −1, 0, 1 with weights 0.314, 0.372, 0.314 (:func:`unsigned_bias_target` maps it
 #: to z = (s + 1) / 2). The 2015 target (½, ½, ½, ½) of filtered_map is the two-point {0, 1}

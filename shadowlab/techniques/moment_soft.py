@@ -107,7 +107,8 @@ GBUFFER_TAPS, SEARCH_TAPS, FILTER_TAPS = 2, 4, 16
 #: to z = (s + 1) / 2). The 2015 target (½, ½, ½, ½) of filtered_map is the two-point {0, 1}
 #: distribution, whose Hankel matrix is singular: a region holding only a caster at z = 0 and the
 #: floor at z = 1 (soft_overlap's high plank over the floor) stays singular after biasing, and
-#: float32 gave d33 < 0 there — white speckles in the umbra (441 of 19200 pixels at 160x120).
+#: float32 gave d33 < 0 there — white speckles in the high plank's shadow (441 of 19200 pixels
+#: at 160x120, measured with the 2015 target).
 SIGNED_BIAS_TARGET = (0.0, 0.628, 0.0, 0.628)
 #: Near and far planes of the map when no receiver lies in front of the light (nothing to map).
 EMPTY_NEAR_FAR = (1.0, 2.0)

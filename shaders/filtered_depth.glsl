@@ -13,6 +13,10 @@
 // MSM (Peters & Klein 2015, Hamburger 4MSM): stores b = (z, z², z³, z⁴), through the affine
 // storage transform u_quantize · b + u_quantize_offset (their §4: the optimised 16-bit
 // quantisation; identity and zero for float storage).
+// HEIGHT_DEPTH (a define; moment_soft, Peters et al. 2016 with PCSS's parallel planes): depth is
+// instead the height above the area light's plane, z = (dot(p - u_height_origin, u_height_axis)
+// - u_near) / (u_far - u_near), clamped to [0, 1] — u_near, u_far are then the lowest and highest
+// heights of the scene, and a receiver parallel to the light has one depth across any filter.
 uniform mat4 u_light_view_proj;
 uniform mat4 u_light_view;
 uniform float u_near;                  // the face's fitted near and far planes (world units)
@@ -25,13 +29,21 @@ uniform vec2 u_exponents;              // EVSM: (c+, c-)
 uniform mat4 u_quantize;               // MSM: storage transform of the moments
 uniform vec4 u_quantize_offset;        // MSM: its offset
 uniform float u_moment_max;            // EVSM: the storage format's largest finite value
+#ifdef HEIGHT_DEPTH
+uniform vec3 u_height_origin;          // the light's centre (world)
+uniform vec3 u_height_axis;            // unit, world: height h = dot(p - origin, axis)
+#endif
 
 #ifdef VERTEX_SHADER
 in vec3 in_pos;
 out float v_depth;                     // linear depth in [0, 1]
 void main() {
+#ifdef HEIGHT_DEPTH
+    v_depth = (dot(in_pos - u_height_origin, u_height_axis) - u_near) / (u_far - u_near);
+#else
     vec4 view = u_light_view * vec4(in_pos, 1.0);
     v_depth = (-view.z - u_near) / (u_far - u_near);
+#endif
     gl_Position = u_light_view_proj * vec4(in_pos, 1.0);
 }
 #endif
@@ -48,6 +60,9 @@ vec2 biased_moments(float w) {
 
 void main() {
     float z = v_depth;
+#ifdef HEIGHT_DEPTH
+    z = clamp(z, 0.0, 1.0);            // heights are affine in world space: interpolated exactly, clamped here
+#endif
     out_moments = vec4(0.0);
     if (u_variant == VARIANT_ESM) {
         out_moments.x = exp(u_exponent * z);

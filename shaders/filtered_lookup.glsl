@@ -40,6 +40,7 @@ out float out_visibility;
 
 #include "cube_face.glsl"
 #include "atlas.glsl"
+#include "msm.glsl"
 
 // Chebyshev's one-sided upper bound on P(z >= t) (Donnelly & Lauritzen 2006, §3.1), then the
 // light-bleeding reduction linstep(u_bleed_reduction, 1, p_max) (Lauritzen, GPU Gems 3 ch. 8).
@@ -76,38 +77,13 @@ float evsm(vec4 m, float t) {
     return visibility;
 }
 
-// MSM, Hamburger 4MSM (Peters & Klein 2015, Algorithm 2). The moments are biased towards
-// u_moment_bias_target; then the Hankel system B c = (1, t, t²), B = [[1, b1, b2], [b1, b2, b3],
-// [b2, b3, b4]], is solved through B = L D Lᵀ (L unit lower triangular: l21 = b1, l31 = b2,
-// l32; D = diag(1, d22, d33)); c gives the quadratic c3 z² + c2 z + c1 whose roots z2 <= z3
-// are, with t, the support of the three-point distribution matching the moments. Its weight in
-// front of t is the shadow intensity G (three cases of step 4).
+// MSM, Hamburger 4MSM (Peters & Klein 2015, Algorithm 2; msm.glsl): the stored moments are
+// dequantised and biased towards u_moment_bias_target, then the shadow intensity G is the weight
+// of the canonical three-point distribution in front of t; visibility = 1 - clamp(G, 0, 1).
 float msm(vec4 stored, float t) {
     vec4 b = u_dequantize * (stored - u_quantize_offset);
     b = mix(b, u_moment_bias_target, u_moment_bias);
-    // B = L D Lᵀ
-    float d22 = b.y - b.x * b.x;
-    float l32 = (b.z - b.x * b.y) / d22;
-    float d33 = b.w - b.y * b.y - l32 * l32 * d22;
-    // L y = (1, t, t²); D w = y; Lᵀ c = w
-    float y2 = t - b.x;
-    float y3 = t * t - b.y - l32 * y2;
-    float c3 = y3 / d33;
-    float c2 = y2 / d22 - l32 * c3;
-    float c1 = TOTAL_MASS - b.x * c2 - b.y * c3;
-    // roots of c3 z² + c2 z + c1: z = -p/2 ∓ sqrt(p²/4 - q), p = c2 / c3, q = c1 / c3
-    float half_p = c2 / (c3 + c3);
-    float r = sqrt(max(half_p * half_p - c1 / c3, 0.0));
-    float z2 = -half_p - r, z3 = -half_p + r;
-    float shadow;
-    if (t <= z2) {
-        shadow = 0.0;
-    } else if (t <= z3) {                // the weight at z2
-        shadow = (t * z3 - b.x * (t + z3) + b.y) / ((z3 - z2) * (t - z2));
-    } else {                             // the weights at z2 and z3: all but the one at t
-        shadow = TOTAL_MASS - (z2 * z3 - b.x * (z2 + z3) + b.y) / ((t - z2) * (t - z3));
-    }
-    return LIT - clamp(shadow, 0.0, TOTAL_MASS);
+    return LIT - clamp(msm_shadow_intensity(b, t), 0.0, TOTAL_MASS);
 }
 
 // exp(-c t) · E[exp(c z)] (Annen et al. 2008, eq. 5), in log space: exp(-c t) alone would be

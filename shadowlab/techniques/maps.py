@@ -1,6 +1,6 @@
 """The map toolkit: what every technique that renders the scene from the light into a texture
-shares — shadow_map, lispsm, cascaded_map, pcss, filtered_map and projective are built on it,
-not on each other.
+shares — shadow_map, lispsm, cascaded_map, pcss, moment_soft, filtered_map and projective are
+built on it, not on each other.
 
 - **Fitting** (DESIGN §11): :func:`fit_light_views` fits a map's views (1, or 6 for a point
   light's cube) to the receivers the camera sees — those that can be shadowed at all
@@ -15,6 +15,9 @@ not on each other.
   :func:`lookup_pass` (one full-screen pass over the G-buffer reading the atlas).
 - **The texel mapping** (:class:`TexelMapping`): which face a world point looks up and where its
   texels lie, for the texel-footprint metric (:mod:`shadowlab.texel_footprint`).
+- **Soft shadows' parallel planes** (pcss, moment_soft): heights above an area light's plane
+  (:func:`height_axis`), its extents (:func:`light_extents`) and size (:func:`light_size`), the
+  blocker search's slice (:func:`search_height`), a perspective map's planes (:func:`near_far`).
 - **Depth-map techniques** (:class:`DepthMapTechnique`): the depth atlas, its optional second
   layer (two-layer comparisons), the comparison lookup with the bias family and PCF, and their
   cost figures; a subclass supplies only its views (:meth:`DepthMapTechnique.fit_views`) and its
@@ -29,6 +32,7 @@ from ..geometry.bounds import segments_hit_boxes
 from ..geometry.frusta import LightView
 from ..geometry.transforms import BIAS
 from ..glstate import PassState
+from ..scene.area_lights import AreaLight, DiscLight, RectLight, SphereLight, basis
 from .base import FIRST, MAX, SUM, Technique, TechniqueError
 
 #: Most faces one map atlas holds (a cube's 6; cascades up to 8): the size of every per-face
@@ -445,3 +449,79 @@ class DepthMapTechnique(TexelMapping, Technique):
                 "passes": depth_passes + (1 if two_layer else 0) + 1,  # depth (and peel), resolve, lookup
                 "depth_range": self.atlas.faces[0].depth_range,
                 "texel_world": float(self.atlas.faces[0].texel_world) or None}
+
+
+# --------------------------------------------------------------------------- soft shadows: parallel planes
+
+# Shared by the soft-shadow map techniques (pcss, moment_soft): Fernando 2005's parallel planes,
+# taken parallel to the area light — heights above the light's plane along :func:`height_axis`,
+# the light's extents (:func:`light_extents`), the blocker search's slice (:func:`search_height`),
+# the scalar light size of the penumbra formula (:func:`light_size`), the planes of a perspective
+# map (:func:`near_far`) and the receiver's tangent basis for its plane's slope.
+
+#: The receiver's tangent basis for its plane's depth slope (``u_basis_*`` in the shader), the
+#: choice of :func:`shadowlab.scene.area_lights.basis`: t1 = N × helper a while |N.x| < the switch
+#: (a is then far from parallel to N), else N × helper b.
+BASIS_SWITCH = 0.9
+BASIS_HELPERS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+
+
+def near_far(proj: np.ndarray) -> tuple[float, float]:
+    """The near and far planes (linear depth along the axis) of a GL perspective matrix (4, 4),
+    row-major: proj[2, 2] = −(f + n) / (f − n), proj[2, 3] = −2 f n / (f − n)."""
+    return float(proj[2, 3] / (proj[2, 2] - 1.0)), float(proj[2, 3] / (proj[2, 2] + 1.0))
+
+
+def light_extents(light: AreaLight, view: np.ndarray, owner: str = "pcss") -> np.ndarray:
+    """The light's two extents (3, 2), world vectors as columns: rect — the full edges u, v;
+    disc — two orthogonal diameters in its plane; sphere — diameters along the rows 0 and 1 of
+    the world → view matrix ``view`` (4, 4) (the map's x and y axes). Another shape: a
+    TechniqueError naming ``owner``."""
+    if isinstance(light, RectLight):
+        cols = (light.u, light.v)
+    elif isinstance(light, DiscLight):
+        t1, t2 = basis(light.normal)
+        cols = (2 * light.radius * t1, 2 * light.radius * t2)
+    elif isinstance(light, SphereLight):
+        cols = (2 * light.radius * view[0, :3], 2 * light.radius * view[1, :3])
+    else:
+        raise TechniqueError(f"{owner}: no extent for area light shape {light.shape!r}")
+    return np.stack([np.asarray(c, np.float64) for c in cols], axis=1)
+
+
+def height_axis(light: AreaLight, view: np.ndarray) -> np.ndarray:
+    """The unit axis (3,) heights above the light are measured along (PCSS's planes parallel to
+    the light are the planes of constant height): a one-sided light's normal; a sphere's, the
+    map's axis (−row 2 of the world → view matrix ``view`` (4, 4): the map looks down −z), to
+    which its extents are perpendicular."""
+    if light.one_sided:
+        return np.asarray(light.normal, np.float64)
+    return -np.asarray(view[2, :3], np.float64)
+
+
+def search_height(axis: np.ndarray, centre: np.ndarray, caster_bounds: np.ndarray, near: float,
+                  map_axis: np.ndarray, owner: str = "pcss") -> float:
+    """The blocker search's slice height (world, > 0): the lowest height above the light (along
+    ``axis`` (3,) from ``centre`` (3,)) of any corner of the casters' bounding boxes
+    ``caster_bounds`` (K, 2, 3) — the slice nearest the light holds every lower one's region —
+    but no lower than the height of the map's near plane on its axis, ``near`` · axis·``map_axis``
+    (casters reaching the light's plane). A clear error (naming ``owner``) when that is not
+    positive."""
+    bounds = np.asarray(caster_bounds, np.float64).reshape(-1, 2, 3)
+    corners = np.stack(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"), -1).reshape(-1, 3)
+    pts = bounds[:, corners, [0, 1, 2]].reshape(-1, 3)  # (K·8, 3)
+    floor = near * float(np.dot(axis, map_axis))
+    lowest = float(((pts - centre) @ axis).min()) if len(pts) else floor
+    height = max(lowest, floor)
+    if not height > 0.0:
+        raise TechniqueError(f"{owner}: the map's axis is perpendicular to or behind the light's height "
+                             f"axis (axis·normal = {np.dot(axis, map_axis):.3g}); no blocker search plane")
+    return height
+
+
+def light_size(light: AreaLight) -> float:
+    """The scalar light size of Fernando's formula (world units): a rect's longer edge, a disc's
+    or a sphere's diameter (reported in stats; the kernel uses the full shape)."""
+    if isinstance(light, RectLight):
+        return float(max(np.linalg.norm(light.u), np.linalg.norm(light.v)))
+    return float(2.0 * light.radius)

@@ -54,24 +54,16 @@ from __future__ import annotations
 import numpy as np
 
 from .. import gl
-from ..scene.area_lights import AreaLight, DiscLight, RectLight, SphereLight, basis, concentric_disc, strata
+from ..scene.area_lights import RectLight, concentric_disc, strata
 from ..geometry.transforms import BIAS
-from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
-from .maps import CLEAR_DEPTH, Atlas, TexelMapping, depth_pass, fit_light_views, lookup_pass
+from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TuneRange
+# The parallel-planes geometry is the map toolkit's, shared with moment_soft (imported here by
+# name, so ``pcss.near_far`` and the others stay where the tests and older code look for them).
+from .maps import (BASIS_HELPERS, BASIS_SWITCH, CLEAR_DEPTH, Atlas, TexelMapping, depth_pass,  # noqa: F401
+                   fit_light_views, height_axis, light_extents, light_size, lookup_pass, near_far, search_height)
 
 #: Depth format of the map (24-bit fixed point, as the shadow map's default).
 DEPTH_BITS = 24
-#: The receiver's tangent basis for its plane's depth slope (``u_basis_*`` in the shader), the
-#: choice of :func:`shadowlab.scene.area_lights.basis`: t1 = N × helper a while |N.x| < the switch
-#: (a is then far from parallel to N), else N × helper b.
-BASIS_SWITCH = 0.9
-BASIS_HELPERS = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
-
-
-def near_far(proj: np.ndarray) -> tuple[float, float]:
-    """The near and far planes (linear depth along the axis) of a GL perspective matrix (4, 4),
-    row-major: proj[2, 2] = −(f + n) / (f − n), proj[2, 3] = −2 f n / (f − n)."""
-    return float(proj[2, 3] / (proj[2, 2] - 1.0)), float(proj[2, 3] / (proj[2, 2] + 1.0))
 
 
 def sample_offsets(n: int, disc: bool) -> np.ndarray:
@@ -84,22 +76,6 @@ def sample_offsets(n: int, disc: bool) -> np.ndarray:
     return pts.astype(np.float32)
 
 
-def light_extents(light: AreaLight, view: np.ndarray) -> np.ndarray:
-    """The light's two extents (3, 2), world vectors as columns: rect — the full edges u, v;
-    disc — two orthogonal diameters in its plane; sphere — diameters along the rows 0 and 1 of
-    the world → view matrix ``view`` (4, 4) (the map's x and y axes)."""
-    if isinstance(light, RectLight):
-        cols = (light.u, light.v)
-    elif isinstance(light, DiscLight):
-        t1, t2 = basis(light.normal)
-        cols = (2 * light.radius * t1, 2 * light.radius * t2)
-    elif isinstance(light, SphereLight):
-        cols = (2 * light.radius * view[0, :3], 2 * light.radius * view[1, :3])
-    else:
-        raise TechniqueError(f"pcss: no extent for area light shape {light.shape!r}")
-    return np.stack([np.asarray(c, np.float64) for c in cols], axis=1)
-
-
 def light_uv(extents: np.ndarray, view: np.ndarray, proj: np.ndarray) -> np.ndarray:
     """The light's extents (3, 2) seen along the map's axis at its near plane, in map uv units
     (2, 2), columns as given: a lateral offset Δx at linear depth z moves u by
@@ -107,43 +83,6 @@ def light_uv(extents: np.ndarray, view: np.ndarray, proj: np.ndarray) -> np.ndar
     near, _ = near_far(proj)
     lateral = view[:2, :3] @ extents  # the extents in the map's x, y axes
     return lateral * (np.array([proj[0, 0], proj[1, 1]])[:, None] / (2.0 * near))
-
-
-def height_axis(light: AreaLight, view: np.ndarray) -> np.ndarray:
-    """The unit axis (3,) heights above the light are measured along (PCSS's planes parallel to
-    the light are the planes of constant height): a one-sided light's normal; a sphere's, the
-    map's axis (−row 2 of the world → view matrix ``view`` (4, 4): the map looks down −z), to
-    which its extents are perpendicular."""
-    if light.one_sided:
-        return np.asarray(light.normal, np.float64)
-    return -np.asarray(view[2, :3], np.float64)
-
-
-def search_height(axis: np.ndarray, centre: np.ndarray, caster_bounds: np.ndarray, near: float,
-                  map_axis: np.ndarray) -> float:
-    """The blocker search's slice height (world, > 0): the lowest height above the light (along
-    ``axis`` (3,) from ``centre`` (3,)) of any corner of the casters' bounding boxes
-    ``caster_bounds`` (K, 2, 3) — the slice nearest the light holds every lower one's region —
-    but no lower than the height of the map's near plane on its axis, ``near`` · axis·``map_axis``
-    (casters reaching the light's plane). A clear error when that is not positive."""
-    bounds = np.asarray(caster_bounds, np.float64).reshape(-1, 2, 3)
-    corners = np.stack(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"), -1).reshape(-1, 3)
-    pts = bounds[:, corners, [0, 1, 2]].reshape(-1, 3)  # (K·8, 3)
-    floor = near * float(np.dot(axis, map_axis))
-    lowest = float(((pts - centre) @ axis).min()) if len(pts) else floor
-    height = max(lowest, floor)
-    if not height > 0.0:
-        raise TechniqueError(f"pcss: the map's axis is perpendicular to or behind the light's height "
-                             f"axis (axis·normal = {np.dot(axis, map_axis):.3g}); no blocker search plane")
-    return height
-
-
-def light_size(light: AreaLight) -> float:
-    """The scalar light size of Fernando's formula (world units): a rect's longer edge, a disc's
-    or a sphere's diameter (reported in stats; the kernel uses the full shape)."""
-    if isinstance(light, RectLight):
-        return float(max(np.linalg.norm(light.u), np.linalg.norm(light.v)))
-    return float(2.0 * light.radius)
 
 
 class PCSS(TexelMapping, Technique):

@@ -1,0 +1,121 @@
+// Penumbra wedges (Assarsson & Akenine-Möller, SIGGRAPH 2003, §3-4; Assarsson, Dougherty,
+// Mounier & Akenine-Möller, Graphics Hardware 2003, §3): one conservative wedge per silhouette
+// edge (silhouette seen from the light's centre), drawn as the back faces of its convex hull
+// with additive blending into a float target. Every pixel whose view ray crosses the hull gets
+// exactly one fragment (a convex hull has one exit point per ray; the rasterisation rules give
+// shared edges to one triangle), and the fragment adds the signed fraction of the light that the
+// edge moves across the hard shadow's decision at the light's centre:
+//
+//   V(P) = V_hard(P) + Σ_e sign_e · area(R_e) / area(L),
+//   R_e = {x ∈ L : the segment centre → x crosses the edge projected from P onto the light},
+//
+// sign_e = +1 when the centre lies inside the projected silhouette (the crossing leaves the
+// shadow: visible light is added), −1 otherwise. For one closed silhouette loop this is exact
+// (signed crossings of the segment centre → x count [c ∈ S] − [x ∈ S]); integrating over L gives
+// the paper's "area between the clipped projected edge and the centre", one edge at a time.
+// A pixel outside the edge's true wedge has R_e = ∅ (the light is convex and holds its centre),
+// so a conservative hull is enough.
+
+uniform mat4 u_view;
+uniform mat4 u_proj;
+
+#ifdef VERTEX_SHADER
+in vec3 in_pos;      // a corner of the wedge's hull (world)
+in vec3 in_edge_a;   // the silhouette edge a -> b (world), walked as a light-facing face walks it
+in vec3 in_edge_b;
+flat out vec3 v_a;
+flat out vec3 v_b;
+void main() {
+    v_a = in_edge_a;
+    v_b = in_edge_b;
+    gl_Position = u_proj * (u_view * vec4(in_pos, 1.0));
+}
+#endif
+
+#ifdef FRAGMENT_SHADER
+#include "gbuffer_fetch.glsl"
+// Sutherland-Hodgman on a convex polygon: the light square (4 corners) cut by three lines
+// leaves at most 4 + 3 corners.
+#define MAX_CORNERS 7
+#define SQUARE_CORNERS 4
+#define HALF_EDGE 0.5           // the light is s, t in [-1/2, 1/2] (full edges u, v)
+
+uniform vec3 u_light_centre;
+uniform vec3 u_light_normal;     // unit, towards the emitting side
+uniform vec3 u_light_du;         // dual basis of the edges u, v: s = (x − c)·du, t = (x − c)·dv
+uniform vec3 u_light_dv;
+uniform float u_slab_margin;     // the edge is cut to heights [m·h_P, (1 − m)·h_P] (see below)
+flat in vec3 v_a;
+flat in vec3 v_b;
+out float out_value;
+
+vec2 poly[MAX_CORNERS];
+int count;
+
+// Keep the part of poly where dot(nrm, x − o) >= 0.
+void clip(vec2 nrm, vec2 o) {
+    vec2 outp[MAX_CORNERS];
+    int n = 0;
+    for (int i = 0; i < count; ++i) {
+        vec2 p = poly[i], q = poly[(i + 1) % count];
+        float dp = dot(nrm, p - o), dq = dot(nrm, q - o);
+        if (dp >= 0.0 && n < MAX_CORNERS) outp[n++] = p;
+        if ((dp >= 0.0) != (dq >= 0.0) && n < MAX_CORNERS) outp[n++] = p + (dp / (dp - dq)) * (q - p);
+    }
+    for (int i = 0; i < n; ++i) poly[i] = outp[i];
+    count = n;
+}
+
+float cross2(vec2 a, vec2 b) { return a.x * b.y - a.y * b.x; }
+
+// Area (a fraction of the light: the square has area 1 in s, t) of R_e for the projected edge
+// a -> b, counter-clockwise about the centre (cross2(a, b) > 0): the light square inside the
+// cone from the centre through a and b, beyond the line ab.
+float region_area(vec2 a, vec2 b) {
+    poly[0] = vec2(-HALF_EDGE, -HALF_EDGE); poly[1] = vec2(HALF_EDGE, -HALF_EDGE);
+    poly[2] = vec2(HALF_EDGE, HALF_EDGE);   poly[3] = vec2(-HALF_EDGE, HALF_EDGE);
+    count = SQUARE_CORNERS;
+    clip(vec2(-a.y, a.x), vec2(0.0));          // left of the ray centre -> a
+    clip(vec2(b.y, -b.x), vec2(0.0));          // right of the ray centre -> b
+    vec2 d = b - a;
+    clip(vec2(d.y, -d.x), a);                  // right of a -> b: the far side from the centre
+    float twice = 0.0;
+    for (int i = 0; i < count; ++i) twice += cross2(poly[i], poly[(i + 1) % count]);
+    return 0.5 * abs(twice);
+}
+
+void main() {
+    out_value = 0.0;
+    vec3 P;
+    if (!gbuffer_position(P)) return;
+    float hp = dot(P - u_light_centre, u_light_normal);   // P's height below the light
+    if (hp <= 0.0) return;                                // behind a one-sided light: V = 0 anyway
+    // Only the part of the edge strictly between the light's plane and P's parallel plane can
+    // project onto the light from P (central projection; the oracle's slab, tests/soft_oracle.py).
+    float ha = dot(v_a - u_light_centre, u_light_normal);
+    float hb = dot(v_b - u_light_centre, u_light_normal);
+    float lo = u_slab_margin * hp, hi = (1.0 - u_slab_margin) * hp;
+    float t0 = 0.0, t1 = 1.0;
+    float dh = hb - ha;
+    if (dh == 0.0) {
+        if (ha < lo || ha > hi) return;
+    } else {
+        float tl = (lo - ha) / dh, th = (hi - ha) / dh;
+        t0 = max(t0, min(tl, th));
+        t1 = min(t1, max(tl, th));
+        if (t0 >= t1) return;
+    }
+    vec3 a = mix(v_a, v_b, t0), b = mix(v_a, v_b, t1);
+    // Central projection from P onto the light's plane: q = P + (e − P)·h_P / (h_P − h_e).
+    vec3 qa = P + (a - P) * (hp / (hp - dot(a - u_light_centre, u_light_normal)));
+    vec3 qb = P + (b - P) * (hp / (hp - dot(b - u_light_centre, u_light_normal)));
+    vec2 sa = vec2(dot(qa - u_light_centre, u_light_du), dot(qa - u_light_centre, u_light_dv));
+    vec2 sb = vec2(dot(qb - u_light_centre, u_light_du), dot(qb - u_light_centre, u_light_dv));
+    // det(a − P, b − P, c − P) = −(h_P / λ_a λ_b) · |u × v| · cross2(s_a, s_b): the centre is
+    // inside the projected silhouette (sign +1, light added) exactly when cross2 < 0. One
+    // quantity decides both the sign and the region, so they never disagree.
+    float cr = cross2(sa, sb);
+    if (cr > 0.0) out_value = -region_area(sa, sb);
+    else if (cr < 0.0) out_value = region_area(sb, sa);
+}
+#endif

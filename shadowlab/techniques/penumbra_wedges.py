@@ -1,0 +1,272 @@
+"""Penumbra wedges: soft shadow volumes from a rectangular area light.
+
+Assarsson & Akenine-Möller, "A Geometry-based Soft Shadow Volume Algorithm using Graphics
+Hardware", SIGGRAPH 2003; Assarsson, Dougherty, Mounier & Akenine-Möller, "An optimized soft
+shadow volume algorithm with real-time performance", Graphics Hardware 2003.
+
+1. The hard shadow from the light's centre: the stencil shadow volumes of
+   :class:`~shadowlab.techniques.shadow_volume.ShadowVolume` (its planning, z-pass / z-fail /
+   auto counting and far-plane modes, CPU silhouettes), counted in the G-buffer's stencil.
+2. One wedge per silhouette edge (the silhouette seen from the light's centre, the same edges
+   the hard volume extrudes): a conservative convex hull of every point from which the edge,
+   projected onto the light, can meet it (:func:`wedge_hulls`). Its back faces are rasterised
+   with additive blending into a float target; each fragment reads its pixel's surface point P
+   and adds the signed fraction of the light that the edge's projection from P moves across the
+   centre's decision (``shaders/penumbra_wedges.glsl``): the light inside the cone from the
+   centre through the clipped projected edge and beyond it — the paper's "area between the
+   projected edge and the centre".
+3. V = V_hard + Σ wedges, clamped to [0, 1] (``clamp=false``: the raw sum, to show how far the
+   approximation leaves [0, 1]).
+
+What is exact and what is not. For a single caster whose silhouette is the same from every
+point of the light, V is exact (the signed crossings of a segment from the centre to a light
+point x count [centre in S] − [x in S] for the projected silhouette S; integrated over the
+light it is the formula above). The two known approximations:
+
+- *Occlusion added per edge* (HARD_CASES SS1; Forest, Barthe & Paulin 2006): with two casters
+  the wedges subtract each caster's covered area separately, so where their projections on the
+  light overlap the light is hidden twice — too dark (clamped at 0) — or, inside both hard
+  shadows, given back twice — too bright.
+- *Single silhouette*: the silhouette is taken from the light's centre only; where another light
+  point sees other edges (a box's sides, a cylinder), the wedges miss or add area (Assarsson &
+  Akenine-Möller §6, "the silhouette is only correct for the centre").
+
+The receiver's horizon (light below P's tangent plane, occluded in the truth) is not modelled.
+Lights: rect only (its corners bound the wedges and its square is what the fragments clip);
+disc and sphere lights raise :class:`TechniqueError`.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+from .. import gl, glstate
+from ..geometry import adjacency as adj
+from ..geometry import transforms as tf
+from ..glstate import PassState, Stencil
+from ..scene.area_lights import RectLight
+from .base import FIRST, SUM, Param, PlotStyle, TechniqueError
+from .shadow_volume import INFINITE_EPSILON, ShadowVolume
+
+#: Edges above this height below the light's plane (× the scene's extent) are cut off before
+#: their wedge is built: a part above the plane cannot hide the light from the emitting side,
+#: and the wedge's extrusion, reach / height, stays finite.
+MIN_EDGE_HEIGHT = 1e-4
+#: Wedges reach this many scene extents from their edge (every receiver is within one).
+WEDGE_REACH = 2.0
+#: The fragment stage cuts each edge to heights [m·h_P, (1 − m)·h_P] between the light's plane and
+#: P's parallel plane (central projection is only defined strictly between them; the exact
+#: oracle's slab, tests/soft_oracle.py). Float32: well above its rounding, far below any gap.
+SLAB_MARGIN = 1e-4
+#: Floats per wedge vertex: hull corner, edge start, edge end (world).
+VERTEX_FLOATS = 9
+
+
+def wedge_hulls(a: np.ndarray, b: np.ndarray, corners: np.ndarray, centre: np.ndarray, normal: np.ndarray,
+                extent: float) -> tuple[np.ndarray, int]:
+    """Triangles of the wedges of the directed edges a → b (K, 3) each, float32 (3·T, 9): per
+    vertex its hull corner and the edge's two ends (what the fragment stage projects); and how
+    many wedges were made. Each wedge is the convex hull, faces wound counter-clockwise seen
+    from outside, of the edge and its extrusions away from the light's four ``corners`` (4, 3)
+    (``normal``: unit, towards the emitting side; ``extent``: the scene's size).
+
+    Why it is conservative: a point P sees the edge's projection meet the light when
+    P = e + t·(e − x) for an edge point e = λa + (1−λ)b, a light point x = Σ μ_k x_k and t ≥ 0;
+    then P = λ Σ μ_k (a + t(a − x_k)) + (1−λ) Σ μ_k (b + t(b − x_k)), a convex combination of
+    the extrusions at one t. |P − e| = t·|e − x| ≥ t·h_e (h: height below the light's plane), so
+    extruding to t = reach / min(h_a, h_b) covers every P within ``reach`` of the edge."""
+    a, b = np.asarray(a, np.float64).reshape(-1, 3), np.asarray(b, np.float64).reshape(-1, 3)
+    h_min = MIN_EDGE_HEIGHT * extent
+    ha, hb = (a - centre) @ normal, (b - centre) @ normal
+    # Cut each edge to h >= h_min (the part nearer the light than that, or beyond it, is dropped).
+    lo, hi = np.minimum(ha, hb), np.maximum(ha, hb)
+    keep = hi > h_min
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(hb != ha, (h_min - ha) / (hb - ha), 0.0)
+    ca, cb = a.copy(), b.copy()
+    cut_a = keep & (ha < h_min)
+    cut_b = keep & (hb < h_min)
+    ca[cut_a] = a[cut_a] + t[cut_a, None] * (b[cut_a] - a[cut_a])
+    cb[cut_b] = a[cut_b] + t[cut_b, None] * (b[cut_b] - a[cut_b])
+    reach = WEDGE_REACH * extent
+    tris, made = [], 0
+    for k in np.flatnonzero(keep):
+        ea, eb = ca[k], cb[k]
+        if not np.linalg.norm(eb - ea) > 1e-9 * extent:
+            continue
+        ext = reach / max(lo[k], h_min)  # the cut edge's lowest height below the light's plane
+        pts = np.concatenate([[ea, eb], ea + ext * (ea - corners), eb + ext * (eb - corners)])
+        try:
+            hull = ConvexHull(pts)
+        except QhullError:  # flat (an edge in a plane through the light's edge): joggle it
+            hull = ConvexHull(pts, qhull_options="QJ")
+        simp = hull.simplices.copy()
+        p0, p1, p2 = pts[simp[:, 0]], pts[simp[:, 1]], pts[simp[:, 2]]
+        inward = np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), hull.equations[:, :3]) < 0
+        simp[inward] = simp[inward][:, ::-1]
+        verts = np.empty((len(simp) * 3, VERTEX_FLOATS), np.float64)
+        verts[:, :3] = pts[simp.ravel()]
+        verts[:, 3:6] = a[k]
+        verts[:, 6:9] = b[k]
+        tris.append(verts)
+        made += 1
+    out = np.concatenate(tris) if tris else np.zeros((0, VERTEX_FLOATS))
+    return out.astype(np.float32), made
+
+
+def light_dual_basis(light: RectLight) -> tuple[np.ndarray, np.ndarray]:
+    """(du, dv) (3,) each: the dual basis of the rect's full edges u, v in their plane, so that a
+    point x of the plane is centre + s·u + t·v with s = (x − centre)·du, t = (x − centre)·dv
+    (the light is s, t ∈ [−½, ½]; the edges need not be perpendicular)."""
+    m = np.stack([np.asarray(light.u, np.float64), np.asarray(light.v, np.float64)], axis=1)  # (3, 2)
+    dual = np.linalg.solve(m.T @ m, m.T)  # (2, 3)
+    return dual[0], dual[1]
+
+
+class PenumbraWedges(ShadowVolume):
+    """Soft shadow volumes: the hard stencil volume from the light's centre plus one penumbra
+    wedge per silhouette edge, accumulating signed light fractions in a float target."""
+
+    name = "penumbra_wedges"
+    summary = "penumbra wedges / soft shadow volumes (Assarsson & Akenine-Möller 2003): hard volume + per-edge wedges"
+    PARAMS = {
+        **{k: p for k, p in ShadowVolume.PARAMS.items() if k not in ("light_samples", "silhouette")},
+        "clamp": Param(True, "clamp V_hard + Σ wedges to [0, 1] (the paper); false: the raw sum, which "
+                             "leaves [0, 1] where casters' penumbrae overlap"),
+    }
+    #: The wedges need the silhouette edges on the CPU; the hard volume takes them from there too.
+    silhouette = "cpu"
+    LIGHT_SAMPLED = False
+    LIGHTS = frozenset({"area"})
+    PASSES = ("silhouette", "volume", "caps", "wedges", "combine")
+    STYLE = PlotStyle("#e377c2", "d")
+    STATS = {**ShadowVolume.STATS, "wedges": SUM, "wedge_triangles": SUM, "wedge_fragments": SUM,
+             "wedge_fill_per_pixel": SUM, "outside_unit_share": FIRST}
+
+    def setup(self, frame, slot) -> None:
+        """The hard volume's setup (programs, buffers, depth pre-pass), then the wedge and
+        combine programs, the wedges' float target and the light's frame."""
+        light = slot.light
+        if not isinstance(light, RectLight):
+            raise TechniqueError(f"{self.name}: the wedges clip against a rectangle; a {light.shape} light is "
+                                 f"not supported (rect lights only)")
+        super().setup(frame, slot)
+        ctx = frame.ctx
+        cam = frame.camera
+        # The wedges' far corners are finite but far: the infinite projection keeps them, and
+        # clipping at the near plane drops nothing a pixel needs (a ray leaving the hull before
+        # the near plane has its surface point outside the wedge, where R_e is empty).
+        proj = tf.perspective_infinite(cam.fov_y, frame.width / frame.height, cam.near, INFINITE_EPSILON)
+        self.centre = np.asarray(light.position, np.float64)
+        self.normal = np.asarray(light.normal, np.float64)
+        self.corners = light.corners()
+        du, dv = light_dual_basis(light)
+        self.wedge_prog = self.program("penumbra_wedges.glsl")
+        self.wedge_prog["u_view"].write(gl.mat_bytes(frame.view))
+        self.wedge_prog["u_proj"].write(gl.mat_bytes(proj))
+        common = {"u_position": 0, "u_light_centre": tuple(self.centre), "u_light_normal": tuple(self.normal)}
+        gl.set_uniforms(self.wedge_prog, {**common, "u_light_du": tuple(du), "u_light_dv": tuple(dv),
+                                          "u_slab_margin": SLAB_MARGIN})
+        self.combine_prog = self.program("penumbra_wedges_combine.glsl")
+        gl.set_uniforms(self.combine_prog, {**common, "u_wedges": 1, "u_clamp": bool(self.clamp)})
+        self.combine_quad = self.fullscreen_quad(self.combine_prog)
+        self.acc_tex, self.acc_fbo = gl.visibility_target((frame.width, frame.height))
+        self.own(self.acc_tex)
+        self.own(self.acc_fbo)
+        self.wedge_buffers: dict = {}
+        self.extent = frame.scene.extent()
+        self._raw = None
+
+    def wedge_geometry(self) -> tuple[np.ndarray, int]:
+        """The wedges of every caster's silhouette edges seen from the light's centre (the edges
+        the hard volume extrudes, with their multiplicities), as :func:`wedge_hulls`."""
+        a, b = [], []
+        for p in self.plans:
+            t = p.table
+            sil = adj.silhouette_edges(t, adj.facing(t, self.light), p.two_sided)
+            a.append(t.vertices[sil[:, 0]])
+            b.append(t.vertices[sil[:, 1]])
+        if not a:
+            return np.zeros((0, VERTEX_FLOATS), np.float32), 0
+        return wedge_hulls(np.concatenate(a), np.concatenate(b), self.corners, self.centre, self.normal, self.extent)
+
+    def _draw_wedges(self) -> None:
+        """The wedges' back faces (one fragment per pixel whose view ray crosses a hull)."""
+        verts = self._wedges
+        if not len(verts):
+            return
+        vbo, vao = self._dynamic(self.wedge_buffers, "wedges", verts.nbytes, lambda buf: self.frame.ctx.vertex_array(
+            self.wedge_prog, [(buf, "3f 3f 3f", "in_pos", "in_edge_a", "in_edge_b")]))
+        vbo.write(verts.tobytes())
+        vao.render(vertices=len(verts))
+
+    def _wedge_state(self) -> PassState:
+        """Back faces only (cull the front: each ray leaves a convex hull once), no depth test
+        (the fragment reads its own surface point), additive blending into the float target."""
+        return PassState(depth_write=False, cull="front", blend=("one", "one"))
+
+    def render(self) -> None:
+        """Silhouettes and wedges (CPU), the hard volume's stencil counts, the wedges' sum, then
+        V = V_hard + Σ, clamped."""
+        from OpenGL import GL
+
+        frame = self.frame
+        with self.timed_pass("silhouette", cpu=True):
+            self._geometry = self.cpu_volume_geometry()
+            self._wedges, self._wedge_count = self.wedge_geometry()
+        with self.timed_pass("volume"):  # the stencil clear is the volume pass's first step
+            self.target.use()
+            glstate.apply(self._volume_state(zfail=True))
+            GL.glClearStencil(0)
+            GL.glClear(GL.GL_STENCIL_BUFFER_BIT)
+        for zfail, geometry in self._geometry.items():
+            glstate.apply(self._volume_state(zfail))
+            self._draw_volumes(zfail, *geometry)
+        with self.timed_pass("wedges"):
+            self.acc_fbo.use()
+            frame.ctx.viewport = (0, 0, frame.width, frame.height)
+            glstate.apply(self._wedge_state())
+            GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
+            frame.tex_position.use(0)
+            self._draw_wedges()
+        with self.timed_pass("combine"):
+            # V_hard is 1 where the centre's count is 0, else 0: one draw under each stencil test.
+            self.target.use()
+            frame.ctx.viewport = (0, 0, frame.width, frame.height)
+            glstate.apply(PassState(depth_write=False, stencil=Stencil("==", 0, 0xFF)))
+            frame.tex_position.use(0)
+            self.acc_tex.use(1)
+            self.combine_prog["u_hard"].value = 1.0
+            self.combine_quad.render()
+            glstate.set_stencil(Stencil("!=", 0, 0xFF))
+            self.combine_prog["u_hard"].value = 0.0
+            self.combine_quad.render()
+
+    def work(self, counted: dict, stats: dict) -> dict:
+        """The hard volume's stencil updates and CPU triangles (:meth:`ShadowVolume.work`), and
+        texture taps: a wedge fragment reads its surface point, a combine fragment its point and
+        the wedges' sum (the fragments themselves are counted by the pipeline)."""
+        out = super().work(counted, stats)
+        out.update(self.taps_work(counted, {"wedges": 1, "combine": 2}))
+        return out
+
+    def stats(self) -> dict:
+        """The hard volume's figures, the wedges made and their triangles, the fragments they
+        drew (an untimed extra draw under a samples query), and the share of evaluated pixels
+        whose V left [0, 1] before clamping (``clamp=false`` reads its own output)."""
+        out = super().stats()
+        acc_fbo = self.acc_fbo
+        acc_fbo.use()
+        glstate.apply(self._wedge_state())
+        q = gl.query("penumbra_wedges fill", samples=True)
+        with self.timed_pass("wedges"):
+            with q:
+                self._draw_wedges()
+        # The draw above added the wedges once more; the sum is read from visibility, not here.
+        out["wedges"] = int(self._wedge_count)
+        out["wedge_triangles"] = len(self._wedges) // 3
+        out["wedge_fragments"] = int(q.samples)
+        out["wedge_fill_per_pixel"] = out["wedge_fragments"] / (self.frame.width * self.frame.height)
+        vis, mask = self.visibility(), self.frame.evaluated_image(self.slot)
+        out["outside_unit_share"] = None if self.clamp else float(((vis < 0) | (vis > 1))[mask].mean())
+        return out

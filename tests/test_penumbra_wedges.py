@@ -97,12 +97,14 @@ def test_no_cracks_where_adjacent_wedges_meet(quad):
 
 def test_wedge_hulls_cover_every_point_that_sees_the_edge_on_the_light():
     """The hull of one edge holds random points P = e + t·(e − x) (e on the edge, x on the light,
-    t up to the reach) and is closed and outward-wound: the solid angle its triangles subtend
-    from its centroid is 4π."""
+    t ≥ 0) down to the deepest receiver (the floor, 4 below the light), and is closed and
+    outward-wound: the solid angle its triangles subtend from its centroid is 4π. Fails when a
+    light corner is left out of the extrusion or the hull ends above the floor."""
     rng = np.random.default_rng(3)
     light_corners = np.array([[-1, 4, -1], [1, 4, -1], [1, 4, 1], [-1, 4, 1]], np.float64)
     a, b = np.array([-0.5, 2.0, 0.3]), np.array([0.7, 1.8, -0.2])
-    tris, made = wedge_hulls(a, b, light_corners, np.array([0, 4.0, 0]), np.array([0, -1.0, 0]), extent=10.0)
+    tris, made = wedge_hulls(a, b, light_corners, np.array([0, 4.0, 0]), np.array([0, -1.0, 0]),
+                             extent=10.0, depth=4.0)
     assert made == 1
     p = tris[:, :3].astype(np.float64).reshape(-1, 3, 3)
     centroid = p.reshape(-1, 3).mean(axis=0)
@@ -112,8 +114,9 @@ def test_wedge_hulls_cover_every_point_that_sees_the_edge_on_the_light():
     den = n[:, 0] * n[:, 1] * n[:, 2] + np.einsum("ij,ij->i", r[:, 0], r[:, 1]) * n[:, 2] \
         + np.einsum("ij,ij->i", r[:, 1], r[:, 2]) * n[:, 0] + np.einsum("ij,ij->i", r[:, 2], r[:, 0]) * n[:, 1]
     assert np.sum(2 * np.arctan2(num, den)) == pytest.approx(4 * np.pi, rel=1e-6)  # closed, outward
-    lam, mu, t = rng.random(2000), rng.random((2000, 2)), rng.random(2000) * 8.0
+    lam, mu = rng.random(2000), rng.random((2000, 2))
     e = a + lam[:, None] * (b - a)
+    t = rng.random(2000) ** 0.3 * (4.0 / (4.0 - e[:, 1]) - 1.0)  # h_P = (1 + t)·h_e up to 4: the floor
     x = np.array([-1, 4, -1]) + mu[:, 0, None] * np.array([2, 0, 0]) + mu[:, 1, None] * np.array([0, 0, 2])
     pts = e + t[:, None] * (e - x)
     # inside: on the inner side of every face plane

@@ -42,18 +42,18 @@ from scipy.spatial import ConvexHull, QhullError
 
 from .. import gl, glstate
 from ..geometry import adjacency as adj
-from ..geometry import transforms as tf
 from ..glstate import PassState, Stencil
 from ..scene.area_lights import RectLight
 from .base import FIRST, SUM, Param, PlotStyle, TechniqueError
-from .shadow_volume import INFINITE_EPSILON, ShadowVolume
+from .shadow_volume import ShadowVolume
 
 #: Edges above this height below the light's plane (× the scene's extent) are cut off before
 #: their wedge is built: a part above the plane cannot hide the light from the emitting side,
 #: and the wedge's extrusion, reach / height, stays finite.
 MIN_EDGE_HEIGHT = 1e-4
-#: Wedges reach this many scene extents from their edge (every receiver is within one).
-WEDGE_REACH = 2.0
+#: Wedges end this fraction below the deepest scene point (height below the light's plane),
+#: so that every receiver lies strictly inside the hull's far end.
+DEPTH_MARGIN = 1e-2
 #: The fragment stage cuts each edge to heights [m·h_P, (1 − m)·h_P] between the light's plane and
 #: P's parallel plane (central projection is only defined strictly between them; the exact
 #: oracle's slab, tests/soft_oracle.py). Float32: well above its rounding, far below any gap.
@@ -63,18 +63,21 @@ VERTEX_FLOATS = 9
 
 
 def wedge_hulls(a: np.ndarray, b: np.ndarray, corners: np.ndarray, centre: np.ndarray, normal: np.ndarray,
-                extent: float) -> tuple[np.ndarray, int]:
+                extent: float, depth: float) -> tuple[np.ndarray, int]:
     """Triangles of the wedges of the directed edges a → b (K, 3) each, float32 (3·T, 9): per
     vertex its hull corner and the edge's two ends (what the fragment stage projects); and how
     many wedges were made. Each wedge is the convex hull, faces wound counter-clockwise seen
     from outside, of the edge and its extrusions away from the light's four ``corners`` (4, 3)
-    (``normal``: unit, towards the emitting side; ``extent``: the scene's size).
+    (``normal``: unit, towards the emitting side; ``extent``: the scene's size; ``depth``: the
+    greatest height below the light's plane of any receiver).
 
     Why it is conservative: a point P sees the edge's projection meet the light when
     P = e + t·(e − x) for an edge point e = λa + (1−λ)b, a light point x = Σ μ_k x_k and t ≥ 0;
     then P = λ Σ μ_k (a + t(a − x_k)) + (1−λ) Σ μ_k (b + t(b − x_k)), a convex combination of
-    the extrusions at one t. |P − e| = t·|e − x| ≥ t·h_e (h: height below the light's plane), so
-    extruding to t = reach / min(h_a, h_b) covers every P within ``reach`` of the edge."""
+    the extrusions at one t. P's height below the light's plane is h_P = (1 + t)·h_e (x is on
+    the plane), so every P no deeper than ``depth`` has t ≤ depth / min(h_a, h_b) − 1: extruding
+    that far (and DEPTH_MARGIN more) covers them all, and the hull ends just below the deepest
+    receiver instead of far beyond it (less fill: its back faces cover fewer pixels)."""
     a, b = np.asarray(a, np.float64).reshape(-1, 3), np.asarray(b, np.float64).reshape(-1, 3)
     h_min = MIN_EDGE_HEIGHT * extent
     ha, hb = (a - centre) @ normal, (b - centre) @ normal
@@ -88,13 +91,13 @@ def wedge_hulls(a: np.ndarray, b: np.ndarray, corners: np.ndarray, centre: np.nd
     cut_b = keep & (hb < h_min)
     ca[cut_a] = a[cut_a] + t[cut_a, None] * (b[cut_a] - a[cut_a])
     cb[cut_b] = a[cut_b] + t[cut_b, None] * (b[cut_b] - a[cut_b])
-    reach = WEDGE_REACH * extent
     tris, made = [], 0
     for k in np.flatnonzero(keep):
         ea, eb = ca[k], cb[k]
         if not np.linalg.norm(eb - ea) > 1e-9 * extent:
             continue
-        ext = reach / max(lo[k], h_min)  # the cut edge's lowest height below the light's plane
+        # t at which the cut edge's highest end (lowest height h) reaches the deepest receiver
+        ext = max(depth / max(lo[k], h_min) - 1.0, MIN_EDGE_HEIGHT) * (1.0 + DEPTH_MARGIN)
         pts = np.concatenate([[ea, eb], ea + ext * (ea - corners), eb + ext * (eb - corners)])
         try:
             hull = ConvexHull(pts)
@@ -151,30 +154,28 @@ class PenumbraWedges(ShadowVolume):
             raise TechniqueError(f"{self.name}: the wedges clip against a rectangle; a {light.shape} light is "
                                  f"not supported (rect lights only)")
         super().setup(frame, slot)
-        ctx = frame.ctx
-        cam = frame.camera
-        # The wedges' far corners are finite but far: the infinite projection keeps them, and
-        # clipping at the near plane drops nothing a pixel needs (a ray leaving the hull before
-        # the near plane has its surface point outside the wedge, where R_e is empty).
-        proj = tf.perspective_infinite(cam.fov_y, frame.width / frame.height, cam.near, INFINITE_EPSILON)
         self.centre = np.asarray(light.position, np.float64)
         self.normal = np.asarray(light.normal, np.float64)
         self.corners = light.corners()
         du, dv = light_dual_basis(light)
         self.wedge_prog = self.program("penumbra_wedges.glsl")
         self.wedge_prog["u_view"].write(gl.mat_bytes(frame.view))
-        self.wedge_prog["u_proj"].write(gl.mat_bytes(proj))
+        self.wedge_prog["u_proj"].write(gl.mat_bytes(self.proj))  # the depth pre-pass's projection
         common = {"u_position": 0, "u_light_centre": tuple(self.centre), "u_light_normal": tuple(self.normal)}
         gl.set_uniforms(self.wedge_prog, {**common, "u_light_du": tuple(du), "u_light_dv": tuple(dv),
                                           "u_slab_margin": SLAB_MARGIN})
         self.combine_prog = self.program("penumbra_wedges_combine.glsl")
         gl.set_uniforms(self.combine_prog, {**common, "u_wedges": 1, "u_clamp": bool(self.clamp)})
         self.combine_quad = self.fullscreen_quad(self.combine_prog)
-        self.acc_tex, self.acc_fbo = gl.visibility_target((frame.width, frame.height))
-        self.own(self.acc_tex)
-        self.own(self.acc_fbo)
+        # The wedges' sum, drawn with the hard volume's depth pre-pass as its depth buffer.
+        size = (frame.width, frame.height)
+        self.acc_tex = self.own(frame.ctx.texture(size, 1, dtype="f4"))
+        self.acc_fbo = self.own(gl.ScreenTarget.create(size, [self.acc_tex],
+                                                       share_depth_stencil=frame.depth_stencil_for(self)))
         self.wedge_buffers: dict = {}
         self.extent = frame.scene.extent()
+        corners = np.stack(np.meshgrid(*frame.scene.bounds().T, indexing="ij"), -1).reshape(-1, 3)
+        self.depth = float(np.max((corners - self.centre) @ self.normal))
         self._raw = None
 
     def wedge_geometry(self) -> tuple[np.ndarray, int]:
@@ -188,7 +189,8 @@ class PenumbraWedges(ShadowVolume):
             b.append(t.vertices[sil[:, 1]])
         if not a:
             return np.zeros((0, VERTEX_FLOATS), np.float32), 0
-        return wedge_hulls(np.concatenate(a), np.concatenate(b), self.corners, self.centre, self.normal, self.extent)
+        return wedge_hulls(np.concatenate(a), np.concatenate(b), self.corners, self.centre, self.normal, self.extent,
+                           self.depth)
 
     def _draw_wedges(self) -> None:
         """The wedges' back faces (one fragment per pixel whose view ray crosses a hull)."""
@@ -201,9 +203,16 @@ class PenumbraWedges(ShadowVolume):
         vao.render(vertices=len(verts))
 
     def _wedge_state(self) -> PassState:
-        """Back faces only (cull the front: each ray leaves a convex hull once), no depth test
-        (the fragment reads its own surface point), additive blending into the float target."""
-        return PassState(depth_write=False, cull="front", blend=("one", "one"))
+        """Back faces only (cull the front: each ray leaves a convex hull once), additive
+        blending into the float target, and the depth test ">=" against the depth pre-pass: a
+        ray that leaves the hull in front of its pixel's surface point has that point outside
+        the wedge (R_e empty, nothing to add), so early depth testing drops it (the paper's
+        culling, Assarsson & Akenine-Möller 2003 §4). Depth clamp: the hull's far end may pass a
+        finite far plane (``far=clamp`` / ``finite``); clamped to 1 it still passes the test, and
+        the part before the near plane, no longer clipped, gets depth 0 and fails it (a ray
+        leaving the hull there has its surface point outside the wedge)."""
+        return PassState(depth_test=True, depth_func=">=", depth_write=False, depth_clamp=True, cull="front",
+                         blend=("one", "one"))
 
     def render(self) -> None:
         """Silhouettes and wedges (CPU), the hard volume's stencil counts, the wedges' sum, then

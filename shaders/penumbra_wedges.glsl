@@ -34,11 +34,9 @@ void main() {
 
 #ifdef FRAGMENT_SHADER
 #include "gbuffer_fetch.glsl"
-// Sutherland-Hodgman on a convex polygon: the light square (4 corners) cut by three lines
-// leaves at most 4 + 3 corners.
-#define MAX_CORNERS 7
-#define SQUARE_CORNERS 4
 #define HALF_EDGE 0.5           // the light is s, t in [-1/2, 1/2] (full edges u, v)
+#define SIDE (2.0 * HALF_EDGE)  // the square's side
+#define PERIMETER (4.0 * SIDE)
 
 uniform vec3 u_light_centre;
 uniform vec3 u_light_normal;     // unit, towards the emitting side
@@ -49,39 +47,46 @@ flat in vec3 v_a;
 flat in vec3 v_b;
 out float out_value;
 
-vec2 poly[MAX_CORNERS];
-int count;
-
-// Keep the part of poly where dot(nrm, x − o) >= 0.
-void clip(vec2 nrm, vec2 o) {
-    vec2 outp[MAX_CORNERS];
-    int n = 0;
-    for (int i = 0; i < count; ++i) {
-        vec2 p = poly[i], q = poly[(i + 1) % count];
-        float dp = dot(nrm, p - o), dq = dot(nrm, q - o);
-        if (dp >= 0.0 && n < MAX_CORNERS) outp[n++] = p;
-        if ((dp >= 0.0) != (dq >= 0.0) && n < MAX_CORNERS) outp[n++] = p + (dp / (dp - dq)) * (q - p);
-    }
-    for (int i = 0; i < n; ++i) poly[i] = outp[i];
-    count = n;
-}
-
 float cross2(vec2 a, vec2 b) { return a.x * b.y - a.y * b.x; }
 
-// Area (a fraction of the light: the square has area 1 in s, t) of R_e for the projected edge
-// a -> b, counter-clockwise about the centre (cross2(a, b) > 0): the light square inside the
-// cone from the centre through a and b, beyond the line ab.
-float region_area(vec2 a, vec2 b) {
-    poly[0] = vec2(-HALF_EDGE, -HALF_EDGE); poly[1] = vec2(HALF_EDGE, -HALF_EDGE);
-    poly[2] = vec2(HALF_EDGE, HALF_EDGE);   poly[3] = vec2(-HALF_EDGE, HALF_EDGE);
-    count = SQUARE_CORNERS;
-    clip(vec2(-a.y, a.x), vec2(0.0));          // left of the ray centre -> a
-    clip(vec2(b.y, -b.x), vec2(0.0));          // right of the ray centre -> b
+// Liang-Barsky: the segment a -> b cut to the light square; false when none of it is inside.
+bool clip_to_square(inout vec2 a, inout vec2 b) {
     vec2 d = b - a;
-    clip(vec2(d.y, -d.x), a);                  // right of a -> b: the far side from the centre
-    float twice = 0.0;
-    for (int i = 0; i < count; ++i) twice += cross2(poly[i], poly[(i + 1) % count]);
-    return 0.5 * abs(twice);
+    float t0 = 0.0, t1 = 1.0;
+    for (int axis = 0; axis < 2; ++axis) {
+        float p = d[axis], lo = -HALF_EDGE - a[axis], hi = HALF_EDGE - a[axis];
+        if (p == 0.0) {
+            if (lo > 0.0 || hi < 0.0) return false;
+        } else {
+            float ta = lo / p, tb = hi / p;
+            t0 = max(t0, min(ta, tb));
+            t1 = min(t1, max(ta, tb));
+        }
+    }
+    if (t0 >= t1) return false;
+    vec2 a0 = a;
+    a = a0 + t0 * d;
+    b = a0 + t1 * d;
+    return true;
+}
+
+// Where the ray from the centre through p leaves the square, as a distance along its perimeter
+// walked counter-clockwise from the corner (h, −h): sides x = h, y = h, x = −h, y = −h in turn.
+float perimeter_coordinate(vec2 p) {
+    vec2 q = p * (HALF_EDGE / max(abs(p.x), abs(p.y)));
+    float h = HALF_EDGE;  // side k starts at k · SIDE
+    if (abs(p.x) >= abs(p.y)) return p.x > 0.0 ? q.y + h : 2.0 * SIDE + (h - q.y);
+    return p.y > 0.0 ? SIDE + (h - q.x) : 3.0 * SIDE + (q.x + h);
+}
+
+// Area (a fraction of the light: the square has area 1 in s, t) of R_e for the clipped projected
+// edge a -> b, counter-clockwise about the centre (cross2(a, b) > 0), both inside the square:
+// the square's sector between the rays through a and b minus the triangle (centre, a, b), which
+// lies inside the square. The sector is a fan of triangles from the centre over the square's
+// boundary, each of height HALF_EDGE, so its area is HALF_EDGE / 2 · the perimeter it spans.
+float region_area(vec2 a, vec2 b) {
+    float span = mod(perimeter_coordinate(b) - perimeter_coordinate(a), PERIMETER);
+    return max(0.5 * HALF_EDGE * span - 0.5 * cross2(a, b), 0.0);
 }
 
 void main() {
@@ -115,7 +120,8 @@ void main() {
     // inside the projected silhouette (sign +1, light added) exactly when cross2 < 0. One
     // quantity decides both the sign and the region, so they never disagree.
     float cr = cross2(sa, sb);
+    if (cr == 0.0 || !clip_to_square(sa, sb)) return;  // the edge's projection misses the light
     if (cr > 0.0) out_value = -region_area(sa, sb);
-    else if (cr < 0.0) out_value = region_area(sb, sa);
+    else out_value = region_area(sb, sa);
 }
 #endif

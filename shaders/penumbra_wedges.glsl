@@ -43,6 +43,7 @@ uniform vec3 u_light_normal;     // unit, towards the emitting side
 uniform vec3 u_light_du;         // dual basis of the edges u, v: s = (x − c)·du, t = (x − c)·dv
 uniform vec3 u_light_dv;
 uniform float u_slab_margin;     // the edge is cut to heights [m·h_P, (1 − m)·h_P] (see below)
+uniform float u_coplanar;        // an edge within this × its distance of P's tangent plane lies in it
 flat in vec3 v_a;
 flat in vec3 v_b;
 out float out_value;
@@ -111,6 +112,13 @@ void main() {
         if (t0 >= t1) return;
     }
     vec3 a = mix(v_a, v_b, t0), b = mix(v_a, v_b, t1);
+    // An edge in P's own tangent plane (P on a planar caster, the edge on its rim) projects onto
+    // the horizon line: it hides nothing above P's horizon, and the chain of such edges, cut at
+    // P's parallel plane, would otherwise close "at infinity" over one side of that line — the
+    // light below the horizon, which the truth already counts as hidden by P's own surface.
+    vec3 N = gbuffer_normal_towards(u_light_centre - P);
+    if (abs(dot(a - P, N)) <= u_coplanar * length(a - P) && abs(dot(b - P, N)) <= u_coplanar * length(b - P))
+        return;
     // Central projection from P onto the light's plane: q = P + (e − P)·h_P / (h_P − h_e).
     vec3 qa = P + (a - P) * (hp / (hp - dot(a - u_light_centre, u_light_normal)));
     vec3 qb = P + (b - P) * (hp / (hp - dot(b - u_light_centre, u_light_normal)));

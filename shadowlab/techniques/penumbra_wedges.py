@@ -31,7 +31,9 @@ light it is the formula above). The two known approximations:
   point sees other edges (a box's sides, a cylinder), the wedges miss or add area (Assarsson &
   Akenine-Möller §6, "the silhouette is only correct for the centre").
 
-The receiver's horizon (light below P's tangent plane, occluded in the truth) is not modelled.
+The receiver's horizon (light below P's tangent plane, occluded in the truth) is not in the
+paper; ``horizon=true`` treats the tangent plane as one more occluder in the same additive
+scheme, which comes to subtracting the light's fraction below it (shaders/penumbra_wedges_combine.glsl).
 Lights: rect only (its corners bound the wedges and its square is what the fragments clip);
 disc and sphere lights raise :class:`TechniqueError`.
 """
@@ -58,6 +60,9 @@ DEPTH_MARGIN = 1e-2
 #: P's parallel plane (central projection is only defined strictly between them; the exact
 #: oracle's slab, tests/soft_oracle.py). Float32: well above its rounding, far below any gap.
 SLAB_MARGIN = 1e-4
+#: An edge whose ends both lie within this × their distance from P of P's tangent plane is taken
+#: to lie in it and adds nothing (float32 G-buffer points of a plane stray ~1e-7 relative).
+COPLANAR_TOLERANCE = 1e-4
 #: Floats per wedge vertex: hull corner, edge start, edge end (world).
 VERTEX_FLOATS = 9
 
@@ -136,6 +141,9 @@ class PenumbraWedges(ShadowVolume):
         **{k: p for k, p in ShadowVolume.PARAMS.items() if k not in ("light_samples", "silhouette")},
         "clamp": Param(True, "clamp V_hard + Σ wedges to [0, 1] (the paper); false: the raw sum, which "
                              "leaves [0, 1] where casters' penumbrae overlap"),
+        "horizon": Param(False, "subtract the light's fraction below the receiver's tangent plane (not in the "
+                                "paper; the truth counts it as occluded): the tangent plane as one more occluder "
+                                "in the same additive scheme"),
     }
     #: The wedges need the silhouette edges on the CPU; the hard volume takes them from there too.
     silhouette = "cpu"
@@ -161,11 +169,15 @@ class PenumbraWedges(ShadowVolume):
         self.wedge_prog = self.program("penumbra_wedges.glsl")
         self.wedge_prog["u_view"].write(gl.mat_bytes(frame.view))
         self.wedge_prog["u_proj"].write(gl.mat_bytes(self.proj))  # the depth pre-pass's projection
-        common = {"u_position": 0, "u_light_centre": tuple(self.centre), "u_light_normal": tuple(self.normal)}
+        common = {"u_position": 0, "u_normal": 2, "u_light_centre": tuple(self.centre),
+                  "u_light_normal": tuple(self.normal)}
         gl.set_uniforms(self.wedge_prog, {**common, "u_light_du": tuple(du), "u_light_dv": tuple(dv),
-                                          "u_slab_margin": SLAB_MARGIN})
+                                          "u_slab_margin": SLAB_MARGIN, "u_coplanar": COPLANAR_TOLERANCE})
         self.combine_prog = self.program("penumbra_wedges_combine.glsl")
-        gl.set_uniforms(self.combine_prog, {**common, "u_wedges": 1, "u_clamp": bool(self.clamp)})
+        gl.set_uniforms(self.combine_prog, {**common, "u_wedges": 1, "u_clamp": bool(self.clamp),
+                                            "u_horizon": bool(self.horizon), "u_light_u": tuple(map(float, light.u)),
+                                            "u_light_v": tuple(map(float, light.v)),
+                                            "u_eye": tuple(map(float, frame.camera.eye))})
         self.combine_quad = self.fullscreen_quad(self.combine_prog)
         # The wedges' sum, drawn with the hard volume's depth pre-pass as its depth buffer.
         size = (frame.width, frame.height)
@@ -237,6 +249,7 @@ class PenumbraWedges(ShadowVolume):
             glstate.apply(self._wedge_state())
             GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
             frame.tex_position.use(0)
+            frame.tex_normal.use(2)
             self._draw_wedges()
         with self.timed_pass("combine"):
             # V_hard is 1 where the centre's count is 0, else 0: one draw under each stencil test.
@@ -245,6 +258,7 @@ class PenumbraWedges(ShadowVolume):
             glstate.apply(PassState(depth_write=False, stencil=Stencil("==", 0, 0xFF)))
             frame.tex_position.use(0)
             self.acc_tex.use(1)
+            frame.tex_normal.use(2)
             self.combine_prog["u_hard"].value = 1.0
             self.combine_quad.render()
             glstate.set_stencil(Stencil("!=", 0, 0xFF))
@@ -253,10 +267,11 @@ class PenumbraWedges(ShadowVolume):
 
     def work(self, counted: dict, stats: dict) -> dict:
         """The hard volume's stencil updates and CPU triangles (:meth:`ShadowVolume.work`), and
-        texture taps: a wedge fragment reads its surface point, a combine fragment its point and
-        the wedges' sum (the fragments themselves are counted by the pipeline)."""
+        texture taps: a wedge fragment reads its surface point and normal, a combine fragment its
+        point and the wedges' sum, and its normal with ``horizon=true`` (the fragments themselves
+        are counted by the pipeline)."""
         out = super().work(counted, stats)
-        out.update(self.taps_work(counted, {"wedges": 1, "combine": 2}))
+        out.update(self.taps_work(counted, {"wedges": 2, "combine": 3 if self.horizon else 2}))
         return out
 
     def stats(self) -> dict:

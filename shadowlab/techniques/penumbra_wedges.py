@@ -53,6 +53,9 @@ from .shadow_volume import ShadowVolume
 #: their wedge is built: a part above the plane cannot hide the light from the emitting side,
 #: and the wedge's extrusion, reach / height, stays finite.
 MIN_EDGE_HEIGHT = 1e-4
+#: The shortest extrusion (× the edge's distance to the light's plane) of an edge below every
+#: receiver: its hull stays a solid Qhull can build, and covers nothing a pixel needs.
+MIN_EXTRUSION = 1e-4
 #: Wedges end this fraction below the deepest scene point (height below the light's plane),
 #: so that every receiver lies strictly inside the hull's far end.
 DEPTH_MARGIN = 1e-2
@@ -102,7 +105,7 @@ def wedge_hulls(a: np.ndarray, b: np.ndarray, corners: np.ndarray, centre: np.nd
         if not np.linalg.norm(eb - ea) > 1e-9 * extent:
             continue
         # t at which the cut edge's highest end (lowest height h) reaches the deepest receiver
-        ext = max(depth / max(lo[k], h_min) - 1.0, MIN_EDGE_HEIGHT) * (1.0 + DEPTH_MARGIN)
+        ext = max(depth / max(lo[k], h_min) - 1.0, MIN_EXTRUSION) * (1.0 + DEPTH_MARGIN)
         pts = np.concatenate([[ea, eb], ea + ext * (ea - corners), eb + ext * (eb - corners)])
         try:
             hull = ConvexHull(pts)

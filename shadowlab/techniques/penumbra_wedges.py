@@ -191,7 +191,6 @@ class PenumbraWedges(ShadowVolume):
         self.extent = frame.scene.extent()
         corners = np.stack(np.meshgrid(*frame.scene.bounds().T, indexing="ij"), -1).reshape(-1, 3)
         self.depth = float(np.max((corners - self.centre) @ self.normal))
-        self._raw = None
 
     def wedge_geometry(self) -> tuple[np.ndarray, int]:
         """The wedges of every caster's silhouette edges seen from the light's centre (the edges

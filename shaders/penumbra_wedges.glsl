@@ -23,11 +23,17 @@ uniform mat4 u_proj;
 in vec3 in_pos;      // a corner of the wedge's hull (world)
 in vec3 in_edge_a;   // the silhouette edge a -> b (world), walked as a light-facing face walks it
 in vec3 in_edge_b;
+in vec4 in_plane_ab;  // plane (n, n·v) of the face walking the edge a -> b
+in vec4 in_plane_ba;  // ... and of the face walking it b -> a
 flat out vec3 v_a;
 flat out vec3 v_b;
+flat out vec4 v_plane_ab;
+flat out vec4 v_plane_ba;
 void main() {
     v_a = in_edge_a;
     v_b = in_edge_b;
+    v_plane_ab = in_plane_ab;
+    v_plane_ba = in_plane_ba;
     gl_Position = u_proj * (u_view * vec4(in_pos, 1.0));
 }
 #endif
@@ -46,6 +52,8 @@ uniform float u_slab_margin;     // the edge is cut to heights [m·h_P, (1 − m
 uniform float u_coplanar;        // an edge within this × its distance of P's tangent plane lies in it
 flat in vec3 v_a;
 flat in vec3 v_b;
+flat in vec4 v_plane_ab;
+flat in vec4 v_plane_ba;
 out float out_value;
 
 float cross2(vec2 a, vec2 b) { return a.x * b.y - a.y * b.x; }
@@ -96,10 +104,20 @@ void main() {
     if (!gbuffer_position(P)) return;
     float hp = dot(P - u_light_centre, u_light_normal);   // P's height below the light
     if (hp <= 0.0) return;                                // behind a one-sided light: V = 0 anyway
+    // Per-pixel silhouette (Assarsson & Akenine-Möller 2003 §6 name the centre's silhouette as the
+    // approximation; Laine et al. 2005 count P's own): the projection of a closed caster from P
+    // is bounded by the edges whose faces face P differently. For P in the edge's wedge, the
+    // light points behind the edge lie across both face planes from P, so the face turned away
+    // from P is the one facing them: it walks the edge as a light-facing face does. The fixed
+    // planes of the centre's silhouette (FIXED_PLANES) make every P keep the direction a -> b.
+    bool sees_ab = dot(v_plane_ab.xyz, P) - v_plane_ab.w > 0.0;
+    bool sees_ba = dot(v_plane_ba.xyz, P) - v_plane_ba.w > 0.0;
+    if (sees_ab == sees_ba) return;                       // not a silhouette edge seen from P
+    vec3 ea = sees_ab ? v_b : v_a, eb = sees_ab ? v_a : v_b;
     // Only the part of the edge strictly between the light's plane and P's parallel plane can
     // project onto the light from P (central projection; the oracle's slab, tests/soft_oracle.py).
-    float ha = dot(v_a - u_light_centre, u_light_normal);
-    float hb = dot(v_b - u_light_centre, u_light_normal);
+    float ha = dot(ea - u_light_centre, u_light_normal);
+    float hb = dot(eb - u_light_centre, u_light_normal);
     float lo = u_slab_margin * hp, hi = (1.0 - u_slab_margin) * hp;
     float t0 = 0.0, t1 = 1.0;
     float dh = hb - ha;
@@ -111,7 +129,7 @@ void main() {
         t1 = min(t1, max(tl, th));
         if (t0 >= t1) return;
     }
-    vec3 a = mix(v_a, v_b, t0), b = mix(v_a, v_b, t1);
+    vec3 a = mix(ea, eb, t0), b = mix(ea, eb, t1);
     // An edge in P's own tangent plane (P on a planar caster, the edge on its rim) projects onto
     // the horizon line: it hides nothing above P's horizon, and the chain of such edges, cut at
     // P's parallel plane, would otherwise close "at infinity" over one side of that line — the

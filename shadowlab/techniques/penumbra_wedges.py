@@ -29,7 +29,13 @@ light it is the formula above). The two known approximations:
   shadows, given back twice — too bright.
 - *Single silhouette*: the silhouette is taken from the light's centre only; where another light
   point sees other edges (a box's sides, a cylinder), the wedges miss or add area (Assarsson &
-  Akenine-Möller §6, "the silhouette is only correct for the centre").
+  Akenine-Möller 2003 name it among their approximations). ``single_silhouette=false`` corrects
+  it per pixel: every edge of a closed manifold caster that is a silhouette from some point of
+  the light gets a wedge (:func:`potential_silhouettes`), and a fragment counts it only where it
+  is a silhouette seen from P — the projection of a closed caster from P is bounded by P's own
+  silhouette (Laine et al., "Soft Shadow Volumes for Ray Tracing", SIGGRAPH 2005, §3) — directed
+  by its face turned away from P. Exact for one closed convex caster; more wedges (the
+  cylinder's sides), more fill.
 
 The receiver's horizon (light below P's tangent plane, occluded in the truth) is not in the
 paper; ``horizon=true`` treats the tangent plane as one more occluder in the same additive
@@ -66,15 +72,20 @@ SLAB_MARGIN = 1e-4
 #: An edge whose ends both lie within this × their distance from P of P's tangent plane is taken
 #: to lie in it and adds nothing (float32 G-buffer points of a plane stray ~1e-7 relative).
 COPLANAR_TOLERANCE = 1e-4
-#: Floats per wedge vertex: hull corner, edge start, edge end (world).
-VERTEX_FLOATS = 9
+#: Floats per wedge vertex: hull corner, edge start, edge end (world), the planes (n, n·v) of the
+#: faces that walk the edge a → b and b → a.
+VERTEX_FLOATS = 17
+#: Planes that make every point "see" the face walking b → a and not the one walking a → b: the
+#: fragment stage then keeps the edge's direction a → b (the centre's silhouette, as given).
+FIXED_PLANES = np.array([[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.0, -1.0]])
 
 
 def wedge_hulls(a: np.ndarray, b: np.ndarray, corners: np.ndarray, centre: np.ndarray, normal: np.ndarray,
-                extent: float, depth: float) -> tuple[np.ndarray, int]:
-    """Triangles of the wedges of the directed edges a → b (K, 3) each, float32 (3·T, 9): per
-    vertex its hull corner and the edge's two ends (what the fragment stage projects); and how
-    many wedges were made. Each wedge is the convex hull, faces wound counter-clockwise seen
+                extent: float, depth: float, planes: np.ndarray | None = None) -> tuple[np.ndarray, int]:
+    """Triangles of the wedges of the directed edges a → b (K, 3) each, float32 (3·T, 17): per
+    vertex its hull corner, the edge's two ends (what the fragment stage projects) and the planes
+    (K, 2, 4) of its faces (:data:`FIXED_PLANES` when not given: the direction a → b kept); and
+    how many wedges were made. Each wedge is the convex hull, faces wound counter-clockwise seen
     from outside, of the edge and its extrusions away from the light's four ``corners`` (4, 3)
     (``normal``: unit, towards the emitting side; ``extent``: the scene's size; ``depth``: the
     greatest height below the light's plane of any receiver).
@@ -87,6 +98,8 @@ def wedge_hulls(a: np.ndarray, b: np.ndarray, corners: np.ndarray, centre: np.nd
     that far (and DEPTH_MARGIN more) covers them all, and the hull ends just below the deepest
     receiver instead of far beyond it (less fill: its back faces cover fewer pixels)."""
     a, b = np.asarray(a, np.float64).reshape(-1, 3), np.asarray(b, np.float64).reshape(-1, 3)
+    if planes is None:
+        planes = np.broadcast_to(FIXED_PLANES, (len(a), 2, 4))
     h_min = MIN_EDGE_HEIGHT * extent
     ha, hb = (a - centre) @ normal, (b - centre) @ normal
     # Cut each edge to h >= h_min (the part nearer the light than that, or beyond it, is dropped).
@@ -119,10 +132,34 @@ def wedge_hulls(a: np.ndarray, b: np.ndarray, corners: np.ndarray, centre: np.nd
         verts[:, :3] = pts[simp.ravel()]
         verts[:, 3:6] = a[k]
         verts[:, 6:9] = b[k]
+        verts[:, 9:17] = planes[k].ravel()
         tris.append(verts)
         made += 1
     out = np.concatenate(tris) if tris else np.zeros((0, VERTEX_FLOATS))
     return out.astype(np.float32), made
+
+
+def potential_silhouettes(table, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For a closed, consistently wound manifold mesh (an :class:`~shadowlab.geometry.adjacency.
+    EdgeTable`): the edges that are a silhouette from some point of a convex light whose corners
+    and centre are ``points`` (M, 3) — an edge is a silhouette from x when its two faces face x
+    differently, so its status can change over the light only where one of its faces' planes
+    crosses the light (a face's facing differs between two corners), and is constant (that of any
+    corner) otherwise. Returns their ends a, b (K, 3) as stored (low, high vertex index) and the
+    planes (K, 2, 4) (normal, normal·v0) of the face walking a → b and of the face walking b → a."""
+    plus = np.empty(len(table.edges), np.int64)
+    minus = np.empty(len(table.edges), np.int64)
+    up = table.inc_sign > 0
+    plus[table.inc_edge[up]] = table.inc_face[up]
+    minus[table.inc_edge[~up]] = table.inc_face[~up]
+    facing = table.normals @ np.asarray(points, np.float64).T - table.plane_d[:, None] > 0  # (F, M)
+    fp, fm = facing[plus], facing[minus]
+    potential = (fp != fm).any(axis=1) | (fp != fp[:, :1]).any(axis=1) | (fm != fm[:, :1]).any(axis=1)
+    keep = np.flatnonzero(potential)
+    planes = np.stack([np.concatenate([table.normals[f], table.plane_d[f, None]], axis=1)
+                       for f in (plus[keep], minus[keep])], axis=1)
+    e = table.edges[keep]
+    return table.vertices[e[:, 0]], table.vertices[e[:, 1]], planes
 
 
 def light_dual_basis(light: RectLight) -> tuple[np.ndarray, np.ndarray]:
@@ -144,6 +181,11 @@ class PenumbraWedges(ShadowVolume):
         **{k: p for k, p in ShadowVolume.PARAMS.items() if k not in ("light_samples", "silhouette")},
         "clamp": Param(True, "clamp V_hard + Σ wedges to [0, 1] (the paper); false: the raw sum, which "
                              "leaves [0, 1] where casters' penumbrae overlap"),
+        "single_silhouette": Param(True, "true: the silhouette seen from the light's centre (the paper); false: "
+                                         "per-pixel correction — every edge that is a silhouette from some light "
+                                         "point gets a wedge, and counts at P only if it is a silhouette seen from "
+                                         "P, directed by its face turned away from P (closed manifold casters; "
+                                         "others keep the centre's silhouette)"),
         "horizon": Param(False, "subtract the light's fraction below the receiver's tangent plane (not in the "
                                 "paper; the truth counts it as occluded): the tangent plane as one more occluder "
                                 "in the same additive scheme"),
@@ -194,17 +236,27 @@ class PenumbraWedges(ShadowVolume):
 
     def wedge_geometry(self) -> tuple[np.ndarray, int]:
         """The wedges of every caster's silhouette edges seen from the light's centre (the edges
-        the hard volume extrudes, with their multiplicities), as :func:`wedge_hulls`."""
-        a, b = [], []
+        the hard volume extrudes, with their multiplicities), as :func:`wedge_hulls`; with
+        ``single_silhouette=false``, a closed manifold caster's potential silhouette edges
+        (:func:`potential_silhouettes`) instead, with their faces' planes for the per-pixel test."""
+        a, b, planes = [], [], []
+        points = np.concatenate([self.corners, self.centre[None]])
         for p in self.plans:
             t = p.table
+            if not self.single_silhouette and not p.two_sided and t.manifold:
+                pa, pb, pl = potential_silhouettes(t, points)
+                a.append(pa)
+                b.append(pb)
+                planes.append(pl)
+                continue
             sil = adj.silhouette_edges(t, adj.facing(t, self.light), p.two_sided)
             a.append(t.vertices[sil[:, 0]])
             b.append(t.vertices[sil[:, 1]])
+            planes.append(np.broadcast_to(FIXED_PLANES, (len(sil), 2, 4)))
         if not a:
             return np.zeros((0, VERTEX_FLOATS), np.float32), 0
         return wedge_hulls(np.concatenate(a), np.concatenate(b), self.corners, self.centre, self.normal, self.extent,
-                           self.depth)
+                           self.depth, np.concatenate(planes))
 
     def _draw_wedges(self) -> None:
         """The wedges' back faces (one fragment per pixel whose view ray crosses a hull)."""
@@ -212,7 +264,8 @@ class PenumbraWedges(ShadowVolume):
         if not len(verts):
             return
         vbo, vao = self._dynamic(self.wedge_buffers, "wedges", verts.nbytes, lambda buf: self.frame.ctx.vertex_array(
-            self.wedge_prog, [(buf, "3f 3f 3f", "in_pos", "in_edge_a", "in_edge_b")]))
+            self.wedge_prog, [(buf, "3f 3f 3f 4f 4f", "in_pos", "in_edge_a", "in_edge_b", "in_plane_ab",
+                                "in_plane_ba")]))
         vbo.write(verts.tobytes())
         vao.render(vertices=len(verts))
 

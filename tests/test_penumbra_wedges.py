@@ -1,8 +1,9 @@
 """Penumbra wedges (Assarsson & Akenine-Möller 2003): nearly exact for one convex caster whose
 silhouette is the same from every point of the light (against the exact shapely oracle), no
-cracks where adjacent wedges meet, the overlap artefact of hard case SS1 reproduced and
-measured (the occlusion added per caster), the clamp toggle, the work declared, and the light
-shapes it refuses."""
+cracks where adjacent wedges meet, the camera inside wedges, the wedge hulls conservative and
+closed, the overlap artefact of hard case SS1 reproduced and measured (the occlusion added per
+caster), the clamp toggle, the per-pixel silhouette correction (single_silhouette=false), the
+horizon option, the work declared, the parameters, and the light shapes it refuses."""
 from __future__ import annotations
 
 import copy

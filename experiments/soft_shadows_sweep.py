@@ -21,6 +21,7 @@ from __future__ import annotations
 import pandas as pd
 
 from shadowlab.study.experiment import run_experiment_suite
+from shadowlab.techniques import REGISTRY
 
 SUITE = "soft_shadows"
 #: Hard families averaged over light samples (``light_samples``), in plot order.
@@ -88,7 +89,15 @@ def _panel(ax, d, scene, metric):
             ax.annotate(f"{int(r['count'])}", (r["time_ms_median"], max(r[metric], 1e-5)),
                         textcoords="offset points", xytext=(4, 3), fontsize=7, color=line.get_color())
     for _, r in d[~d["technique"].isin(list(COUNTS))].iterrows():
-        ax.loglog([r["time_ms_median"]], [max(r[metric], 1e-5)], "*", markersize=11, label=r["short_label"])
+        # the technique's own colour and marker; its default filled, a toggle hollow
+        style = REGISTRY[r["technique"]].STYLE
+        toggle = r["short_label"] != r["technique"]
+        ax.loglog([r["time_ms_median"]], [max(r[metric], 1e-5)], style.marker, markersize=9,
+                  color=style.color, markerfacecolor="none" if toggle else style.color, markeredgewidth=1.5,
+                  label=r["short_label"])
+        if toggle:  # which toggle: its parameters beside the hollow marker
+            ax.annotate(str(r["short_label"]).partition(":")[2], (r["time_ms_median"], max(r[metric], 1e-5)),
+                        textcoords="offset points", xytext=(5, -8), fontsize=6, color=style.color)
     bound = float(d["truth_stderr_max"].max())
     if bound > 0:
         ax.axhline(bound, color="grey", linestyle=":", linewidth=1, label="truth's stderr bound (per pixel)")

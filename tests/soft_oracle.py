@@ -171,6 +171,12 @@ def occluded_region(light, triangles: np.ndarray, p: np.ndarray, normal: np.ndar
         return Polygon()
     if not frustum:
         return unary_union(pieces)
+    # the horizon's half-plane cut to the frustum's rectangle too (robust axis-aligned clipping):
+    # no coordinate far beyond the light
+    x0, y0, x1, y1 = light_polygon(light).bounds
+    wx, wy = x1 - x0, y1 - y0
+    pieces = [shapely.clip_by_rect(g, x0 - wx, y0 - wy, x1 + wx, y1 + wy) for g in pieces]
+    pieces = [g for g in pieces if not g.is_empty]
     # bounded pieces: GEOS's snap-rounding overlay on a fixed grid (1e-13 of the light's size),
     # robust where cut edges of neighbouring triangles are collinear to within rounding
     grid = FRUSTUM_GRID * np.sqrt(light_polygon(light).area)

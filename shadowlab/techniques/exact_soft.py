@@ -91,6 +91,8 @@ HORIZON_SNAP = 1e-12
 MAX_VERTS = 16
 #: Relative margin of the clipping frustum's polygon outside a rect light's.
 CULL_MARGIN = 1e-6
+#: Slack of the 2D box tests between edges and polygons, × the light's circumradius.
+BOX_SLACK = 1e-9
 #: Triangles per leaf of the bounding-volume hierarchy.
 LEAF_SIZE = 4
 
@@ -331,10 +333,13 @@ def _uncovered(lo, hi, s0, s1, m):
 
 
 @njit(**_JIT)
-def union_area(px, py, pn, ph, box, npoly, lx, ly, ln, s0, s1):
+def union_area(px, py, pn, ph, box, npoly, lx, ly, ln, s0, s1, slack):
     """Area of L ∩ ∪ polygons (module docstring, step 3): polygons i < npoly with vertices
     (px, py)[i, :pn[i]] (convex, CCW), horizon-edge flags ph, boxes box[i] = (xmin, ymin, xmax,
-    ymax); L the convex CCW light polygon (lx, ly)[:ln]; s0, s1 scratch (≥ npoly + 1)."""
+    ymax); L the convex CCW light polygon (lx, ly)[:ln]; s0, s1 scratch (≥ npoly + 1). The boxes
+    only skip pairs that cannot meet, and are widened by ``slack`` for it: horizon edges are
+    collinear by construction, not to the last bit, and a box test that separated two of them by
+    rounding would skip the collinear rule."""
     acc = 0.0
     for i in range(npoly):
         n = pn[i]
@@ -346,8 +351,8 @@ def union_area(px, py, pn, ph, box, npoly, lx, ly, ln, s0, s1):
             t0, t1 = _seg_in_convex(ax, ay, bx, by, lx, ly, ln)
             if t0 >= t1:
                 continue
-            ex0, ex1 = min(ax, bx), max(ax, bx)
-            ey0, ey1 = min(ay, by), max(ay, by)
+            ex0, ex1 = min(ax, bx) - slack, max(ax, bx) + slack
+            ey0, ey1 = min(ay, by) - slack, max(ay, by) + slack
             m = 0
             for j in range(npoly):
                 if j == i or box[j, 0] > ex1 or box[j, 2] < ex0 or box[j, 1] > ey1 or box[j, 3] < ey0:
@@ -376,7 +381,7 @@ def union_area(px, py, pn, ph, box, npoly, lx, ly, ln, s0, s1):
 
 @njit(**_JIT)
 def visibility_points(points, normals, start, step, tris, tnorm, tlen, tobj, cullable, obj_lo, obj_hi,
-                      node_lo, node_hi, links, centre, ln_, lt, lb, lx, ly, cx, cy, light_area,
+                      node_lo, node_hi, links, centre, ln_, lt, lb, lx, ly, cx, cy, light_area, light_size,
                       px, py, pn, ph, box, s0, s1, stack, vout, cand):
     """V at points[start::step] (float64 (M, 3), unit camera-facing normals (M, 3)) into ``vout``,
     and the triangles clipped per point into ``cand`` (module docstring). Light: centre, unit
@@ -622,7 +627,7 @@ def visibility_points(points, normals, start, step, tris, tnorm, tlen, tobj, cul
         if npoly == 0:
             vout[idx] = area_above / light_area
             continue
-        hidden = union_area(px, py, pn, ph, box, npoly, lx, ly, nl, s0, s1)
+        hidden = union_area(px, py, pn, ph, box, npoly, lx, ly, nl, s0, s1, BOX_SLACK * light_size)
         v = (area_above - hidden) / light_area
         vout[idx] = min(1.0, max(0.0, v))
 
@@ -659,6 +664,7 @@ class ExactSoft(Technique):
         self.centre, self.normal, self.axis_t, self.axis_b = light_frame(light)
         x, y = self.poly[:, 0], self.poly[:, 1]
         self.light_area = 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+        self.light_size = float(np.sqrt((self.poly ** 2).sum(axis=1)).max())
         tris, tobj, cullable, lo, hi = [], [], [], [], []
         for obj in frame.scene.objects:
             if not obj.casts or len(obj.faces) == 0:
@@ -714,7 +720,8 @@ class ExactSoft(Technique):
                           self.obj_lo, self.obj_hi, self.node_lo, self.node_hi, self.links, self.centre, self.normal,
                           self.axis_t, self.axis_b, np.ascontiguousarray(self.poly[:, 0]),
                           np.ascontiguousarray(self.poly[:, 1]), np.ascontiguousarray(self.cull[:, 0]),
-                          np.ascontiguousarray(self.cull[:, 1]), self.light_area, *scratch, vout, cand)
+                          np.ascontiguousarray(self.cull[:, 1]), self.light_area, self.light_size, *scratch, vout,
+                          cand)
 
     def render(self) -> None:
         """Timed: V at every evaluated point, the points interleaved over the cores (point i to

@@ -11,7 +11,7 @@ Three parts, each a block of rows of results/exact_soft.csv (column ``part``):
   one warm-up (exact_soft), one render each for the truths (seconds long).
 - ``pixels``: exact_soft on soft_large_close and soft_overlap at 160x120 … 640x480.
 - ``triangles``: a procedural scene (``torus_scene``): one torus of M × m sections over a floor
-  under the 2 x 2 rect light of soft_overlap, 2·M·m triangles from 128 to 80,000, at 320x240;
+  under the 2 x 2 rect light of soft_overlap, 2·M·m triangles from 128 to 20,000, at 320x240;
   exact_soft and the truth at 1024 samples.
 
 Timings are wall clock on whatever machine runs this, under its load (the 1-minute load
@@ -41,7 +41,7 @@ SCENES = ["soft_banding", "soft_below_plane", "soft_contact_hardening", "soft_la
 TRUTH_SAMPLES = [1024, 4096]
 SIZES = [(160, 120), (320, 240), (640, 480)]
 PIXEL_SCENES = ["soft_large_close", "soft_overlap"]
-TORI = [(16, 4), (32, 8), (64, 16), (100, 50), (200, 100)]  # (major, minor) sections: 2·M·m triangles
+TORI = [(16, 4), (32, 8), (64, 16), (100, 50), (100, 100)]  # (major, minor) sections: 2·M·m triangles
 
 
 def torus_scene(major: int, minor: int):

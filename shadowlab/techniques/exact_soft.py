@@ -93,6 +93,9 @@ MAX_VERTS = 16
 CULL_MARGIN = 1e-6
 #: Slack of the 2D box tests between edges and polygons, × the light's circumradius.
 BOX_SLACK = 1e-9
+#: The union's grid: none up to GRID_MIN polygons, then ~√n × √n cells, at most GRID_MAX².
+GRID_MIN = 24
+GRID_MAX = 64
 #: Triangles per leaf of the bounding-volume hierarchy.
 LEAF_SIZE = 4
 
@@ -332,57 +335,115 @@ def _uncovered(lo, hi, s0, s1, m):
     return free
 
 
+@njit(inline="always", **_JIT)
+def _cell_range(lo, hi, w0, cw, g):
+    """Grid cells [c0, c1] (clamped to 0 … g − 1) that the interval [lo, hi] overlaps."""
+    c0 = int((lo - w0) / cw)
+    c1 = int((hi - w0) / cw)
+    return min(max(c0, 0), g - 1), min(max(c1, 0), g - 1)
+
+
 @njit(**_JIT)
-def union_area(px, py, pn, ph, box, npoly, lx, ly, ln, s0, s1, slack):
+def union_area(px, py, pn, ph, box, npoly, lx, ly, ln, s0, s1, slack, cstart, cpos, citems, stamp):
     """Area of L ∩ ∪ polygons (module docstring, step 3): polygons i < npoly with vertices
     (px, py)[i, :pn[i]] (convex, CCW), horizon-edge flags ph, boxes box[i] = (xmin, ymin, xmax,
-    ymax); L the convex CCW light polygon (lx, ly)[:ln]; s0, s1 scratch (≥ npoly + 1). The boxes
-    only skip pairs that cannot meet, and are widened by ``slack`` for it: horizon edges are
-    collinear by construction, not to the last bit, and a box test that separated two of them by
-    rounding would skip the collinear rule."""
+    ymax); L the convex CCW light polygon (lx, ly)[:ln]; s0, s1 scratch (≥ npoly + 1).
+
+    Which polygons an edge is tested against comes from a uniform grid of ~√npoly × √npoly cells
+    over L's box (each polygon listed in the cells its box overlaps; an edge visits the cells of
+    the box of its part inside L, each polygon once: ``stamp``), so that a finely tessellated
+    caster costs about linearly in its triangles instead of quadratically; cstart, cpos (≥
+    GRID_MAX² + 1), citems and stamp (≥ npoly) are scratch, and when citems is too short for
+    the grid every pair is tested. The boxes only skip pairs that cannot meet, and are widened
+    by ``slack``: horizon edges are collinear by construction, not to the last bit, and a box
+    test that separated two of them by rounding would skip the collinear rule."""
+    wx0, wy0, wx1, wy1 = np.inf, np.inf, -np.inf, -np.inf
+    for k in range(ln):
+        wx0, wx1 = min(wx0, lx[k]), max(wx1, lx[k])
+        wy0, wy1 = min(wy0, ly[k]), max(wy1, ly[k])
+    g = 1
+    if npoly > GRID_MIN:
+        g = min(GRID_MAX, int(np.sqrt(npoly)))
+    cw, ch = (wx1 - wx0) / g, (wy1 - wy0) / g
+    for c in range(g * g + 1):
+        cstart[c] = 0
+    for j in range(npoly):
+        stamp[j] = -1
+        a0, a1 = _cell_range(box[j, 0] - slack, box[j, 2] + slack, wx0, cw, g)
+        b0, b1 = _cell_range(box[j, 1] - slack, box[j, 3] + slack, wy0, ch, g)
+        for cy_ in range(b0, b1 + 1):
+            for cx_ in range(a0, a1 + 1):
+                cstart[cy_ * g + cx_ + 1] += 1
+    for c in range(g * g):
+        cstart[c + 1] += cstart[c]
+    gridded = cstart[g * g] <= citems.shape[0]
+    if gridded:
+        for c in range(g * g):
+            cpos[c] = cstart[c]
+        for j in range(npoly):
+            a0, a1 = _cell_range(box[j, 0] - slack, box[j, 2] + slack, wx0, cw, g)
+            b0, b1 = _cell_range(box[j, 1] - slack, box[j, 3] + slack, wy0, ch, g)
+            for cy_ in range(b0, b1 + 1):
+                for cx_ in range(a0, a1 + 1):
+                    c = cy_ * g + cx_
+                    citems[cpos[c]] = j
+                    cpos[c] += 1
+    tag = 0
     acc = 0.0
-    for i in range(npoly):
-        n = pn[i]
+    for i in range(npoly + 1):
+        last = i == npoly  # after the polygons' edges: the light's own edges
+        n = ln if last else pn[i]
         for k in range(n):
             l = k + 1 if k + 1 < n else 0
-            ax, ay, bx, by = px[i, k], py[i, k], px[i, l], py[i, l]
-            if ax == bx and ay == by:
-                continue
-            t0, t1 = _seg_in_convex(ax, ay, bx, by, lx, ly, ln)
-            if t0 >= t1:
-                continue
-            ex0, ex1 = min(ax, bx) - slack, max(ax, bx) + slack
-            ey0, ey1 = min(ay, by) - slack, max(ay, by) + slack
-            m = 0
-            for j in range(npoly):
-                if j == i or box[j, 0] > ex1 or box[j, 2] < ex0 or box[j, 1] > ey1 or box[j, 3] < ey0:
+            if last:
+                ax, ay, bx, by = lx[k], ly[k], lx[l], ly[l]
+                t0, t1 = 0.0, 1.0
+            else:
+                ax, ay, bx, by = px[i, k], py[i, k], px[i, l], py[i, l]
+                if ax == bx and ay == by:
                     continue
-                c0, c1 = _edge_cover(ax, ay, bx, by, ph[i, k], i, j, px, py, pn, ph)
-                if c0 < c1 and c1 > t0 and c0 < t1:
-                    s0[m], s1[m] = c0, c1
-                    m += 1
-            acc += _uncovered(t0, t1, s0, s1, m) * (ax * by - ay * bx)
-    for k in range(ln):
-        l = k + 1 if k + 1 < ln else 0
-        ax, ay, bx, by = lx[k], ly[k], lx[l], ly[l]
-        ex0, ex1 = min(ax, bx), max(ax, bx)
-        ey0, ey1 = min(ay, by), max(ay, by)
-        m = 0
-        for j in range(npoly):
-            if box[j, 0] > ex1 or box[j, 2] < ex0 or box[j, 1] > ey1 or box[j, 3] < ey0:
-                continue
-            c0, c1 = _seg_in_convex(ax, ay, bx, by, px[j], py[j], pn[j])
-            if c0 < c1:
-                s0[m], s1[m] = c0, c1
-                m += 1
-        acc += (1.0 - _uncovered(0.0, 1.0, s0, s1, m)) * (ax * by - ay * bx)
+                t0, t1 = _seg_in_convex(ax, ay, bx, by, lx, ly, ln)
+                if t0 >= t1:
+                    continue
+            # the box of the part inside L
+            qx0, qx1 = ax + t0 * (bx - ax), ax + t1 * (bx - ax)
+            qy0, qy1 = ay + t0 * (by - ay), ay + t1 * (by - ay)
+            ex0, ex1 = min(qx0, qx1) - slack, max(qx0, qx1) + slack
+            ey0, ey1 = min(qy0, qy1) - slack, max(qy0, qy1) + slack
+            tag += 1
+            m = 0
+            if gridded:
+                a0, a1 = _cell_range(ex0, ex1, wx0, cw, g)
+                b0, b1 = _cell_range(ey0, ey1, wy0, ch, g)
+            else:
+                a0, a1, b0, b1 = 0, 0, 0, 0
+            for cy_ in range(b0, b1 + 1):
+                for cx_ in range(a0, a1 + 1):
+                    c = cy_ * g + cx_
+                    lo_, hi_ = (cstart[c], cstart[c + 1]) if gridded else (0, npoly)
+                    for q in range(lo_, hi_):
+                        j = citems[q] if gridded else q
+                        if j == i or stamp[j] == tag:
+                            continue
+                        stamp[j] = tag
+                        if box[j, 0] > ex1 or box[j, 2] < ex0 or box[j, 1] > ey1 or box[j, 3] < ey0:
+                            continue
+                        if last:
+                            c0, c1 = _seg_in_convex(ax, ay, bx, by, px[j], py[j], pn[j])
+                        else:
+                            c0, c1 = _edge_cover(ax, ay, bx, by, ph[i, k], i, j, px, py, pn, ph)
+                        if c0 < c1 and c1 > t0 and c0 < t1:
+                            s0[m], s1[m] = c0, c1
+                            m += 1
+            free = _uncovered(t0, t1, s0, s1, m)
+            acc += ((1.0 - free) if last else free) * (ax * by - ay * bx)
     return 0.5 * acc
 
 
 @njit(**_JIT)
 def visibility_points(points, normals, start, step, tris, tnorm, tlen, tobj, cullable, obj_lo, obj_hi,
                       node_lo, node_hi, links, centre, ln_, lt, lb, lx, ly, cx, cy, light_area, light_size,
-                      px, py, pn, ph, box, s0, s1, stack, vout, cand):
+                      px, py, pn, ph, box, s0, s1, stack, cstart, cpos, citems, stamp, vout, cand):
     """V at points[start::step] (float64 (M, 3), unit camera-facing normals (M, 3)) into ``vout``,
     and the triangles clipped per point into ``cand`` (module docstring). Light: centre, unit
     normal ln_, axes lt, lb, polygon (lx, ly) (CCW in (t, b)), culling polygon (cx, cy);
@@ -627,7 +688,8 @@ def visibility_points(points, normals, start, step, tris, tnorm, tlen, tobj, cul
         if npoly == 0:
             vout[idx] = area_above / light_area
             continue
-        hidden = union_area(px, py, pn, ph, box, npoly, lx, ly, nl, s0, s1, BOX_SLACK * light_size)
+        hidden = union_area(px, py, pn, ph, box, npoly, lx, ly, nl, s0, s1, BOX_SLACK * light_size, cstart, cpos,
+                            citems, stamp)
         v = (area_above - hidden) / light_area
         vout[idx] = min(1.0, max(0.0, v))
 
@@ -712,7 +774,8 @@ class ExactSoft(Technique):
         """One part's buffers for up to ``cap`` candidate polygons."""
         return (np.empty((cap, MAX_VERTS)), np.empty((cap, MAX_VERTS)), np.empty(cap, np.int64),
                 np.empty((cap, MAX_VERTS), np.bool_), np.empty((cap, 4)), np.empty(cap + 2), np.empty(cap + 2),
-                np.empty(2 * len(self.links) + 2, np.int64))
+                np.empty(2 * len(self.links) + 2, np.int64), np.empty(GRID_MAX ** 2 + 1, np.int64),
+                np.empty(GRID_MAX ** 2 + 1, np.int64), np.empty(16 * cap + 64, np.int64), np.empty(cap + 2, np.int64))
 
     def _run(self, points, normals, vout, cand, start, step, scratch) -> None:
         """The kernel over points[start::step]."""

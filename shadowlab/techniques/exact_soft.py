@@ -40,7 +40,8 @@ the points split over the cores like :mod:`shadowlab.compiled_truth`), per point
    parameter length τ contributes ½ τ (a × b) (the cross product of its two endpoints'
    positions, origin at the light's centre), so only the uncovered parameter measure of each
    edge is needed: the coverage of an edge by a convex polygon is one interval (Cyrus & Beck
-   1978 parametric clipping against the polygon's edges, strictly inside).
+   1978 parametric clipping against the polygon's edges, strictly inside); a uniform grid over
+   the light picks the polygons each edge is tested against.
    The union of the (above-horizon) projections is then cut from L' = L ∩ above-horizon:
    V = (area(L') − area(L ∩ ∪Q_i)) / area(L).
 
@@ -57,7 +58,19 @@ plane (vertices within 1e-12 × the scene's scale of it are snapped onto it: a b
 the receiver P lies on) all project onto the horizon line; they are marked and treated as
 exactly collinear with each other by the same rule. What remains — edges of different objects
 that happen to be collinear from P (T-junctions, a caster edge projecting onto an edge of the
-light) — is a set of points P of measure zero and is left to floating point.
+light) — is a set of points P of measure zero and is left to floating point. Two numerical
+guards go with the rules: the 2D box tests that skip far pairs are widened by 1e-9 of the light's
+size (horizon edges are collinear by construction, not to the last bit), and polygon edges of
+rounding size (two cut points a few ulps apart) bound nothing, since their direction is noise.
+The clipping frustum runs through a polygon 1e-6 larger than a rect light, so that its cut
+edges never lie on the light's own edges; it also keeps every projected coordinate bounded
+(unclipped, a triangle reaching P's parallel plane projects ~1e9 away through the slab margin).
+
+Measured (experiments/exact_soft.py, 320x240, 2 cores shared, load average 3-5.7): equal to the
+oracle to ≤ 1e-13; mean |V − G| against the 4096-sample truth 6e-5 – 4.8e-4 (its per-pixel
+bound is 0.0078); 36-142 ms per frame on four soft scenes and 1.2 s on soft_large_close, against
+2.8-7.9 s for the 1024-sample truth; linear in pixels; about linear in a fine caster's triangles
+(2k / 10k / 20k-triangle torus: 0.87 / 3.6 / 7.8 s; the truth ~3 s at any count).
 
 Light shapes. ``rect``: exact (a parallelogram). ``disc``: the regular polygon of ``disc_sides``
 sides with the disc's area (the oracle's choice, DISC_SIDES = 1024 there); V differs from the

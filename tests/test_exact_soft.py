@@ -214,3 +214,15 @@ def test_equals_the_oracle_at_every_point_of_the_torus(lab):
     err = [abs(tech.vis[i] - exact_visibility(light, tris, tech.points[i], tech.normals[i], frustum=True))
            for i in on_torus]
     assert max(err) <= TOL, f"max |V − oracle| = {max(err):.3g} ({sum(e > TOL for e in err)} points)"
+
+
+def test_more_candidates_than_its_buffers_is_an_error(lab, monkeypatch):
+    """The per-point polygon buffers hold MAX_POLYGONS; a point with more is a clear error, not
+    a write past their end (here forced with buffers of 2 on soft_large_close: up to 19)."""
+    import shadowlab.techniques.exact_soft as exact_soft
+
+    monkeypatch.setattr(exact_soft, "MAX_POLYGONS", 2)
+    tech = from_spec("exact_soft")
+    tech.prepare(lab.frame("soft_large_close", SMALL), 0)
+    with pytest.raises(TechniqueError, match="candidate polygons"):
+        tech.render()

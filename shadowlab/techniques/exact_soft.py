@@ -115,6 +115,8 @@ BOX_SLACK = 1e-9
 #: The union's grid: none up to GRID_MIN polygons, then ~√n × √n cells, at most GRID_MAX².
 GRID_MIN = 24
 GRID_MAX = 64
+#: Most candidate polygons one point may have (the per-part buffers' size): more is an error.
+MAX_POLYGONS = 1 << 17
 #: Triangles per leaf of the bounding-volume hierarchy.
 LEAF_SIZE = 4
 
@@ -558,7 +560,8 @@ def visibility_points(points, normals, pobj, pinside, start, step, tris, tnorm, 
         stack[0] = 0
         sp = 1 if links[0, 2] > 0 else 0
         umbra = False
-        while sp > 0 and not umbra:
+        overflow = False
+        while sp > 0 and not umbra and not overflow:
             sp -= 1
             node = stack[sp]
             out = False
@@ -650,6 +653,9 @@ def visibility_points(points, normals, pobj, pinside, start, step, tris, tnorm, 
                 if nh < 3:
                     continue
                 # project from P onto the light's plane; 2D (t, b) about the centre
+                if npoly == px.shape[0]:
+                    overflow = True  # more polygons than the buffers hold: reported by the caller
+                    break
                 base = npoly
                 cnt = 0
                 for v in range(nh):
@@ -706,6 +712,10 @@ def visibility_points(points, normals, pobj, pinside, start, step, tris, tnorm, 
                     umbra = True
                     break
         cand[idx] = clipped
+        if overflow:
+            cand[idx] = -1
+            vout[idx] = np.nan
+            continue
         if umbra:
             vout[idx] = 0.0
             continue
@@ -801,7 +811,7 @@ class ExactSoft(Technique):
         tri = frame.triangle_id.ravel()[frame.pixel_index][self.evaluated]
         self.pinside = np.ascontiguousarray(np.einsum("ij,ij->i", frame.triangle_normals[tri], self.normals) < 0)
         self.parts = max(1, min(cores(), len(self.points)))
-        cap = max(1, len(self.tris))
+        cap = max(1, min(len(self.tris), MAX_POLYGONS))
         self.scratch = [self._scratch(cap) for _ in range(self.parts)]
         self.vis = np.ones(len(self.points))
         self.cand = np.zeros(len(self.points), np.int64)
@@ -835,6 +845,9 @@ class ExactSoft(Technique):
                                             a, parts,
                                             self.scratch[a]),
                      [(k, k + 1) for k in range(parts)])
+        if len(self.cand) and self.cand.min() < 0:
+            raise TechniqueError(f"{self.name}: {int((self.cand < 0).sum())} points have more than {MAX_POLYGONS} "
+                                 f"candidate polygons (the buffers' size, MAX_POLYGONS)")
 
     def visibility(self) -> np.ndarray:
         """Float32 (H, W), row 0 = top: the exact visible fraction on evaluated pixels, 1 elsewhere."""

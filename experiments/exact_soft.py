@@ -3,7 +3,7 @@ against the truth's, and its own cost curve in pixels and in triangles.
 
 Three parts, each a block of rows of results/exact_soft.csv (column ``part``):
 
-- ``scenes``: the five soft scenes (shadowlab/scenes/soft_*.toml) at 320x240. exact_soft and the
+- ``scenes``: the seven soft scenes (shadowlab/scenes/soft_*.toml, first frame) at 320x240. exact_soft and the
   sampled truth at 1024 and 4096 samples per pixel (``raytrace:samples=N``) on the same frame;
   per scene the mean |V_exact − V_truth| over the evaluated pixels and over the truth's penumbra
   (0.02 < G < 0.98), its max, and the mean signed difference, against the truth's stated
@@ -37,7 +37,8 @@ from shadowlab.pipeline import measure
 from shadowlab.scene import load_scene, parse_scene
 from shadowlab.techniques import from_spec
 
-SCENES = ["soft_banding", "soft_below_plane", "soft_contact_hardening", "soft_large_close", "soft_overlap"]
+SCENES = ["soft_banding", "soft_below_plane", "soft_contact_hardening", "soft_large_close", "soft_moving_caster",
+          "soft_overlap", "soft_two_heights"]
 TRUTH_SAMPLES = [1024, 4096]
 SIZES = [(160, 120), (320, 240), (640, 480)]
 PIXEL_SCENES = ["soft_large_close", "soft_overlap"]

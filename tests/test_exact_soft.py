@@ -47,7 +47,9 @@ SUNK = ([{"name": "floor", "mesh": "plane", "size": [10.0, 10.0]},
          {"name": "a", "mesh": "box", "size": [0.4, 0.5, 1.2], "translate": [-1.0, 0.15, 0.2], "rotate": [0, 10, 0]},
          {"name": "b", "mesh": "box", "size": [0.3, 0.6, 0.8], "translate": [-1.6, 0.2, -0.2], "rotate": [0, 35, 0]}],
         [TRUTH_SCENES["below_horizon"][1]])
-SOFT = ["soft_banding", "soft_below_plane", "soft_contact_hardening", "soft_large_close", "soft_overlap"]
+SOFT = ["soft_banding", "soft_below_plane", "soft_contact_hardening", "soft_large_close", "soft_moving_caster",
+        "soft_overlap",
+        "soft_two_heights"]
 POINTS = 100
 TOL = 1e-9
 

@@ -13,7 +13,8 @@ Tolerances and what was measured (160x120 frames unless said):
 - back-face culling changes nothing: ``cull_back_faces`` on and off agree to 1e-12 everywhere;
 - sampled truth (slow): mean |V − G| over the evaluated pixels against ``raytrace:samples=4096``
   ≤ 0.5/√4096/8 ≈ 0.00098 on every soft scene, and |mean signed| too (measured at 320x240:
-  6e-5 – 4.8e-4, over the penumbra 5.4e-4 – 7.4e-4, signed ≤ 1.6e-5; experiments/exact_soft.py):
+  6.3e-5 – 4.8e-4 on the seven, over the penumbra 5.4e-4 – 7.4e-4, signed ≤ 1.6e-5;
+  experiments/exact_soft.py):
   the truth's per-pixel bound is 0.0078 and the mean absolute error of an unbiased stratified
   estimator is far under it; a biased answer is not (the light not cut at P's horizon: 0.048 on
   soft_below_plane at 160x120).
@@ -48,8 +49,7 @@ SUNK = ([{"name": "floor", "mesh": "plane", "size": [10.0, 10.0]},
          {"name": "b", "mesh": "box", "size": [0.3, 0.6, 0.8], "translate": [-1.6, 0.2, -0.2], "rotate": [0, 35, 0]}],
         [TRUTH_SCENES["below_horizon"][1]])
 SOFT = ["soft_banding", "soft_below_plane", "soft_contact_hardening", "soft_large_close", "soft_moving_caster",
-        "soft_overlap",
-        "soft_two_heights"]
+        "soft_overlap", "soft_two_heights"]
 POINTS = 100
 TOL = 1e-9
 
@@ -191,7 +191,7 @@ def test_declares_its_work(lab):
     assert m.stats["candidates_max"] >= m.stats["candidates_mean"] > 0
 
 
-@pytest.mark.slow  # five 4096-sample truths (~4 s each at 160x120)
+@pytest.mark.slow  # seven 4096-sample truths (~3 s each at 160x120)
 @pytest.mark.parametrize("name", SOFT)
 def test_within_the_sampled_truths_noise(lab, name):
     bound = 0.5 / np.sqrt(4096)

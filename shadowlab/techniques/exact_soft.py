@@ -66,28 +66,11 @@ The clipping frustum runs through a polygon 1e-6 larger than a rect light, so th
 edges never lie on the light's own edges; it also keeps every projected coordinate bounded
 (unclipped, a triangle reaching P's parallel plane projects ~1e9 away through the slab margin).
 
-Measured (experiments/exact_soft.py, 320x240, 2 cores shared, load average 3-5.7): equal to the
-oracle to ≤ 1e-13; mean |V − G| against the 4096-sample truth 6e-5 – 4.8e-4 (its per-pixel
-bound is 0.0078); 36-142 ms per frame on four soft scenes and 1.2 s on soft_large_close, against
-2.8-7.9 s for the 1024-sample truth; linear in pixels; about linear in a fine caster's triangles
-(2k / 10k / 20k-triangle torus: 0.87 / 3.6 / 7.8 s; the truth ~3 s at any count).
-
-Light shapes. ``rect``: exact (a parallelogram). ``disc``: the regular polygon of ``disc_sides``
-sides with the disc's area (the oracle's choice, DISC_SIDES = 1024 there); V differs from the
-disc's by at most area(polygon Δ disc) / area(disc) (:func:`disc_error_bound`: 6.2e-4 at k = 64,
-3.9e-5 at 256 (the default), 2.4e-6 at 1024), because both are the visible part of the same
-occluded region over equal areas. ``sphere``: a TechniqueError. Its visibility is the unoccluded fraction *by
-area of the spherical cap* P sees (the truth samples cos θ uniformly on the cap,
-:meth:`shadowlab.scene.area_lights.SphereLight.sample_for`); projected onto any plane that area
-measure is not uniform, so a union of flat projections is not its answer — an exact method
-would integrate over the cap (non-polygonal clipping), which this technique does not do.
-
-Embree is not used: rays can tell that a point of the light is visible, never that a region is
-(a finite bundle of rays misses thin occluders), so no early classification by rays is exact;
-the frustum culling above is exact and cheap.
-
-Work: ``cpu_triangles`` = the triangles clipped (those that passed the culling), summed over
-the points; stats give the candidate polygons per point (mean, max).
+Measured (experiments/exact_soft.py, 320x240, 2 cores shared, load average 2.0-2.8): equal to
+the oracle to ≤ 1e-13; mean |V − G| against the 4096-sample truth 6.3e-5 – 4.8e-4 (its per-pixel
+bound is 0.0078); 13-87 ms per frame on six soft scenes and 0.38 s on soft_large_close, against
+0.9-4.4 s for the 1024-sample truth; linear in pixels; about linear in a fine caster's triangles
+(2k / 10k / 20k-triangle torus: 0.35 / 1.7 / 4.3 s; the truth 1.2-1.5 s at any count).
 """
 from __future__ import annotations
 

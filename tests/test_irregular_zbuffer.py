@@ -87,6 +87,7 @@ def test_a_full_work_list_fails_loudly_when_asked(lab):
         lab.measure("box_on_plane", "irregular_zbuffer:capacity=16,on_overflow=fail", SMALL)
 
 
+@pytest.mark.slow  # two counting renders of sv_many_casters, at two grid sizes (~2.6 s)
 def test_work_counters_add_up(lab):
     st = lab.measure("sv_many_casters", "irregular_zbuffer:resolution=256", SMALL).stats
     assert st["izb_rays"] > 0 and st["izb_pairs"] > 0

@@ -60,6 +60,7 @@ def test_best_spec_runs_as_is_in_compare_with_the_same_value(exact_run, tmp_path
     assert row["error_rate"] == best["value"]
 
 
+@pytest.mark.slow  # a search over renders within its budget (~1.9 s)
 def test_search_route_tries_every_parameter_within_its_budget(tmp_path):
     out = tmp_path / "search"
     assert main(["tune", "sm_light_bleeding", "-t", "filtered_map", "--param", "min_variance",

@@ -132,7 +132,7 @@ def _sweep(lab, scene, biases):
     return lab.rows(scene, specs, MEDIUM)["error_rate"].to_numpy()
 
 
-@pytest.mark.parametrize("scene", ["sm_contact", "sm_grazing"])
+@pytest.mark.parametrize("scene", ["sm_contact", pytest.param("sm_grazing", marks=pytest.mark.slow)])
 def test_curve_predicts_a_short_sweep(lab, scene):
     """Twelve renders across the bias range: each render's error rate is the curve's, exactly."""
     tune = exact_bias_tune(lab.evaluator(scene, MEDIUM), "shadow_map", repeat=1, warmup=0)

@@ -109,6 +109,7 @@ def test_bad_parameters_name_the_parameter(spec, parameter):
         from_spec(spec)
 
 
+@pytest.mark.slow  # six virtual maps of a point light (~1.1 s)
 def test_point_light_cube_is_six_virtual_maps(lab):
     """sm_point_cube: receivers all around a point light. projection=auto chooses the cube, six
     virtual maps sharing one pool. Measured at 320x240: error_rate 0.23 % with 47 pages (the

@@ -36,6 +36,7 @@ from shadowlab.frame import Frame
 from shadowlab.pipeline import measure
 from shadowlab.scene import load_scene, parse_scene
 from shadowlab.techniques import from_spec
+from shadowlab.metrics import PENUMBRA_HIGH, PENUMBRA_LOW
 
 SCENES = ["soft_banding", "soft_below_plane", "soft_contact_hardening", "soft_large_close", "soft_moving_caster",
           "soft_overlap", "soft_two_heights"]
@@ -78,7 +79,7 @@ def differences(exact: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) -> 
     """Mean |V − G| over the evaluated pixels and over the truth's penumbra, max, mean signed."""
     d = (exact - truth)[evaluated].astype(np.float64)
     g = truth[evaluated]
-    pen = (g > 0.02) & (g < 0.98)
+    pen = (g > PENUMBRA_LOW) & (g < PENUMBRA_HIGH)
     return {"mean_abs_diff": float(np.abs(d).mean()), "max_abs_diff": float(np.abs(d).max()),
             "mean_signed_diff": float(d.mean()), "penumbra_mean_abs_diff": float(np.abs(d[pen]).mean()),
             "penumbra_pixels": int(pen.sum()), "evaluated_pixels": int(evaluated.sum())}

@@ -1,18 +1,22 @@
-"""Soft-shadow sweep: error against time as each hard family averages N light samples, and PCSS.
+"""Soft-shadow sweep: error against time for every soft technique on the soft hard cases.
 
-On the soft hard cases (contact hardening, overlapping penumbrae, banding), every hard family
-renders N = 1, 4, 16, 64, 256 times from stratified points of the rect light and averages
-(``light_samples``), against PCSS with and without its blocker search; the truth samples the
-light 1024 times per pixel. Plots ``visibility_mae`` (mean |V − G| over evaluated pixels)
-and ``penumbra_mae`` (the same over the truth's penumbra, 0.02 < G < 0.98, where the truth's
-own per-pixel standard error bound ``truth_stderr_max`` applies: drawn as a dotted line)
-against ``time_ms_median`` (the N renders together), one curve per family, N marked on the
-points. Writes results/soft_shadows_sweep.csv (the rows plotted) and .png.
+On the six soft hard cases (contact hardening, overlapping penumbrae, banding, a large light
+close above, a light straddling the receiver's horizon, two blocker heights), every hard family
+renders N = 1, 4, 16, 64 times from stratified points of the rect light and averages
+(``light_samples``); ``rt_soft`` traces 1, 4, 16 rays per pixel with and without its à-trous
+denoiser; PCSS, moment soft shadows, penumbra wedges and the exact technique run with their
+defaults and the toggles that show their known artefacts; the truth samples the light 1024
+times per pixel. Plots ``visibility_mae`` (mean |V − G| over evaluated pixels) and
+``penumbra_mae`` (the same over the truth's penumbra, 0.02 < G < 0.98) against
+``time_ms_median`` (the N renders together), a curve per sample-count configuration (N marked
+on the points), a marker per other configuration, and the truth's own per-pixel standard error
+bound ``truth_stderr_max`` as a dotted line. Writes results/soft_shadows_sweep.csv (the rows
+plotted), .png, and .md (penumbra_mae and time per configuration and scene).
 
 The grid is the shipped suite ``shadowlab/suites/soft_shadows.toml`` (320x240, median of 3
 timed runs after 1 warm-up); this script runs it as a study into
 ``<folder of --out>/study-soft_shadows`` (the directory ``shadowlab study soft_shadows`` uses, so
-the two share one cache). About 5 minutes on a 2-core machine.
+the two share one cache). About 4 minutes on a 2-core machine.
 
     python experiments/soft_shadows_sweep.py [--out results/soft_shadows_sweep] [--workers N] [--force]
 """

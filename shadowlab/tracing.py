@@ -112,7 +112,10 @@ def offset_points_reference(points: np.ndarray, normals: np.ndarray, extent: flo
 def set_frame_origins(frame, origins: dict) -> None:
     """Replace the frame's cached origins with ``origins`` ({offset_scale: float32 (M, 3)}):
     :meth:`shadowlab.frame.Frame.compute_exact_points` forms the default ones in its own pass,
-    and a recomputed frame must not keep origins of its earlier points."""
+    and a recomputed frame must not keep origins of its earlier points. The arrays are made
+    read-only: every ray tracer of the frame shares them."""
+    for arr in origins.values():
+        arr.flags.writeable = False
     _ORIGINS[frame] = dict(origins)
 
 
@@ -125,6 +128,7 @@ def offset_origins(frame, offset_scale: float = DEFAULT_OFFSET_SCALE, cached: bo
         return per_frame[offset_scale]
     origins = offset_points(frame.compact_position, frame.compact_normal, frame.scene.extent(), offset_scale)
     if cached:
+        origins.flags.writeable = False  # shared by every ray tracer of the frame
         per_frame[offset_scale] = origins
     return origins
 

@@ -390,7 +390,8 @@ def test_gif_frames_are_labelled(tmp_path, monkeypatch):
 def test_still_frames_flip_nothing(tmp_path):
     """--frames on a scene without [animation]: identical frames, so flip_rate and
     temporal_error are exactly 0 for every registered technique (the renders are deterministic;
-    those that need an area light — pcss, moment_soft — are left out, and the truth is always there)."""
+    those that render for area lights only — pcss, moment_soft, penumbra_wedges, exact_soft,
+    rt_soft — are left out, and the truth is always there)."""
     from shadowlab.techniques import REGISTRY
 
     names = [n for n, cls in REGISTRY.items() if n != "raytrace" and cls.supports_type("directional")]

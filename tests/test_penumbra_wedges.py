@@ -18,6 +18,7 @@ from shadowlab.occluder_layers import occluder_layers
 from shadowlab.pipeline import count_work, measure
 from shadowlab.techniques import TechniqueError, from_spec
 from shadowlab.techniques.penumbra_wedges import light_dual_basis, wedge_hulls
+from shadowlab.metrics import PENUMBRA_HIGH, PENUMBRA_LOW
 
 from conftest import SMALL, make_scene
 from soft_oracle import exact_visibility, scene_triangles
@@ -69,7 +70,7 @@ def test_single_convex_caster_is_nearly_exact(quad):
     max ≤ 1e-3 — far below the sampled truth's per-pixel bound at 1024 samples (0.016)."""
     frame, vis, exact, ev, _, _ = quad
     err = np.abs(vis - exact)[ev]
-    penumbra = ((exact > 0.02) & (exact < 0.98))[ev]
+    penumbra = ((exact > PENUMBRA_LOW) & (exact < PENUMBRA_HIGH))[ev]
     assert penumbra.sum() > 1000  # the scene has a wide penumbra
     assert err.mean() <= 1e-5, err.mean()
     assert err.max() <= 1e-3, err.max()

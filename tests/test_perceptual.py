@@ -136,3 +136,21 @@ def test_the_sentences_name_the_judged_metric_and_the_discordant_pair():
     assert "visibility_mae" in soft and "τ = 0.33 (partly agree)" in soft and "y worse than x" in soft
     hard = next(s for s in lines if s.startswith("shadow maps"))
     assert "flip_mean τ = 1.00 (agree)" in hard and "ssim τ = -1.00 (reverse)" in hard
+
+
+def test_a_worker_without_the_planned_perceptual_columns_refuses_the_task(monkeypatch):
+    """The accuracy cache key records the perceptual columns the study planned with; a worker
+    (Dask, another machine) that cannot compute the same ones fails the task instead of caching
+    rows without them under that key."""
+    from shadowlab.study import runner, tasks
+
+    if perceptual.available():  # the key names the columns only where some are computed
+        assert runner.run_key("h", "s", (1, 1), "r", "d") != runner.run_key("h", "s", (1, 1), "r", "d",
+                                                                             perceptual=perceptual.available())
+    tasks._same_perceptual({"perceptual": perceptual.available()})  # the same: fine
+    real = importlib.util.find_spec
+    monkeypatch.setattr(perceptual.importlib.util, "find_spec",
+                        lambda name, *a: None if name in perceptual.PACKAGES.values() else real(name, *a))
+    with pytest.raises(RuntimeError, match="install the same packages"):
+        tasks._same_perceptual({"perceptual": ["flip_mean", "ssim"]})
+    tasks._same_perceptual({"perceptual": []})

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from shadowlab import cli
+from shadowlab import cli, perceptual
 from shadowlab.metrics import RATE_TOLERANCE
 from shadowlab.study import check as chk
 from shadowlab.study.runner import Progress, run_study
@@ -118,8 +118,14 @@ def test_study_writes_the_contract(one_worker):
     _, outcome = one_worker
     out, res = outcome.out, outcome.results
     assert not outcome.failed
-    for name in ("results.csv", "study.json", "pareto.png", "study.html", "summary.md"):
+    for name in ("results.csv", "study.json", "pareto.png", "study.html", "summary.md", "rank_agreement.csv"):
         assert (out / name).is_file(), name
+    # the perceptual metrics of each configuration's picture, on its rows only (make installs them)
+    if perceptual.available():
+        conf = res[~res["reference"].astype(bool)]
+        assert conf["flip_mean"].between(0, 1).all() and conf["ssim"].between(-1, 1).all()
+        assert res.loc[res["reference"].astype(bool), "flip_mean"].isna().all()
+        assert "What people see" in (out / "summary.md").read_text()
     for col in ("run_dir", "revision", "renderer", "status", "scene_family", "error_rate", "time_ms_median"):
         assert col in res.columns
     assert len(res) == 2 * 1 + 4 + 2  # per scene: the truth and each configuration (one light each)

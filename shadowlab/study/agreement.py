@@ -33,8 +33,9 @@ MIN_CONFIGURATIONS = 3
 #: Columns of :func:`rank_agreement`.
 AGREEMENT_COLUMNS = ["scene_family", "perceptual", "exact", "tau", "tau_min", "tau_max", "scenes", "pairs",
                      "discordant_scene", "discordant_pair"]
-#: |τ| at or above which the text says the metrics agree, below which (and above −it) it says
-#: they do not; in between "partly". Kendall's τ of 0.7 means 85 % of the pairs are ordered alike.
+#: τ at or above AGREE: the text says the metrics "agree"; from DISAGREE up to AGREE "partly
+#: agree"; between −DISAGREE and DISAGREE "do not agree"; at or below −DISAGREE "reverse".
+#: Kendall's τ of 0.7 means 85 % of the pairs are ordered alike.
 AGREE, DISAGREE = 0.7, 0.3
 
 

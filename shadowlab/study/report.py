@@ -1,6 +1,6 @@
 """The study report (DESIGN §12): the comparison drawn across every scene of a suite.
 
-Three files in the study directory, all made from ``results.csv`` and the tables of
+Four files in the study directory, all made from ``results.csv`` and the tables of
 :mod:`shadowlab.study.aggregate` (plain pandas; nothing there draws):
 
 - ``pareto.png`` — speed against error, one panel per scene, the Pareto front marked

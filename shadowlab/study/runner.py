@@ -384,12 +384,14 @@ def _plan(suite: Suite, revision: str, device: str) -> list[_Run]:
     vendor, driver): per scene the truth, then its configurations."""
     runs = []
     timing_settings = {"repeat": suite.repeat, "warmup": suite.warmup, "pass_timing": suite.pass_timing}
-    # the perceptual columns this process can compute: installing their packages redoes the runs
-    judged = perceptual.available()
+    # the perceptual columns this process can compute, part of the accuracy key when there are
+    # any: installing their packages redoes the runs (and every task checks that its worker
+    # computes the same ones: shadowlab.study.tasks)
+    judged = {"perceptual": perceptual.available()} if perceptual.available() else {}
     for scene in suite.scenes:
         h = scene_content_hash(scene.path)
         for spec, ref in [(suite.truth, True)] + [(s, False) for s in suite.configurations[scene.name]]:
-            acc = run_key(h, spec, suite.size, revision, device, perceptual=judged)
+            acc = run_key(h, spec, suite.size, revision, device, **judged)
             runs.append(_Run(scene, spec, ref, acc, run_key(h, spec, suite.size, revision, device, **timing_settings),
                              h))
     return runs
@@ -398,7 +400,7 @@ def _plan(suite: Suite, revision: str, device: str) -> list[_Run]:
 def _task(run: _Run, suite: Suite, kind: str, bundles: SceneBundles | None = None, **extra) -> dict:
     """A run's task dict; with ``bundles`` (on Dask) it also carries its scene's bundle."""
     task = {"kind": kind, "scene_path": str(run.scene.path), "scene_hash": run.scene_hash,
-            "size": list(suite.size), "spec": run.spec, **extra}
+            "size": list(suite.size), "spec": run.spec, "perceptual": perceptual.available(), **extra}
     if bundles is not None:
         task["scene_bundle"] = bundles.of(run.scene.path)
     return task

@@ -160,6 +160,19 @@ def _images(frame, visibilities, truth=None, footprint=None) -> tuple[dict, dict
     return {f"{kind}.png": data for kind, data in made.items()}, judged  # the cache's file names
 
 
+def _same_perceptual(task: dict) -> None:
+    """The perceptual columns this worker can compute must be those the study planned with (they
+    are part of the cache key, :func:`shadowlab.study.runner._plan`): a Dask worker without the
+    packages would otherwise cache rows without the columns under a key that says they are there."""
+    from .. import perceptual
+
+    planned = task.get("perceptual")
+    if planned is not None and list(planned) != perceptual.available():
+        raise RuntimeError(f"this worker computes the perceptual columns {perceptual.available() or 'none'}, the "
+                           f"study planned {list(planned) or 'none'}: install the same packages "
+                           f"(pip install '{perceptual.EXTRA}') on every worker, or on none")
+
+
 def _truth(task: dict) -> dict:
     """The ground truth of every light of a scene, with what the configurations of that scene
     need to be judged: the truth's visibility per light (float32 (H, W), row 0 = top)."""
@@ -203,6 +216,7 @@ def _config(task: dict) -> dict:
     rows = [_accuracy_row(evaluator.row(m)) for m in ms]
     for row, m in zip(rows, ms):
         row["notes"] = "; ".join(m.notes)
+    _same_perceptual(task)
     files, judged = _images(frame, [m.visibility for m in ms], task["truth"], ms[0].footprint)
     for row in rows:  # one shaded picture per configuration: its perceptual figures on every light's row
         row.update(judged)

@@ -79,7 +79,7 @@ import time
 import numpy as np
 
 from ..compiled_truth import _JIT, cores, in_parts, njit
-from ..scene.area_lights import AreaLight, DiscLight, RectLight
+from ..scene.area_lights import AreaLight, DiscLight, RectLight, basis
 from .base import FIRST, SUM, Param, PlotStyle, Technique, TechniqueError
 
 #: Relative margin below P's parallel plane where triangles are cut (the oracle's SLAB_MARGIN).
@@ -134,10 +134,8 @@ def light_frame(light) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Centre (3,), unit emitting normal n (3,), in-plane unit axes t, b (3,) with t × b = n
     (the oracle's frame)."""
     n = np.asarray(light.normal, np.float64)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    t = np.cross(helper, n)
-    t /= np.linalg.norm(t)
-    return np.asarray(light.position, np.float64), n, t, np.cross(n, t)
+    t, b = basis(n)  # the same completion as the oracle's
+    return np.asarray(light.position, np.float64), n, t, b
 
 
 def light_polygon(light, disc_sides: int) -> np.ndarray:

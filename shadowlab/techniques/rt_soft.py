@@ -68,8 +68,10 @@ reason: a weight on the noisy signal would differ between the two images.
 
 **Temporal accumulation** (``temporal_alpha`` = a, 0 = off; ``shadowlab animate`` only): an
 exponential moving average of the per-pixel sums (free/N and live/N) with the reverse-
-reprojected history (Nehab et al. 2007, §3; the reprojection is animate's exact one,
-:func:`shadowlab.temporal.reproject`, handed over in :class:`~shadowlab.temporal.FrameStep`):
+reprojected history (Nehab et al. 2007, §3; the technique reprojects with the frames' exact
+points itself, :func:`shadowlab.temporal.reproject`, matching within :data:`HISTORY_FOOTPRINTS`
+pixel footprints rather than the flicker metrics' quarter footprint, which under a camera pan
+kept about 20 % of the pixels):
 
     S_k(p) = (1 − a_p) · s_k(p) + a_p · S_{k−1}(q),   a_p = min(a, n_p / (n_p + 1)),
 
@@ -92,9 +94,9 @@ the history is the unfiltered sums, so the spatial blur never feeds back. a is t
 term is accumulated, so a moving light or receiver lags only in its shadow.
 
 How state crosses frames: :meth:`Technique.begin_frame` (``shadowlab animate`` calls it before
-measuring each light of each frame) hands over the frame's index and reprojection; the
-technique keeps its own last result per light and makes it the history when frame k + 1
-begins. Renders are repeatable: each one recomputes the frame's result from the same history
+measuring each light of each frame) hands over a :class:`~shadowlab.temporal.FrameStep` (the
+frame's index and the light); the technique keeps its own last result per light, with that
+frame's exact points, and makes it the reprojected history when frame k + 1 begins. Renders are repeatable: each one recomputes the frame's result from the same history
 and the same per-frame random stream. In compare and study nothing is accumulated.
 """
 from __future__ import annotations
@@ -265,7 +267,7 @@ def neighbourhood_bounds(img, mask, radius, gamma, lo, hi):
 def accumulate(cur, hist, hist_len, source, valid, alpha, out, out_len):
     """Temporal accumulation (module docstring) of per-pixel sums ``cur`` (P, C) with the
     previous frame's ``hist`` (P', C) and its frame counts ``hist_len`` (P',): pixel p with a
-    valid reprojection (``valid`` (P,), ``source`` (P,) its flat index in the previous frame)
+    valid reprojection (``valid`` (P,), ``source`` (P,) its row in ``hist``)
     blends its history with weight min(alpha, n/(n+1)); others restart. Writes ``out`` (P, C)
     and ``out_len`` (P,)."""
     for p in range(cur.shape[0]):
@@ -353,8 +355,9 @@ def atrous(image: np.ndarray, position: np.ndarray, normal: np.ndarray, footprin
     """``iterations`` edge-avoiding à-trous passes (:func:`atrous_rows`, holes 1, 2, 4, ...) of
     ``image`` (H, W, C) float64 over the pixels of ``mask`` (H, W), guided by exact points
     ``position`` (H, W, 3), unit normals ``normal`` (H, W, 3) and pixel footprints (H, W). A
-    σ of 0 switches its term off (weight 1). Row bands run on the cores."""
-    src = np.ascontiguousarray(image, np.float64)
+    σ of 0 switches its term off (weight 1). Row bands run on the cores. ``image`` is not
+    modified: the passes ping-pong between two buffers of their own."""
+    src = np.array(image, np.float64, order="C", copy=True)
     if iterations == 0:
         return src
     dst = np.empty_like(src)

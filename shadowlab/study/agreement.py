@@ -145,6 +145,7 @@ def agreement_sentences(table: pd.DataFrame) -> list[str]:
         low = part.sort_values("tau").iloc[0]
         tail = (f" Most discordant: {low['discordant_pair']} on {low['discordant_scene']}."
                 if low["tau"] < AGREE and low["discordant_pair"] else "")
+        n = int(part["scenes"].max())
         out.append(f"{family or 'general'}: {judged} against what people see — {said}, over "
-                   f"{int(part['scenes'].max())} scenes.{tail}")
+                   f"{n} scene{'' if n == 1 else 's'}.{tail}")
     return out

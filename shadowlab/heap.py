@@ -13,9 +13,10 @@ freed, where the next allocation of the same size takes them back.
 
 What it costs: freed memory below :data:`RETAINED_LIMIT` stays resident in the process, and a
 heap can hold more than separate mappings would (a freed 40 MB block does not serve a 41 MB
-request). So that ``peak_rss_mib`` (DESIGN §16) stays a measurement's own,
-:func:`shadowlab.memory.reset_peak` first gives the freed memory back (:func:`give_back`,
-``malloc_trim``); the measurement's warm-up render then faults in what its timed renders reuse.
+request). ``peak_rss_mib`` (DESIGN §16) is the process's resident peak during a measurement, so
+it counts that memory as it counts everything else resident (the GL driver, the frame, caches).
+Giving it back before each measurement (``malloc_trim``) was tried and dropped: every small
+render then faulted its memory in again (the inner test loop 81 → 99 s, system time 4 → 17 s).
 """
 from __future__ import annotations
 
@@ -40,20 +41,6 @@ def keep_freed_memory() -> bool:
     if _applied is None:
         _applied = _set_thresholds()
     return _applied
-
-
-def give_back() -> bool:
-    """Return the heap's free memory to the system (glibc ``malloc_trim(0)``), so that resident
-    memory counts only what is in use; False where the platform has no ``malloc_trim``."""
-    if not sys.platform.startswith("linux"):
-        return False
-    try:
-        trim = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim
-    except (OSError, AttributeError):
-        return False
-    trim.argtypes, trim.restype = [ctypes.c_size_t], ctypes.c_int
-    trim(0)
-    return True
 
 
 def _set_thresholds() -> bool:

@@ -16,12 +16,7 @@ _CLEAR_REFS = Path("/proc/self/clear_refs")
 
 
 def reset_peak() -> bool:
-    """Start a new peak at the current resident size; False where the platform cannot. Freed
-    memory the heap keeps for later frames (:mod:`shadowlab.heap`) is given back first, so the
-    peak is the measurement's own, not what earlier measurements left."""
-    from . import heap
-
-    heap.give_back()
+    """Start a new peak at the current resident size; False where the platform cannot."""
     try:
         _CLEAR_REFS.write_text("5")
         return True

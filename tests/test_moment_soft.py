@@ -11,6 +11,7 @@ from shadowlab.techniques import TechniqueError, from_spec
 from shadowlab.techniques.moment_soft import (SIGNED_BIAS_TARGET, UINT32_MAX, fixed_scale, max_region_texels,
                                               unsigned_bias_target)
 
+from area_map_checks import LIGHTS, assert_behind_one_sided_sees_none, assert_fully_lit
 from conftest import SMALL, make_scene
 from test_pcss import FAR_X, NEAR_X, PENUMBRA, penumbra_width
 
@@ -150,13 +151,6 @@ def test_two_heights_average_narrows_the_high_penumbra(lab):
     assert width(ours, 1.0) < 0.88 * width(truth, 1.0)                        # too narrow beside it
 
 
-LIGHTS = {
-    "rect": {"type": "area", "shape": "rect", "position": [0.3, 4.0, -0.5], "u": [1.5, 0.0, 0.0],
-             "v": [0.0, 0.0, 1.0]},
-    "disc": {"type": "area", "shape": "disc", "position": [0.3, 4.0, -0.5], "direction": [0.2, -1.0, 0.1],
-             "radius": 0.8},
-    "sphere": {"type": "area", "shape": "sphere", "position": [0.3, 4.0, -0.5], "radius": 0.7},
-}
 
 
 @pytest.mark.parametrize("shape", sorted(LIGHTS))
@@ -167,27 +161,13 @@ def test_nothing_blocks_fully_lit(lab, shape, spec):
     search (the floor is the casters' lowest height: nothing to search) and through a fixed
     64-texel region compared at the receiver's depth minus the bias (seen: the bias added
     instead of subtracted shadows the whole floor there)."""
-    scene = make_scene([{"mesh": "plane", "size": [8.0, 8.0]}], [LIGHTS[shape]], eye=(3.0, 5.0, 6.0))
-    vis = lab.measure(scene, spec, SMALL).visibility
-    evaluated = lab.frame(scene, SMALL).evaluated(0)
-    assert evaluated.sum() > 1000
-    assert np.all(vis[evaluated] == 1.0), f"{np.sum(vis[evaluated] < 1.0)} pixels below 1"
+    assert_fully_lit(lab, shape, spec)
 
 
 def test_behind_one_sided_light_sees_none(lab):
     """A disc tilted 60° from straight down: floor points behind its emitting plane get V = 0
     (DESIGN §7), the rest of the (unblocked) floor V = 1."""
-    tilt = np.radians(60.0)
-    light = {"type": "area", "shape": "disc", "position": [0.0, 2.0, 0.0],
-             "direction": [float(np.sin(tilt)), float(-np.cos(tilt)), 0.0], "radius": 0.3}
-    scene = make_scene([{"mesh": "plane", "size": [8.0, 8.0]}], [light], eye=(0.0, 6.0, 6.0))
-    frame = lab.frame(scene, SMALL)
-    vis = lab.measure(scene, "moment_soft", SMALL).visibility
-    evaluated = frame.evaluated(0)
-    behind = ((frame.position - light["position"]) @ np.array(light["direction"])) <= 0
-    assert np.sum(evaluated & behind) > 100 and np.sum(evaluated & ~behind) > 100
-    assert np.all(vis[evaluated & behind] == 0.0)
-    assert np.all(vis[evaluated & ~behind] == 1.0)
+    assert_behind_one_sided_sees_none(lab, "moment_soft")
 
 
 def test_fixed_scale_keeps_every_rectangle_below_two_to_the_32():

@@ -11,6 +11,7 @@ from shadowlab.pipeline import measure
 from shadowlab.techniques import TechniqueError, from_spec
 from shadowlab.techniques.pcss import light_uv, near_far, sample_offsets, search_height
 
+from area_map_checks import LIGHTS, assert_behind_one_sided_sees_none, assert_fully_lit
 from conftest import SMALL, make_scene
 
 #: At SMALL (was 320x240) against conftest.TRUTHS' raytrace:samples=256 (bound 0.031): the widths
@@ -151,13 +152,6 @@ def test_search_height():
         search_height(axis, centre, high, 0.37, np.array([1.0, 0.0, 0.0]))
 
 
-LIGHTS = {
-    "rect": {"type": "area", "shape": "rect", "position": [0.3, 4.0, -0.5], "u": [1.5, 0.0, 0.0],
-             "v": [0.0, 0.0, 1.0]},
-    "disc": {"type": "area", "shape": "disc", "position": [0.3, 4.0, -0.5], "direction": [0.2, -1.0, 0.1],
-             "radius": 0.8},
-    "sphere": {"type": "area", "shape": "sphere", "position": [0.3, 4.0, -0.5], "radius": 0.7},
-}
 
 
 @pytest.mark.parametrize("shape", sorted(LIGHTS))
@@ -167,27 +161,13 @@ def test_nothing_blocks_fully_lit(lab, shape, spec):
     own depth in the map, at wide kernels, must not shadow it. The receiver-plane comparison at
     each tap's texel centre holds with a bias of 1e-4 (seen: with bias=0, 24-70 % of the floor
     pixels drop below 1)."""
-    scene = make_scene([{"mesh": "plane", "size": [8.0, 8.0]}], [LIGHTS[shape]], eye=(3.0, 5.0, 6.0))
-    vis = lab.measure(scene, spec, SMALL).visibility
-    evaluated = lab.frame(scene, SMALL).evaluated(0)
-    assert evaluated.sum() > 1000
-    assert np.all(vis[evaluated] == 1.0), f"{np.sum(vis[evaluated] < 1.0)} pixels below 1"
+    assert_fully_lit(lab, shape, spec)
 
 
 def test_behind_one_sided_light_sees_none(lab):
     """A disc tilted 60° from straight down: floor points behind its emitting plane get V = 0
     (DESIGN §7), the rest of the (unblocked) floor V = 1."""
-    tilt = np.radians(60.0)
-    light = {"type": "area", "shape": "disc", "position": [0.0, 2.0, 0.0],
-             "direction": [float(np.sin(tilt)), float(-np.cos(tilt)), 0.0], "radius": 0.3}
-    scene = make_scene([{"mesh": "plane", "size": [8.0, 8.0]}], [light], eye=(0.0, 6.0, 6.0))
-    frame = lab.frame(scene, SMALL)
-    vis = lab.measure(scene, "pcss", SMALL).visibility
-    evaluated = frame.evaluated(0)
-    behind = ((frame.position - light["position"]) @ np.array(light["direction"])) <= 0
-    assert np.sum(evaluated & behind) > 100 and np.sum(evaluated & ~behind) > 100
-    assert np.all(vis[evaluated & behind] == 0.0)
-    assert np.all(vis[evaluated & ~behind] == 1.0)
+    assert_behind_one_sided_sees_none(lab, "pcss")
 
 
 def test_params_round_trip():

@@ -400,7 +400,7 @@ def _plan(suite: Suite, revision: str, device: str) -> list[_Run]:
 def _task(run: _Run, suite: Suite, kind: str, bundles: SceneBundles | None = None, **extra) -> dict:
     """A run's task dict; with ``bundles`` (on Dask) it also carries its scene's bundle."""
     task = {"kind": kind, "scene_path": str(run.scene.path), "scene_hash": run.scene_hash,
-            "size": list(suite.size), "spec": run.spec, "perceptual": perceptual.available(), **extra}
+            "size": list(suite.size), "spec": run.spec, **extra}
     if bundles is not None:
         task["scene_bundle"] = bundles.of(run.scene.path)
     return task
@@ -459,7 +459,8 @@ def _accuracy_phase(executor, suite, todo_truth, todo_config, known_truths: dict
         arrays = _truth_arrays(truth_result)
         stderr = [float(row.get("truth_stderr_max", 0.0)) for row in truth_result["meta"]["rows"]]
         for r in waiting.pop(scene_name, []):
-            submit(r, _task(r, suite, "config", bundles, truth=arrays, truth_stderr=stderr))
+            submit(r, _task(r, suite, "config", bundles, truth=arrays, truth_stderr=stderr,
+                            perceptual=perceptual.available()))  # what the accuracy key says it computes
 
     try:
         for r in todo_truth:

@@ -27,7 +27,8 @@ def _mismatches(lab, scene, spec, size, light=0) -> tuple[int, int, object]:
     ("spot_scene", "irregular_zbuffer"),                           # spot
     ("target_direct_scene", "irregular_zbuffer"),                  # target-direct (orthographic disc)
     ("sm_point_cube", "irregular_zbuffer:projection=cube"),        # a point light's six cube faces
-    ("sv_many_casters", "irregular_zbuffer:resolution=64"),        # long lists on a coarse grid
+    pytest.param("sv_many_casters", "irregular_zbuffer:resolution=64",  # long lists on a coarse grid
+                 marks=pytest.mark.slow),                          # (~1.2 s: the inner loop's slowest case)
     ("sm_thin", "irregular_zbuffer"),                              # a zero-thickness quad 1 cm above the floor
     ("sm_wires", "irregular_zbuffer:coverage=polygon"),            # the polygon overlap test on thin wires
     ("sm_point_cube", "irregular_zbuffer:projection=cube,coverage=polygon"),  # ... and clipped cube faces

@@ -161,9 +161,9 @@ GLSL_VERSION = "#version 330 core"
 #: Source-string number 0: the lines the lab puts before a file (#version, the defines, the stage
 #: macro); the files of an expansion are numbered from 1 in the order they are first included.
 PRELUDE = "<prelude>"
-#: ``#line`` numbers of source string k run from k · LINE_STRIDE + 1: the file is then known from
-#: the line number alone. Mesa (22.x) reports compiler errors as source string 0 whatever ``#line``
-#: said (only its preprocessor errors carry the number), NVIDIA reports both; the line decides.
+#: ``#line`` numbers of the file numbered k run from k · LINE_STRIDE + 1: the file is known from the
+#: line number alone, so the markers name no source string (``#line N``): Mesa (22.x) reports
+#: compiler errors as string 0 whatever ``#line`` said, and the line decides on every driver.
 LINE_STRIDE = 10000
 
 
@@ -233,7 +233,7 @@ def _expand(folder: Path, name: str) -> Expansion:
     out: list[str] = []
 
     def marker(number: int, line: int) -> str:
-        return f"#line {number * LINE_STRIDE + line} {number}"
+        return f"#line {number * LINE_STRIDE + line}"
 
     def walk(fname: str, chain: tuple[str, ...], site: str | None) -> None:
         path = folder / fname
@@ -285,7 +285,11 @@ def _expand(folder: Path, name: str) -> Expansion:
                 out.append(marker(number, i + 1))
 
     walk(name, (), None)
-    return Expansion("\n".join(out), tuple(files))
+    # The text ends with a line that is no directive: moderngl strips each stage's source, so a
+    # marker after the file's last #endif would end it without a newline, and the NVIDIA
+    # compiler (580.x) rejects a directive cut off by the end of the source (C0115).
+    out.append(f"// end of {name}")
+    return Expansion("\n".join(out) + "\n", tuple(files))
 
 
 @lru_cache(maxsize=None)

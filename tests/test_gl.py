@@ -8,6 +8,14 @@ from OpenGL import GL
 from shadowlab import gl
 
 
+
+def _names_location(message: str, where: str) -> bool:
+    """True when ``message`` names ``where`` (file.glsl:line) as a location: Mesa writes
+    ``file.glsl:8(5)`` (with a column), NVIDIA ``file.glsl:8 :``."""
+    import re
+
+    return re.search(re.escape(where) + r"[( ]", message) is not None
+
 def test_context_and_renderer(ctx):
     assert ctx.version_code >= 330
     assert isinstance(gl.renderer(), str) and gl.renderer()
@@ -144,7 +152,7 @@ void main() {
 """)
     message = build_error("broken.glsl", {"SOME_SWITCH": 1})
     assert "broken.glsl {SOME_SWITCH=1}" in message  # the file and its defines
-    assert "broken.glsl:8(" in message and "undeclared_name" in message, message
+    assert _names_location(message, "broken.glsl:8") and "undeclared_name" in message, message
     assert not any(f"{n}:8(" in message for n in ("0", "1", "helper.glsl")), message
 
 
@@ -159,7 +167,7 @@ void main() { out_value = helper(1.0); }
 #endif
 """)
     message = build_error("uses_bad.glsl")
-    assert "bad_helper.glsl:3(" in message and "uses_bad.glsl:" not in message, message
+    assert _names_location(message, "bad_helper.glsl:3") and "uses_bad.glsl:" not in message, message
 
 
 def test_line_numbers_survive_an_include_in_a_skipped_group(ctx, shader_files):
@@ -177,7 +185,7 @@ void main() {
 #endif
 """)
     message = build_error("skipped.glsl")
-    assert "skipped.glsl:8(" in message and "missing_scale" in message, message
+    assert _names_location(message, "skipped.glsl:8") and "missing_scale" in message, message
 
 
 def test_preprocessor_error_in_an_include_names_it(ctx, shader_files):
@@ -186,7 +194,7 @@ def test_preprocessor_error_in_an_include_names_it(ctx, shader_files):
 #include "stops.glsl"
 """)
     message = build_error("top.glsl")
-    assert "stops.glsl:3(" in message and "stop here" in message, message
+    assert _names_location(message, "stops.glsl:3") and "stop here" in message, message
 
 
 def test_a_file_included_twice_is_expanded_once(ctx, shader_files):
@@ -205,7 +213,7 @@ void main() { out_value = user_fn(shared_fn(1.0)) + undeclared_after_guard; }
     src = gl.shader_source("twice.glsl")
     assert src.count("float shared_fn(") == 1 and "#include" not in src
     message = build_error("twice.glsl")  # compiles but for the deliberate error: no redefinition
-    assert "redefin" not in message and "twice.glsl:8(" in message, message
+    assert "redefin" not in message and _names_location(message, "twice.glsl:8"), message
 
 
 def test_include_cycles_and_conflicting_guards_are_errors(ctx, shader_files):
@@ -341,3 +349,19 @@ def test_log_locations_of_other_drivers_are_rewritten():
         "main.glsl:3(9): error: `z' undeclared",
         "<prelude>:2(1): error: bad define",
         "vertex shader output 1:2 is no location"]
+
+
+def test_expansions_end_every_line_and_markers_name_no_source_string():
+    """Every shipped shader's expansion, stripped as moderngl strips a stage's source, ends with
+    a line that is no directive — the NVIDIA compiler (H200, driver 580.159.04) rejected a
+    ``#line`` marker left at the very end of the source (C0115, "#line line number invalid"),
+    failing every program — and each marker is ``#line N``."""
+    import re
+
+    for path in sorted(gl.shader_dir().glob("*.glsl")):
+        text = gl.shader_source(path.name)
+        assert not text.strip().splitlines()[-1].lstrip().startswith("#"), path.name
+        markers = [line for line in text.splitlines() if line.lstrip().startswith("#line")]
+        assert markers, path.name
+        bad = [m for m in markers if not re.fullmatch(r"#line \d+", m.strip())]
+        assert not bad, f"{path.name}: {bad[:3]}"

@@ -139,7 +139,7 @@ def test_gzipped_mesh_loads(tmp_path, data):
     ("nofmt.gz", gzip.compress(PLY_TRIANGLE), "must name its format"),
     ("empty.ply.gz", gzip.compress(PLY_EMPTY), ""),
     ("gone.ply.gz", None, "not found"),
-])
+], ids=lambda v: v if isinstance(v, str) and v.endswith(".gz") else "")  # ids by file name: the data hold random and time-stamped bytes, and pytest-xdist needs the same ids in every worker
 def test_broken_gzipped_mesh_is_a_scene_error_naming_the_file(tmp_path, name, data, reason):
     if data is None:
         path = tmp_path / "scene.toml"

@@ -24,6 +24,7 @@ import numpy as np
 
 from . import gl, glstate, heap
 from .glstate import PassState
+from .geometry.frusta import Casters
 from .geometry.triangles import triangle_normals
 from .scene.lights import Light
 from .scene import Scene
@@ -132,6 +133,7 @@ class Frame:
 
     def __init__(self, scene: Scene, width: int, height: int):
         self.scene = scene
+        self._casters = None
         self.width, self.height = int(width), int(height)
         self.camera = scene.fitted_camera()
         self.view = self.camera.view()
@@ -201,6 +203,15 @@ class Frame:
         """Per caster object, its axis-aligned bounds (K, 2, 3)."""
         return np.stack([o.bounds() for o in self.scene.objects if o.casts]) if self.has_casters \
             else np.zeros((0, 2, 3))
+
+    def casters(self) -> Casters:
+        """What casts, as the light-view fits take it (:class:`shadowlab.geometry.frusta.Casters`):
+        per caster object its bounds, and every caster triangle (world, float64)."""
+        if self._casters is None:
+            casting = np.array([o.casts for o in self.scene.objects], bool)
+            tris = self.triangles[casting[self.triangle_object]] if len(casting) else self.triangles[:0]
+            self._casters = Casters(self.caster_bounds(), tris)
+        return self._casters
 
     @property
     def has_casters(self) -> bool:

@@ -6,8 +6,10 @@ import re
 
 import numpy as np
 import pytest
+import trimesh
 
 from shadowlab import gl
+from shadowlab.geometry.frusta import Casters
 from shadowlab.scene.area_lights import AREA_SHAPES, DiscLight, RectLight, SphereLight
 from shadowlab.scene import parse_light
 from shadowlab.scene.lights import LIGHT_TYPE_IDS, DirectionalLight, PointLight, SpotLight, TargetDirectLight
@@ -114,7 +116,8 @@ def test_shadow_views_cover_the_points_and_keep_casters_past_near(light, project
     be clipped and lose its shadow)."""
     pts = rng.uniform([-2, -0.3, -2], [2, 0.0, 2], size=(2000, 3))
     casters = np.array([[[-0.5, 0.2, -0.5], [0.5, 1.0, 0.5]], [[1.0, 0.1, 1.0], [1.4, 0.6, 1.6]]])
-    views, _ = light.shadow_views(pts, casters, 512, projection=projection)
+    tris = np.concatenate([trimesh.creation.box(bounds=b).triangles for b in casters])
+    views, _ = light.shadow_views(pts, Casters(casters, tris), 512, projection=projection)
     lit = light.footprint(pts) > 0
     assert lit.sum() > 100
     inside = np.zeros(len(pts), bool)

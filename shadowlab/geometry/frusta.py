@@ -14,6 +14,7 @@ import numpy as np
 
 from . import transforms as tf
 from .bounds import box_corners, box_distance
+from .caster_depth import nearest_depths
 from .vectors import dot3
 
 #: Relative padding of fitted ranges, so that fitted points do not sit exactly on a clip plane.
@@ -53,6 +54,26 @@ def side_planes(polys: np.ndarray, light_h: np.ndarray) -> np.ndarray:
     centre = polys.mean(axis=1)
     inward = np.where(dot3(n, centre[:, None, :]) + d < 0, -1.0, 1.0)
     return np.concatenate([n * inward[..., None], (d * inward)[..., None]], axis=2)
+
+
+@dataclass(frozen=True)
+class Casters:
+    """What casts shadows in a scene, in the two forms the light-view fits use: per caster
+    object its axis-aligned bounds (K, 2, 3) — orthographic depth ranges, blocker-search slices
+    — and every caster triangle (T, 3, 3), world, float64 — the near planes of perspective
+    views (:func:`perspective_fit`)."""
+
+    bounds: np.ndarray
+    triangles: np.ndarray
+
+    @classmethod
+    def from_triangles(cls, triangles: np.ndarray) -> "Casters":
+        """One caster made of ``triangles`` (T, 3, 3): its bounds are theirs."""
+        tris = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
+        if not len(tris):
+            return cls(np.zeros((0, 2, 3)), tris)
+        pts = tris.reshape(-1, 3)
+        return cls(np.stack([pts.min(0), pts.max(0)])[None], tris)
 
 
 @dataclass
@@ -107,9 +128,12 @@ def orthographic_fit(view: np.ndarray, points: np.ndarray, caster_bounds: np.nda
 def perspective_range(position: np.ndarray, points: np.ndarray, caster_bounds: np.ndarray, axes: np.ndarray,
                       fov: float, near_override: float = 0.0) -> tuple[float, float]:
     """(near, far) of square perspective views from ``position`` along each of ``axes`` (A, 3)
-    with full angle ``fov``: far just past the farthest point; near in front of every caster
-    point a view can see, within [far · MIN_NEAR_OVER_FAR, far · MAX_NEAR_OVER_FAR], unless
-    ``near_override`` > 0 forces it.
+    with full angle ``fov``, from caster *bounding boxes*: far just past the farthest point; near
+    in front of every caster box a view can see, within [far · MIN_NEAR_OVER_FAR, far ·
+    MAX_NEAR_OVER_FAR], unless ``near_override`` > 0 forces it. The shadow maps fit from the
+    triangles instead (:func:`perspective_fit`): a light inside a caster's box gets the floor
+    here. Kept for projective's per-caster images (a light inside the box gets no image there)
+    and as the "before" of ``experiments/light_frusta.py``.
 
     The near plane bounds *axial* depth: a caster point at Euclidean distance d can lie at depth
     d · cos γ only (γ: its angle from the axis). Per caster box two lower bounds of the depth
@@ -130,6 +154,43 @@ def perspective_range(position: np.ndarray, points: np.ndarray, caster_bounds: n
     return (near_override if near_override > 0 else near), far
 
 
+def perspective_fit(position: np.ndarray, points: np.ndarray, casters: Casters, views: list[np.ndarray],
+                    fov: float, near_override: float = 0.0) -> tuple[float, float, list[str]]:
+    """(near, far) shared by the square perspective views ``views`` (world → view matrices)
+    from ``position`` with full angle ``fov`` that cover ``points`` (N, 3), and notes for the run.
+
+    far lies just past the farthest point. near lies just in front of the nearest caster the
+    views can see — every caster triangle clipped to each view's frustum, cut at far
+    (:func:`shadowlab.geometry.caster_depth.nearest_depths`) — within [far · MIN_NEAR_OVER_FAR,
+    far · MAX_NEAR_OVER_FAR]. Casters nearer than the floor far · MIN_NEAR_OVER_FAR (a lamp
+    touching its shade) cannot all be kept without giving up the depth precision of the rest:
+    they are clipped, and a note says how many and how near. ``near_override`` > 0 forces the
+    near plane; casters in front of a forced one are clipped too, with a note."""
+    far = float(np.linalg.norm(points - position, axis=1).max()) * (1 + PAD)
+    tan_half = float(np.tan(np.radians(fov) / 2))
+    depths = np.concatenate([nearest_depths(casters.triangles, v, tan_half, far) for v in views]) \
+        if len(casters.triangles) else np.full(1, np.inf)
+    nearest = float(depths.min())
+    floor, ceiling = far * MIN_NEAR_OVER_FAR, far * MAX_NEAR_OVER_FAR
+    near = min(max(nearest * (1 - PAD), floor), ceiling) if np.isfinite(nearest) else ceiling
+    notes = []
+    if near_override > 0:
+        near = near_override
+    clipped = int(np.sum(depths < near))
+    if clipped:
+        why = (f"the forced near plane {near:.4g}" if near_override > 0 else
+               f"the near plane's floor far x {MIN_NEAR_OVER_FAR:g} = {near:.4g} (far {far:.4g})")
+        notes.append(f"{clipped} caster triangles come nearer to the light than {why}, the nearest at "
+                     f"{nearest:.4g}: their parts in front of it are clipped and cast no shadow in this map")
+    return near, far, notes
+
+
+def cube_view_matrices(position: np.ndarray) -> list[np.ndarray]:
+    """World → view matrices of a cube map's six 90° faces around ``position``, in
+    :data:`CUBE_FACES` order."""
+    return [tf.look_at(position, position + np.array(d, float), np.array(u, float)) for d, u in CUBE_FACES]
+
+
 def perspective_view(position: np.ndarray, direction: np.ndarray, fov: float, near: float, far: float,
                      resolution: int) -> LightView:
     """A square perspective view from ``position`` along ``direction`` with full angle ``fov``."""
@@ -140,5 +201,4 @@ def perspective_view(position: np.ndarray, direction: np.ndarray, fov: float, ne
 def cube_views(position: np.ndarray, near: float, far: float, resolution: int) -> list[LightView]:
     """The six 90° faces of a cube map around ``position``, in :data:`CUBE_FACES` order."""
     proj = tf.perspective(90.0, 1.0, near, far)
-    return [LightView(tf.look_at(position, position + np.array(d, float), np.array(u, float)), proj,
-                      texel_angle=2.0 / resolution) for d, u in CUBE_FACES]
+    return [LightView(view, proj, texel_angle=2.0 / resolution) for view in cube_view_matrices(position)]

@@ -105,12 +105,13 @@ class Light:
         the ray parameter at which the light is reached."""
         raise NotImplementedError
 
-    def shadow_views(self, points: np.ndarray, caster_bounds: np.ndarray, resolution: int, *,
+    def shadow_views(self, points: np.ndarray, casters: frusta.Casters, resolution: int, *,
                      projection: str = "auto", near: float = 0.0) -> tuple[list[frusta.LightView], list[str]]:
         """The views (1, or 6 for a point light's cube) of a ``resolution``² shadow map that
-        covers ``points`` (N, 3) with casters inside ``caster_bounds`` (K, 2, 3), and notes for
-        the run. ``projection`` (auto | cube | frustum) and ``near`` (force a near plane if > 0)
-        apply to the perspective maps of lights at a position."""
+        covers ``points`` (N, 3) with the scene's ``casters``, and notes for the run.
+        ``projection`` (auto | cube | frustum) and ``near`` (force a near plane if > 0) apply to
+        the perspective maps of lights at a position, whose near planes are fitted to the caster
+        triangles they see (:func:`shadowlab.geometry.frusta.perspective_fit`)."""
         raise NotImplementedError
 
     def _shape_uniforms(self) -> dict:
@@ -159,7 +160,7 @@ class PointLight(Light):
         vector_minus_rows(pos, origins, dirs)
         return dirs, tfar
 
-    def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):
+    def shadow_views(self, points, casters, resolution, *, projection="auto", near=0.0):
         """``projection=frustum``: one frustum around the points; ``cube``: six faces; ``auto``:
         the frustum when the points fit in a cone of MAX_POINT_HALF_ANGLE, else the cube."""
         p = self.position
@@ -169,9 +170,8 @@ class PointLight(Light):
         half = float(angles.max()) * (1 + frusta.PAD)
         limit = frusta.MAX_POINT_HALF_ANGLE
         if projection == "cube" or (projection == "auto" and half > limit):
-            axes = np.array([d for d, _ in frusta.CUBE_FACES], np.float64)
-            near, far = frusta.perspective_range(p, points, caster_bounds, axes, 90.0, near)
-            return frusta.cube_views(p, near, far, resolution), []
+            near, far, notes = frusta.perspective_fit(p, points, casters, frusta.cube_view_matrices(p), 90.0, near)
+            return frusta.cube_views(p, near, far, resolution), notes
         notes = []
         if half > limit:
             outside = int(np.sum(angles > limit))
@@ -179,8 +179,8 @@ class PointLight(Light):
                          f"frustum's {limit}; {outside} shadowable pixels lie outside the shadow "
                          f"map and are treated as lit (use projection=cube)")
             half = limit
-        near, far = frusta.perspective_range(p, points, caster_bounds, axis[None], 2 * half, near)
-        return [frusta.perspective_view(p, axis, 2 * half, near, far, resolution)], notes
+        near, far, fit_notes = frusta.perspective_fit(p, points, casters, [tf.look_along(p, axis)], 2 * half, near)
+        return [frusta.perspective_view(p, axis, 2 * half, near, far, resolution)], notes + fit_notes
 
     def _shape_uniforms(self):
         return {"light_position": _vec(self.position)}
@@ -210,11 +210,11 @@ class DirectionalLight(Light):
         return _constant_rows((-self.direction).astype(np.float32), origins), np.full(len(origins), T_INFINITE,
                                                                                        np.float32)
 
-    def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):
+    def shadow_views(self, points, casters, resolution, *, projection="auto", near=0.0):
         """Orthographic along the light, sideways fitted to the points, in depth from the
-        nearest caster to the farthest point."""
+        nearest caster box to the farthest point."""
         view = tf.look_along(points.mean(axis=0), self.direction)
-        return [frusta.orthographic_fit(view, points, caster_bounds, resolution)], []
+        return [frusta.orthographic_fit(view, points, casters.bounds, resolution)], []
 
     def _shape_uniforms(self):
         return {"light_direction": _vec(self.direction)}
@@ -249,11 +249,12 @@ class SpotLight(PointLight):
             return np.clip((cos_phi - cos_o) / width, 0.0, 1.0)
         return (cos_phi >= cos_o).astype(np.float64)
 
-    def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):
+    def shadow_views(self, points, casters, resolution, *, projection="auto", near=0.0):
         """One perspective view along the cone's axis with the cone's full angle α."""
         fov = min(self.alpha * (1 + frusta.PAD), frusta.MAX_FOV)
-        near, far = frusta.perspective_range(self.position, points, caster_bounds, self.direction[None], fov, near)
-        return [frusta.perspective_view(self.position, self.direction, fov, near, far, resolution)], []
+        view = tf.look_along(self.position, self.direction)
+        near, far, notes = frusta.perspective_fit(self.position, points, casters, [view], fov, near)
+        return [frusta.perspective_view(self.position, self.direction, fov, near, far, resolution)], notes
 
     def _shape_uniforms(self):
         return {"light_position": _vec(self.position), "light_direction": _vec(self.direction),
@@ -310,11 +311,11 @@ class TargetDirectLight(Light):
         dirs = _constant_rows((-self.direction).astype(np.float32), origins)
         return dirs, ((points - self.position) @ self.direction).astype(np.float32)
 
-    def shadow_views(self, points, caster_bounds, resolution, *, projection="auto", near=0.0):
+    def shadow_views(self, points, casters, resolution, *, projection="auto", near=0.0):
         """Orthographic from the light's disc along its axis, sideways within radius R of the
         axis, near plane not behind the disc."""
         view = tf.look_along(self.position, self.direction)
-        return [frusta.orthographic_fit(view, points, caster_bounds, resolution, radius=self.R, near_min=0.0)], []
+        return [frusta.orthographic_fit(view, points, casters.bounds, resolution, radius=self.R, near_min=0.0)], []
 
     def _shape_uniforms(self):
         return {"light_position": _vec(self.position), "light_direction": _vec(self.direction),

@@ -143,7 +143,7 @@ class IrregularZBuffer(Technique):
         # the grid covers every ray's surface point (the shadow map's classic fit to the receivers,
         # here to the samples themselves: sub-pixel samples reach past the pixel centres)
         covered = points if len(points) else frame.scene.bounds()
-        faces, notes = slot.light.shadow_views(covered, frame.caster_bounds(), self.resolution,
+        faces, notes = slot.light.shadow_views(covered, frame.casters(), self.resolution,
                                                projection=self.projection, near=0.0)
         self.notes.extend(notes)
         self.notes.append("conservative coverage: geometry-shader bounding box grown by "

@@ -93,7 +93,7 @@ def fit_light_views(frame, slot, resolution: int, projection: str = "auto", near
         receivers = frame.compact_position[slot.evaluated]
     if len(receivers) == 0:
         receivers = frame.scene.bounds()  # nothing to answer: any valid frustum will do
-    return slot.light.shadow_views(receivers, frame.caster_bounds(), resolution, projection=projection,
+    return slot.light.shadow_views(receivers, frame.casters(), resolution, projection=projection,
                                    near=near_override)
 
 

@@ -69,7 +69,7 @@ import numpy as np
 from .. import gl, glstate
 from ..geometry import frusta
 from ..geometry.frusta import LightView
-from ..geometry.transforms import BIAS, look_at
+from ..geometry.transforms import BIAS, look_along, look_at
 from ..scene.area_lights import RectLight
 from ..glstate import PassState
 from .base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TuneRange
@@ -127,7 +127,7 @@ def unsigned_bias_target(signed=SIGNED_BIAS_TARGET) -> tuple[float, float, float
     return tuple(sum(comb(k, j) * m[j] for j in range(k + 1)) / 2.0 ** k for k in range(1, 5))
 
 
-def normal_view(light, receivers: np.ndarray, caster_bounds: np.ndarray, resolution: int) \
+def normal_view(light, receivers: np.ndarray, casters: frusta.Casters, resolution: int) \
         -> tuple[LightView, list[str]]:
     """A square perspective view from a one-sided light's centre along its normal, wide enough
     for the ``receivers`` (M, 3) in front of the light (their largest angle from the normal,
@@ -157,8 +157,8 @@ def normal_view(light, receivers: np.ndarray, caster_bounds: np.ndarray, resolut
         notes.append(f"moment_soft: receivers lie up to {half:.1f} degrees from the light's normal, more than the "
                      f"map's {frusta.MAX_POINT_HALF_ANGLE}; {outside} of them lie outside the map and are treated as lit")
         half = frusta.MAX_POINT_HALF_ANGLE
-    near, far = frusta.perspective_range(p, d[front] + p, caster_bounds, axis[None], 2 * half)
-    return frusta.perspective_view(p, axis, 2 * half, near, far, resolution), notes
+    near, far, fit_notes = frusta.perspective_fit(p, d[front] + p, casters, [look_along(p, axis)], 2 * half)
+    return frusta.perspective_view(p, axis, 2 * half, near, far, resolution), notes + fit_notes
 
 
 def aligned_face(face: LightView, edge: np.ndarray) -> LightView:
@@ -260,7 +260,7 @@ class MomentSoftShadows(TexelMapping, Technique):
         # light's map looks along its normal (normal_view), a sphere's along the fitted axis.
         receivers = frame.compact_position[slot.evaluated]
         if light.one_sided:
-            face, notes = normal_view(light, receivers, frame.caster_bounds(), res)
+            face, notes = normal_view(light, receivers, frame.casters(), res)
         else:
             faces, notes = fit_light_views(frame, slot, res, "frustum", 0.0, "receivers")
             face = faces[0]

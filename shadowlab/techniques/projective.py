@@ -96,7 +96,7 @@ def fit_caster_view(light, bounds: np.ndarray, resolution: int) -> tuple[LightVi
     note). A light inside the box gets no view (None and a note): no frustum encloses the box."""
     corners = box_corners(bounds[None])
     if light.at_infinity:
-        views, notes = light.shadow_views(corners, bounds[None], resolution)
+        views, notes = light.shadow_views(corners, frusta.Casters(bounds[None], np.zeros((0, 3, 3))), resolution)
         return views[0], (notes[0] if notes else None)
     p = np.asarray(light.position, np.float64)
     if box_distance(p, bounds[None])[0] == 0.0:

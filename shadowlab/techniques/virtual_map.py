@@ -232,7 +232,7 @@ class VirtualMap(TexelMapping, Technique):
             faces, notes = self._clipmap_views(frame, slot)
         elif self.fit == "scene":
             # the whole scene's bounds: a view that does not follow the camera (cacheable pages)
-            faces, notes = slot.light.shadow_views(box_corners(frame.scene.bounds()[None]), frame.caster_bounds(),
+            faces, notes = slot.light.shadow_views(box_corners(frame.scene.bounds()[None]), frame.casters(),
                                                    self.virtual_resolution, projection=self.projection)
         else:
             faces, notes = fit_light_views(frame, slot, self.virtual_resolution, self.projection)
@@ -338,7 +338,7 @@ class VirtualMap(TexelMapping, Technique):
         if not isinstance(slot.light, DirectionalLight):
             raise TechniqueError(f"{self.name}: fit=clipmap is for directional lights (UE5's clipmap); this "
                                  f"{type(slot.light).__name__} needs fit=shadowable or fit=scene")
-        faces, notes = slot.light.shadow_views(box_corners(frame.scene.bounds()[None]), frame.caster_bounds(),
+        faces, notes = slot.light.shadow_views(box_corners(frame.scene.bounds()[None]), frame.casters(),
                                                self.virtual_resolution)
         scene = faces[0]
         #: fit=scene's view: the light space every level lives in, and its depth rows.

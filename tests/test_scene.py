@@ -41,6 +41,38 @@ def test_shipped_scenes_load():
         assert s.lights and s.objects
 
 
+def _nearest_caster(scene, light) -> float:
+    """Distance from a light's position to the nearest point of any casting triangle."""
+    best = np.inf
+    for o in scene.objects:
+        if o.casts:
+            tris = o.vertices[o.faces]
+            q = trimesh.triangles.closest_point(tris, np.repeat(light.position[None], len(tris), 0))
+            best = min(best, float(np.linalg.norm(q - light.position, axis=1).min()))
+    return best
+
+
+def test_the_lamp_scenes_hold_their_hard_cases():
+    """Issue 35's scenes keep what they test: in sm_room_lamp both lamps stand inside the bounding
+    box of the room, one mesh of closed outward boxes that casts and receives, with no caster
+    within 0.5 m; in sm_lamp_contact each lamp has a caster under 1 cm away (5 mm)."""
+    room = load_scene("sm_room_lamp")
+    assert len(room.objects) == 1 and room.objects[0].casts and room.objects[0].receives
+    mesh = room.objects[0]
+    lo, hi = mesh.vertices.min(0), mesh.vertices.max(0)
+    assert {l.type_name for l in room.lights} == {"spot", "point"}
+    for light in room.lights:
+        assert np.all(lo < light.position) and np.all(light.position < hi)
+        assert _nearest_caster(room, light) > 0.5
+    parts = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).split(only_watertight=False)
+    assert len(mesh.faces) == 336 and len(parts) == 16
+    assert all(p.is_watertight and p.is_winding_consistent and p.volume > 0 for p in parts)
+    contact = load_scene("sm_lamp_contact")
+    assert len(contact.lights) == 2
+    for light in contact.lights:
+        assert 0.004 < _nearest_caster(contact, light) < 0.006
+
+
 def test_good_scene_and_transforms(tmp_path):
     s = load_scene(write(tmp_path, GOOD))
     box = s.objects[1]

@@ -2,9 +2,11 @@
 // The map is an atlas of u_faces faces (1, or 6 for a point light's cube); face f has the light
 // matrix u_light_matrix[f] = bias · projection · view (classic formulation: Everitt, Rege &
 // Cebenoyan 2001) and occupies u_face_rect[f] = (x0, y0, width, height) of the atlas, in texels.
-// Depth offsets: constant u_bias (window depth), slope-scaled u_slope_scale · (depth change over
-// one texel on the receiver's plane), and normal offset (the lookup point moved along the normal
-// by u_normal_offset texels). u_depth_comparison chooses what each tap compares against:
+// Depth offsets: constant u_bias (window depth), constant u_bias_world (a world distance: the
+// receiver moved that far towards the light, converted to window depth at the receiver, so that
+// it means the same distance whatever the near plane), slope-scaled u_slope_scale · (depth change
+// over one texel on the receiver's plane), and normal offset (the lookup point moved along the
+// normal by u_normal_offset texels). u_depth_comparison chooses what each tap compares against:
 // - DEPTH_COMPARISON_POINT: the point's own window depth (every variant but the two below);
 // - DEPTH_COMPARISON_RECEIVER_PLANE (Isidoro 2006, "Shadow mapping: GPU-based tips and
 //   techniques", GDC: receiver plane depth bias): the receiver's window depth extrapolated along
@@ -59,6 +61,7 @@ uniform int u_faces;
 uniform mat4 u_light_matrix[MAX_FACES];
 uniform vec4 u_face_rect[MAX_FACES];
 uniform float u_bias;
+uniform float u_bias_world;              // world distance towards the light (0: none)
 uniform float u_slope_scale;
 uniform float u_normal_offset;           // texels
 uniform float u_texel_world;             // orthographic maps: world size of a texel
@@ -106,6 +109,15 @@ vec3 from_map(int f, vec3 m) {
     return w.xyz / w.w;
 }
 
+// The window-depth change of face f's map when the world point X moves by delta (exact, no
+// cancellation between two nearly equal depths): d(X + δ) − d(X) = (m.z s.w − s.z m.w) /
+// (s.w (s.w + m.w)), s = M X, m = M δ.
+float window_change(int f, vec3 X, vec3 delta) {
+    vec4 s = u_light_matrix[f] * vec4(X, 1.0);
+    vec4 m = u_light_matrix[f] * vec4(delta, 0.0);
+    return (m.z * s.w - s.z * m.w) / (s.w * (s.w + m.w));
+}
+
 // Adaptive depth bias (Dou et al. 2014) of the receiver point Q (normal N, map coordinates c)
 // at the tap whose texel centre is uv: the window depth of Q minus that of X, the intersection
 // of the light's ray through the texel centre with Q's tangent plane (the deepest a false
@@ -127,13 +139,8 @@ float adaptive_bias(int f, vec3 Q, vec3 N, vec3 c, vec2 uv) {
             depth = h.z / h.w;
         }
     }
-    // Epsilon: X moved by eps (world) towards the light along the ray, as a window-depth change:
-    // d(X + δ) − d(X) = (m.z s.w − s.z m.w) / (s.w (s.w + m.w)), s = M X, m = M δ (exact, no
-    // cancellation between two nearly equal depths).
-    vec3 delta = -normalize(ray) * (u_adaptive_epsilon * u_scene_extent);
-    vec4 s = u_light_matrix[f] * vec4(X, 1.0);
-    vec4 m = u_light_matrix[f] * vec4(delta, 0.0);
-    float epsilon = -(m.z * s.w - s.z * m.w) / (s.w * (s.w + m.w));
+    // Epsilon: X moved by eps (world) towards the light along the ray, as a window-depth change.
+    float epsilon = -window_change(f, X, -normalize(ray) * (u_adaptive_epsilon * u_scene_extent));
     return (c.z - depth) + epsilon;
 }
 
@@ -156,7 +163,9 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
         else
             extra = u_slope_scale * max(abs(edge.x), abs(edge.y));  // edge-on to the light
     }
-    float bias = u_bias + extra;
+    // The world bias: Q moved u_bias_world towards the light, in window depth at Q.
+    float world = u_bias_world > 0.0 ? -window_change(f, Q, light_dir_to(Q) * u_bias_world) : 0.0;
+    float bias = u_bias + world + extra;
     float ref = c.z - bias;
     vec2 atlas = atlas_texel(f, c.xy);
 #ifdef FILTER_HW
@@ -178,12 +187,12 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
             ivec2 tap = clamp(t + ivec2(dx, dy), lo, hi);
 #endif
             // The tap's receiver depth and bias beyond u_bias: ref = receiver - (u_bias + tap_extra).
-            float receiver = c.z, tap_extra = extra, tap_ref = ref;
+            float receiver = c.z, tap_extra = world + extra, tap_ref = ref;
             if (u_depth_comparison == DEPTH_COMPARISON_RECEIVER_PLANE) {
                 receiver = c.z + dot(dz, texel_centre_uv(f, tap) - c.xy);
                 tap_ref = receiver - (u_bias + tap_extra);
             } else if (u_depth_comparison == DEPTH_COMPARISON_ADAPTIVE) {
-                tap_extra = adaptive_bias(f, Q, N, c, texel_centre_uv(f, tap));
+                tap_extra = world + adaptive_bias(f, Q, N, c, texel_centre_uv(f, tap));
                 tap_ref = receiver - (u_bias + tap_extra);
             }
             float stored = texelFetch(u_map, tap, 0).r;

@@ -25,7 +25,7 @@ PER_TAP = ("receiver_plane", "adaptive")
 
 
 def _rows(lab, scene, variants, extra=""):
-    specs = {v: f"shadow_map:variant={v},bias={TINY}{extra}" for v in variants}
+    specs = {v: f"shadow_map:variant={v},bias={TINY},bias_space=window{extra}" for v in variants}
     df = lab.rows(scene, list(specs.values()), SMALL)
     return {v: df.loc[s] for v, s in specs.items()}
 

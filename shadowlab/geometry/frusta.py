@@ -92,6 +92,11 @@ class LightView:
         """Projection · view."""
         return self.proj @ self.view
 
+    def near_far(self) -> tuple[float, float]:
+        """(near, far) of a perspective projection (world distances along the view's axis)."""
+        p = self.proj
+        return float(p[2, 3] / (p[2, 2] - 1.0)), float(p[2, 3] / (p[2, 2] + 1.0))
+
     @property
     def depth_range(self) -> float:
         """far − near of the projection (world units along the view axis)."""

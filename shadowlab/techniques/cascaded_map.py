@@ -364,11 +364,17 @@ class CascadedShadowMap(DepthMapTechnique):
         depth = -tf.transform_points(self.frame.view, np.asarray(points, np.float64))[:, 2]
         return np.searchsorted(self.splits[1:-1], depth, side="left").astype(int)
 
+    def bias_window_world(self) -> tuple[float, float]:
+        """The constant bias, window depth of each cascade."""
+        return float(self.bias), 0.0
+
     def stats(self) -> dict:
         """Atlas memory, cascades, passes (one depth pass per cascade + the lookup), the split
         depths and each cascade's world texel size (strings), and cascade 0's texel size."""
         faces = self.atlas.faces
+        median, largest = self.bias_at_receivers()
         return {"memory_bytes": self.map.nbytes, "cascades": len(faces), "faces": len(faces),
+                "bias_world_median": median, "bias_world_max": largest,
                 "passes": len(faces) + 1, "depth_range": faces[0].depth_range,
                 "splits": " ".join(f"{z:.6g}" for z in self.splits),
                 "cascade_texel_world": " ".join(f"{f.texel_world:.6g}" for f in faces),

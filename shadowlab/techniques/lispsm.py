@@ -127,5 +127,6 @@ class LiSPSM(ComparisonVariants, DepthMapTechnique):
         ``gamma_deg``; ``depth_range`` is the map's extent along the light (world units) and
         ``texel_world`` the median world texel size over the covered receivers."""
         out = super().stats()
-        out.update(depth_range=self._depth_range, n_used=self.n_used, gamma_deg=self.gamma_deg)
+        out.update(depth_range=self._depth_range, n_used=self.n_used, gamma_deg=self.gamma_deg,
+                   near_plane=None, far_plane=None)  # the warp's planes are not the light's
         return out

@@ -274,6 +274,31 @@ class TexelMapping:
         return map_texel_coordinates(self.atlas.faces, self.atlas.rects, self.face_index, points, reference)
 
 
+# --------------------------------------------------------------------------- the bias in world units
+
+def window_to_world(light_matrix: np.ndarray, points: np.ndarray, to_light: np.ndarray,
+                    window: np.ndarray) -> np.ndarray:
+    """Float64 (N,): the distance each world point of ``points`` (N, 3) moves towards the light
+    (unit ``to_light`` (N, 3)) to lower its window depth in the map of ``light_matrix`` (BIAS ·
+    projection · view, (4, 4), or (N, 4, 4) per point) by ``window`` (N,) — the world size of a
+    window-depth bias at each receiver. Exact for any projective map: with s = M X and m = M δ̂,
+    moving t along δ̂ changes window depth by Δ = t (m.z s.w − s.z m.w) / (s.w (s.w + t m.w)),
+    solved for t at Δ = −window. ``shaders/shadow_lookup.glsl``'s ``window_change`` is the
+    forward form. +inf where no distance does (the depth cannot fall that far)."""
+    M = np.asarray(light_matrix, np.float64)
+    X = np.c_[np.asarray(points, np.float64), np.ones(len(points))]
+    D = np.c_[np.asarray(to_light, np.float64), np.zeros(len(points))]
+    if M.ndim == 2:
+        s, m = X @ M.T, D @ M.T
+    else:
+        s, m = np.einsum("nij,nj->ni", M, X), np.einsum("nij,nj->ni", M, D)
+    delta = -np.asarray(window, np.float64)
+    den = m[:, 2] * s[:, 3] - s[:, 2] * m[:, 3] - delta * s[:, 3] * m[:, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = delta * s[:, 3] ** 2 / den
+    return np.where(t >= 0, t, np.inf)
+
+
 # --------------------------------------------------------------------------- depth-map techniques
 
 #: One step of each depth format: what "the same surface" means when peeling the second layer.
@@ -282,7 +307,10 @@ class TexelMapping:
 #: ulps between passes, so a layer must lie 4 ulps behind the first to count as a new surface.
 DEPTH_STEP = {16: 1.0 / 65535, 24: 1.0 / 16777215, 32: 2.0 ** -22}
 #: The cost figures of a depth-map technique and how they combine over light samples.
-DEPTH_MAP_STATS = {"memory_bytes": MAX, "faces": FIRST, "passes": SUM, "depth_range": FIRST, "texel_world": FIRST}
+DEPTH_MAP_STATS = {"memory_bytes": MAX, "faces": FIRST, "passes": SUM, "depth_range": FIRST, "texel_world": FIRST,
+                   "near_plane": FIRST, "far_plane": FIRST, "bias_world_median": FIRST, "bias_world_max": MAX}
+#: Receivers sampled (evenly, in pixel order) for the world size of the bias at the receivers.
+BIAS_WORLD_SAMPLES = 20000
 
 
 class DepthMapTechnique(TexelMapping, Technique):
@@ -440,15 +468,44 @@ class DepthMapTechnique(TexelMapping, Technique):
         per = 4 if radius is None else (2 * radius + 1) ** 2
         return self.taps_work(counted, {"lookup": GBUFFER_TAPS + per, "resolve": 2})
 
+    def bias_window_world(self) -> tuple[float, float]:
+        """(window, world): the constant bias the lookup applies, as window depth and as a world
+        distance towards the light (0 for what it does not use); (0, 0) without a constant bias.
+        The subclasses with a bias override it."""
+        return 0.0, 0.0
+
+    def bias_at_receivers(self) -> tuple[float, float] | tuple[None, None]:
+        """(median, max) world distance the constant bias amounts to at the evaluated receivers
+        (up to :data:`BIAS_WORLD_SAMPLES` of them): what a window-depth bias means in metres once
+        the near plane has compressed the depth; (None, None) without receivers or bias."""
+        window, world = self.bias_window_world()
+        pts = self.frame.compact_position[self.slot.evaluated]
+        if not len(pts) or (window <= 0 and world <= 0):
+            return None, None
+        pts = pts[:: max(1, len(pts) // BIAS_WORLD_SAMPLES)]
+        dist = np.full(len(pts), float(world))
+        if window > 0:
+            to_light, _ = self.light.to_light(pts)
+            face = self.face_index(pts)
+            mats = np.stack([BIAS @ f.view_proj for f in self.atlas.faces])[face]
+            dist = dist + window_to_world(mats, pts, to_light, np.full(len(pts), window))
+        finite = dist[np.isfinite(dist)]
+        return (float(np.median(finite)), float(finite.max())) if len(finite) else (float("inf"), float("inf"))
+
     def stats(self) -> dict:
-        """Map memory (every layer), faces, passes per frame, the first face's depth range and
-        world texel size."""
+        """Map memory (every layer), faces, passes per frame, the first face's depth range,
+        near and far planes (perspective maps; world, along its axis) and world texel size, and
+        the world size of the constant bias at the receivers (median and max)."""
         two_layer = len(self.layers) == 3
         depth_passes = len(self.atlas.faces) * (2 if two_layer else 1)
+        face = self.atlas.faces[0]
+        near, far = face.near_far() if list(face.proj[3]) == [0.0, 0.0, -1.0, 0.0] else (None, None)
+        median, largest = self.bias_at_receivers()
         return {"memory_bytes": sum(layer.nbytes for layer in self.layers), "faces": len(self.atlas.faces),
                 "passes": depth_passes + (1 if two_layer else 0) + 1,  # depth (and peel), resolve, lookup
-                "depth_range": self.atlas.faces[0].depth_range,
-                "texel_world": float(self.atlas.faces[0].texel_world) or None}
+                "depth_range": face.depth_range, "near_plane": near, "far_plane": far,
+                "texel_world": float(face.texel_world) or None,
+                "bias_world_median": median, "bias_world_max": largest}
 
 
 # --------------------------------------------------------------------------- soft shadows: parallel planes

@@ -95,9 +95,16 @@ COMPARISON_PARAMS = {
     "resolution": Param(2048, "shadow map width and height in texels (per cube face)", min=16, max=16384,
                         # powers of two from coarse to a cube atlas's practical limit (3 x 8192 wide)
                         tune=TuneRange(256, 8192, log=True)),
-    "bias": Param(0.002, "constant depth bias in window-depth units [0, 1] (dual: the offset cap)",
-                  # acne below ~1e-6 of the depth range even at 32 bits; 0.05 already detaches every contact
+    "bias": Param(0.002, "constant depth bias: with bias_space=world a distance towards the light, as a fraction "
+                         "of the scene's extent; with window, window-depth units [0, 1] (dual: the offset cap, "
+                         "window depth)",
+                  # acne below ~1e-6 of the depth range (or extent) even at 32 bits; 0.05 detaches every contact
                   min=0.0, max=1.0, tune=TuneRange(1e-6, 0.05, log=True)),
+    "bias_space": Param("world", "what bias measures: world (bias x the scene's extent, a distance moved towards the "
+                                 "light at each receiver and converted to window depth there: the same distance "
+                                 "whatever the near plane) or window (window depth, the seed's and the literature's "
+                                 "form, which a near plane close to the light turns into metres)",
+                        choices=("world", "window")),
     "depth_bits": Param(24, "depth format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
     "variant": Param("constant", "depth comparison", choices=VARIANTS),
     "slope_scale": Param(2.0, "slope variant: multiple of the receiver's depth change over one texel",
@@ -146,17 +153,28 @@ class ComparisonVariants:
         return self.variant == "second_depth", ((float(self.slope_scale), float(self.offset_units))
                                                 if hardware else None)
 
+    def bias_window_world(self) -> tuple[float, float]:
+        """The constant bias as (window depth, world distance): ``bias`` in its ``bias_space``
+        (world: × the scene's extent); none for the variants without one."""
+        if self.variant in UNBIASED_VARIANTS:
+            return 0.0, 0.0
+        if self.bias_space == "world":
+            return 0.0, float(self.bias) * float(self.frame.scene.extent())
+        return float(self.bias), 0.0
+
     def comparison_uniforms(self) -> dict:
         """The variant's bias terms, the first face's texel size, the PCF radius, the per-tap
         comparison (receiver plane, adaptive) and what the adaptive bias needs (the inverse light
         matrices, the epsilon and the scene's extent)."""
         face = self.atlas.faces[0]
+        window, world = self.bias_window_world()
         return {
             "u_depth_comparison": PER_TAP_VARIANTS.get(self.variant, 0),
             "u_light_matrix_inverse": self.atlas.inverse_light_matrices(),
             "u_adaptive_epsilon": float(self.adaptive_epsilon) if self.variant == "adaptive" else 0.0,
             "u_scene_extent": float(self.frame.scene.extent()),
-            "u_bias": 0.0 if self.variant in UNBIASED_VARIANTS else float(self.bias),
+            "u_bias": window,
+            "u_bias_world": world,
             "u_slope_scale": float(self.slope_scale) if self.variant == "slope" and not self.hardware_offset else 0.0,
             "u_normal_offset": float(self.normal_offset) if self.variant == "normal_offset" else 0.0,
             "u_texel_world": float(face.texel_world), "u_texel_angle": float(face.texel_angle),

@@ -50,7 +50,8 @@ import numpy as np
 from .. import metrics
 from ..pipeline import Evaluator, Measurement, measure
 from ..techniques import Technique, from_spec
-from ..techniques.maps import FILTERS, DepthMapTechnique
+from ..geometry.transforms import BIAS
+from ..techniques.maps import FILTERS, DepthMapTechnique, window_to_world
 
 #: The objectives :class:`BiasCurve` computes for every bias (sums over the evaluated pixels).
 EXACT_OBJECTIVES = ("error_rate", "false_shadow_rate", "false_lit_rate", "visibility_mae")
@@ -117,6 +118,41 @@ def tap_thresholds(receiver: np.ndarray, stored: np.ndarray, extra: np.ndarray,
     out = _from_ordered(hi)
     out[always] = -np.inf
     out[never] = np.inf
+    return out
+
+
+def world_thresholds(tech: DepthMapTechnique, thresholds: np.ndarray, normal_offset: float) -> np.ndarray:
+    """Float32 (taps, H·W): window-depth tap ``thresholds`` (rendered with no world bias) as
+    thresholds of ``bias`` with ``bias_space=world`` — the distance towards the light, as a
+    fraction of the scene's extent, that lowers each pixel's window depth by its threshold
+    (:func:`shadowlab.techniques.maps.window_to_world` at the lookup point, the G-buffer point
+    moved ``normal_offset`` texels along its normal as the lookup moves it). Thresholds ≤ 0 (lit
+    without a bias) and ±inf stay as they are.
+
+    Not exact to the bit, unlike the window form: the shader converts the world bias to window
+    depth in float32 at each receiver and the inverse here is float64, so a pixel whose
+    threshold lies within a rounding of the chosen bias can differ; the emulation check
+    (:attr:`ExactBiasTune.emulation_mismatch`) counts them."""
+    frame, light = tech.frame, tech.light
+    pts = frame.position.reshape(-1, 3)
+    normals = frame.to_image(frame.compact_normal, dtype=np.float64).reshape(-1, 3)
+    ok = np.isfinite(pts).all(axis=1)
+    out = np.array(thresholds, np.float32, copy=True)
+    P, N = pts[ok], normals[ok]
+    to_light, dist = light.to_light(P)
+    N = N * np.where(np.einsum("ij,ij->i", N, to_light) < 0, -1.0, 1.0)[:, None]
+    face = tech.atlas.faces[0]
+    texel = face.texel_world if face.texel_world > 0 else face.texel_angle * dist
+    Q = P + N * (normal_offset * np.asarray(texel))[..., None]
+    to_light, _ = light.to_light(Q)
+    mats = np.stack([BIAS @ f.view_proj for f in tech.atlas.faces])[tech.face_index(Q)]
+    extent = float(frame.scene.extent())
+    for k in range(len(out)):
+        t = out[k, ok].astype(np.float64)
+        convert = np.isfinite(t) & (t > 0)
+        world = np.array(t)
+        world[convert] = window_to_world(mats[convert], Q[convert], to_light[convert], t[convert]) / extent
+        out[k, ok] = world.astype(np.float32)
     return out
 
 
@@ -351,11 +387,18 @@ def exact_bias_tune(evaluator: Evaluator, spec: str, light: int = 0, lo: float =
         for value in values:
             t0 = time.perf_counter()
             uniforms = {GRID_UNIFORMS[grid_param]: float(value)} if grid_param else {}
+            world = getattr(tech, "bias_space", "window") == "world"
+            if world:
+                uniforms["u_bias_world"] = 0.0  # window thresholds first, converted below
             terms = tech.comparison_terms(taps, uniforms)
             seconds["terms"] = seconds.get("terms", 0.0) + time.perf_counter() - t0
             t0 = time.perf_counter()
             flat = terms.reshape(len(taps), -1, 4)
             th = tap_thresholds(flat[..., 0], flat[..., 1], flat[..., 2], flat[..., 3] != 0)
+            if world:
+                offset = float(value) if grid_param == "normal_offset" else \
+                    (float(tech.normal_offset) if tech.variant == "normal_offset" else 0.0)
+                th = world_thresholds(tech, th, offset)
             curve = BiasCurve.build(th[:, ev.ravel()], truth[ev], lo, hi)
             seconds["curves"] = seconds.get("curves", 0.0) + time.perf_counter() - t0
             points.append(GridPoint({grid_param: value} if grid_param else {}, th, curve))

@@ -13,6 +13,9 @@ casters, the same offset ray origins and shadow rays. Each ray is intersected,
 then restarted just past its hit (a step of :data:`STEP_SCALE` × the scene's extent along the
 ray) until it has met two distinct objects or reaches the light; a closed caster is entered
 and left (two hits, one object). An area light counts as its centre, like every hard technique.
+The first of those intersections also gives, free, each point's distance to its first caster
+(:func:`first_occluder_distance`): the casters' height above their shadows, which the
+evaluator compares a shadow map's bias with (issue 35).
 """
 from __future__ import annotations
 

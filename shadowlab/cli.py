@@ -330,9 +330,26 @@ def _cmd_compare(args) -> int:
     table = format_table(pd.read_csv(out / "metrics.csv"), "summary")
     with pd.option_context("display.width", 200, "display.max_colwidth", 60):
         print(table.to_string(index=False))
+    _print_notes(out / "run.json")
     print(f"run directory: {out.resolve()}")
     print(f"report: {(out / 'report.html').resolve()}")
     return 0
+
+
+def _print_notes(record_path) -> None:
+    """Print a run's notes (run.json's ``notes``: fallbacks, ignored parameters, degenerate
+    configurations) under the summary table, so that a result that draws no shadow is said on the
+    terminal too, not only on the page."""
+    import json
+
+    try:
+        notes = json.loads(record_path.read_text()).get("notes") or []
+    except (OSError, ValueError):
+        return
+    if notes:
+        print("notes:")
+        for n in notes:
+            print(f"- {n}")
 
 
 def _cmd_animate(args) -> int:

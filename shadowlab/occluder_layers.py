@@ -13,6 +13,9 @@ casters, the same offset ray origins and shadow rays. Each ray is intersected,
 then restarted just past its hit (a step of :data:`STEP_SCALE` × the scene's extent along the
 ray) until it has met two distinct objects or reaches the light; a closed caster is entered
 and left (two hits, one object). An area light counts as its centre, like every hard technique.
+The first of those intersections also gives, free, each point's distance to its first caster
+(:func:`first_occluder_distance`): the casters' height above their shadows, which the
+evaluator compares a shadow map's bias with (issue 35).
 """
 from __future__ import annotations
 
@@ -39,6 +42,21 @@ def occluder_layers(frame, slot) -> np.ndarray:
     width), row 0 = top; 0 on pixels not evaluated. ``slot``: a
     :class:`~shadowlab.frame.LightSlot` or a scene light's index. Casters are the scene's
     objects with ``casts``."""
+    return _layers_and_distances(frame, slot)[0]
+
+
+def first_occluder_distance(frame, slot) -> np.ndarray:
+    """Per pixel, the world distance along the shadow ray from the evaluated point (its offset
+    ray origin) to the first caster it meets on the way to the slot's light (its centre for an
+    area light): the casters' height above that point, which a shadow map's bias must stay
+    below. Float32 (height, width), row 0 = top; NaN where the ray meets no caster or the pixel
+    is not evaluated. Free beside :func:`occluder_layers`: the first intersection of its rays
+    (computed and cached together)."""
+    return _layers_and_distances(frame, slot)[1]
+
+
+def _layers_and_distances(frame, slot) -> tuple[np.ndarray, np.ndarray]:
+    """(:func:`occluder_layers`, :func:`first_occluder_distance`), computed once per frame and light."""
     slot = frame.as_slot(slot)
     per_frame = _CACHE.setdefault(frame, {})
     key = id(slot.light)
@@ -47,15 +65,17 @@ def occluder_layers(frame, slot) -> np.ndarray:
     return per_frame[key][1]
 
 
-def _count_layers(frame, slot) -> np.ndarray:
-    """:func:`occluder_layers`, computed."""
+def _count_layers(frame, slot) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`occluder_layers` and :func:`first_occluder_distance`, computed."""
     cap = 2  # a ray stops at its second distinct object: all the bleeding region needs
     light = slot.light
     evaluated = slot.evaluated
     out = np.zeros(len(evaluated), np.int8)
+    distance = np.full(len(evaluated), np.nan, np.float32)
     casters = [i for i, o in enumerate(frame.scene.objects) if o.casts]
     if not casters or not evaluated.any():
-        return frame.to_image(out, fill=0, dtype=np.int8)
+        return (frame.to_image(out, fill=0, dtype=np.int8),
+                frame.to_image(distance, fill=np.nan, dtype=np.float32))
     scene = caster_scene(frame)
     origins = offset_origins(frame)[evaluated].astype(np.float64)
     dirs, tfar = light.shadow_rays(origins.astype(np.float32), frame.compact_position[evaluated])
@@ -65,6 +85,7 @@ def _count_layers(frame, slot) -> np.ndarray:
     first = np.full(len(origins), -1, np.int64)  # the first object met, per ray
     count = np.zeros(len(origins), np.int8)
     live = np.arange(len(origins))
+    first_t = np.full(len(origins), np.nan)  # the first hit's ray parameter, per ray
     for _ in range(MAX_HITS):
         if len(live) == 0:
             break
@@ -77,7 +98,10 @@ def _count_layers(frame, slot) -> np.ndarray:
         new = met & (obj != first[live])
         count[live[new]] += 1
         first[live[new & (first[live] < 0)]] = obj[new & (first[live] < 0)]
+        fresh = met & np.isnan(first_t[live])
+        first_t[live[fresh]] = t0[live[fresh]] + hit["tfar"][fresh].astype(np.float64)
         t0[live] += np.where(met, hit["tfar"].astype(np.float64) + step[live], 0.0)
         live = live[met & (count[live] < cap)]
     out[evaluated] = np.minimum(count, cap)
-    return frame.to_image(out, fill=0, dtype=np.int8)
+    distance[evaluated] = first_t * np.linalg.norm(dirs, axis=1)  # rays are unnormalised
+    return (frame.to_image(out, fill=0, dtype=np.int8), frame.to_image(distance, fill=np.nan, dtype=np.float32))

@@ -30,7 +30,7 @@ import pandas as pd
 
 from . import gl, light_sampling, memory, metrics, texel_footprint, timing, work
 from .frame import Frame, LightSlot
-from .occluder_layers import occluder_layers
+from .occluder_layers import first_occluder_distance, occluder_layers
 from .scene import load_scene
 from .techniques import Technique, TechniqueError, from_spec
 from .techniques.base import FIRST
@@ -64,6 +64,10 @@ class Measurement:
     #: The work of one render, {pass: {counter: value}} (:mod:`shadowlab.work`): measured by the
     #: counting render plus what the technique declares (:meth:`Technique.work`).
     work: dict = field(default_factory=dict)
+    #: What the evaluator found wrong with the result as a whole (:meth:`Evaluator.row` fills it:
+    #: a degenerate configuration, a bias beyond the casters' heights), one sentence each, naming
+    #: the configuration; also appended to :attr:`notes`.
+    judgement: list[str] = field(default_factory=list)
 
 
 #: How the pipeline's own columns combine over light samples: the texel footprint is the first
@@ -259,6 +263,7 @@ class Evaluator:
         self._truth: dict[int, tuple] = {}
         self._contact: dict[int, tuple] = {}
         self._overlap: dict[int, tuple] = {}
+        self._height: dict[int, tuple] = {}
 
     def _cached(self, cache: dict, light: LightSlot | int, compute: Callable[[LightSlot], object]):
         """``cache``'s value for the slot's light, computed on first use; keyed by the light
@@ -297,11 +302,71 @@ class Evaluator:
         casters (:func:`shadowlab.occluder_layers.occluder_layers`), for the light-bleeding metric."""
         return self._cached(self._overlap, light, lambda slot: occluder_layers(self.frame, slot) >= 2)
 
+    def occluder_height(self, light: LightSlot | int, truth: np.ndarray | None = None) -> float:
+        """The casters' median height above the shadows they cast, for one light: the median,
+        over the truth's shadowed evaluated pixels (G < 0.5) whose shadow ray meets a caster, of
+        the distance along that ray to the first caster
+        (:func:`shadowlab.occluder_layers.first_occluder_distance`, free beside the light-bleeding
+        mask); NaN when no such pixel. A shadow map's bias that amounts to more than this in world
+        units at the receivers lifts most shadows off their casters or removes them: the figure the
+        bias notes compare with (:meth:`judge`). Computed once per light; ``truth``: the light's
+        truth visibility when the caller has it (else :meth:`truth`'s)."""
+        def compute(slot: LightSlot) -> float:
+            distance = first_occluder_distance(self.frame, slot)
+            g = truth if truth is not None else self.truth(slot).visibility
+            shadowed = (g < metrics.THRESHOLD) & self.frame.evaluated_image(slot)
+            d = distance[shadowed & np.isfinite(distance)]
+            return float(np.median(d)) if d.size else float("nan")
+
+        return self._cached(self._height, light, compute)
+
+    def judge(self, m: Measurement, row: dict) -> list[str]:
+        """Notes on a configuration's result as a whole, from its metrics ``row``: one when it is
+        degenerate (``row["degenerate"]``: it draws almost no shadow where the truth has one;
+        :func:`shadowlab.metrics.is_degenerate`), or when its stats say its bias amounts to more
+        world distance at the receivers (``bias_world_median``) than the casters' height above
+        their shadows (:meth:`occluder_height`). The note names the configuration, the truth's and
+        the configuration's shadowed shares of the evaluated pixels and the likely causes, which
+        the technique gives (:meth:`shadowlab.techniques.base.Technique.degenerate_causes`: the core
+        does not guess them). Why: a configuration that draws no shadow scores only the truth's
+        small shadowed share as its error, and its page would show a lit scene with a modest
+        number and nothing else (issue 35). [] for a sound result."""
+        tech = m.technique
+        height = row.get("occluder_height_median", float("nan"))
+        bias_world = m.stats.get("bias_world_median")
+        bias_over = (bias_world is not None and np.isfinite(height) and np.isfinite(float(bias_world))
+                     and float(bias_world) > height)
+        degenerate = bool(row.get("degenerate"))
+        if not (degenerate or bias_over):
+            return []
+        n = int(row["evaluated_pixels"])
+        truth_share = row["truth_shadowed_pixels"] / n if n else 0.0
+        share = metrics.shadowed_pixels(row) / n if n else 0.0
+        stats = {**m.stats, "occluder_height_median": height, "truth_shadowed_share": truth_share,
+                 "shadowed_share": share}
+        causes = list(tech.degenerate_causes(stats))
+        if bias_over and not causes:
+            causes = [f"the bias: it amounts to {bias_world:.3g} world units at the receivers (median), more than "
+                      f"the casters' median height {height:.3g} above their shadows"]
+        pct = metrics.COLUMN_BY_NAME["error_rate"].format
+        what = "draws almost no shadow" if degenerate else "has a bias above its casters' heights"
+        kept = (f" (under {100 * metrics.DEGENERATE_KEPT_SHARE:g} % of the truth's shadowed pixels)" if degenerate
+                else "")
+        cause = (f"likely cause{'s' if len(causes) > 1 else ''}: {'; '.join(causes)}" if causes
+                 else "cause unknown")
+        return [f"{tech.short_label()} {what} on light {m.light}: the truth shadows {pct(truth_share)} of the "
+                f"evaluated pixels, this configuration {pct(share)} of them{kept}; {cause}"]
+
     def row(self, m: Measurement, reference: bool = False) -> dict:
         """The metrics.csv row of a measurement (columns: :data:`shadowlab.metrics.COLUMNS`, then
         ``param_<name>`` per parameter, then the technique's cost figures). Every row carries its
         light's truth's ``truth_stderr_max`` (0 when the truth reports none: a point-like light,
-        or a truth measured elsewhere, :meth:`use_truth`)."""
+        or a truth measured elsewhere, :meth:`use_truth`), the casters' median height above their
+        shadows (``occluder_height_median``, :meth:`occluder_height`) and ``degenerate``
+        (:func:`shadowlab.metrics.row_is_degenerate`; False on the truth's rows). A configuration's
+        :meth:`judge` notes go to ``m.judgement`` and are appended to ``m.notes``, so that every
+        caller that reports a measurement's notes (compare's run notes, measure_configs' and a
+        study's ``notes`` column) carries them."""
         frame, tech, li = self.frame, m.technique, m.light
         slot = frame.slot(li)
         row = {"scene": frame.scene.name, "light": li, "light_type": slot.light.type_name,
@@ -313,6 +378,8 @@ class Evaluator:
                                    self.contact_lines(slot), self.overlap(slot)))
         # the sampled truth's standard error bound (DESIGN §9) beside every row of the light
         row["truth_stderr_max"] = float(truth_m.stats.get("truth_stderr_max", 0.0))
+        row["degenerate"] = False if reference else metrics.row_is_degenerate(row)
+        row["occluder_height_median"] = self.occluder_height(slot, truth_m.visibility)
         row.update(m.timing.columns())
         row["setup_ms"] = m.setup_ms
         row["peak_rss_mib"] = memory.mib(m.peak_rss_bytes) if m.peak_rss_bytes else float("nan")
@@ -320,6 +387,9 @@ class Evaluator:
         row.update({f"param_{k}": v for k, v in tech.params().items()})
         row.update(m.stats)
         row.update(work.columns(m.work))
+        if not reference:
+            m.judgement = self.judge(m, row)
+            m.notes.extend(n for n in m.judgement if n not in m.notes)
         return row
 
 
@@ -372,6 +442,7 @@ def compare_frame(frame: Frame, techniques: Sequence[Technique], repeat: int = 5
                       pass_timing=pass_timing) for li in lights]
         rows.extend(evaluator.row(m) for m in ms)
         notes.extend(f"{tech.spec()}: {n}" for n in dict.fromkeys(tech.notes))
+        notes.extend(n for m in ms for n in m.judgement)  # they name the configuration themselves
         results.append(ms)
     df = pd.DataFrame(rows)
     return Comparison(frame, truths, results, df[metrics.order_columns(df.columns, pass_order())], notes)

@@ -103,3 +103,49 @@ def test_times_within_the_time_tie_share_the_verdict():
     assert not v.loc["planar", "best_time"]
     (_, sentence), = agg.verdict_sentences(agg.verdict_table(pd.DataFrame(rows)))
     assert "shadow_volume (3.000 ms), shadow_map (3.200 ms), tied within 10 %" in sentence
+
+
+def _degenerate_table():
+    """s1: shadow_map's bias=1 draws no shadow (2.7 %, degenerate) beside a sound 0.5 %; planar has
+    only a degenerate configuration. s2: shadow_map's degenerate configuration has the lowest
+    error of the row (a scene with a small shadow)."""
+    return pd.DataFrame([
+        _row("s1", "raytrace", 0.0, 10.0, degenerate=False),
+        _row("s1", "shadow_map:bias=1", 0.027, 5.0, degenerate=True),
+        _row("s1", "shadow_map", 0.005, 6.0, degenerate=False),
+        _row("s1", "planar", 0.009, 1.0, degenerate=True),
+        _row("s1", "shadow_volume", 0.001, 3.0, degenerate=False),
+        _row("s2", "raytrace", 0.0, 10.0, degenerate=False),
+        _row("s2", "shadow_map:bias=1", 0.0005, 5.0, degenerate=True),
+        _row("s2", "shadow_map", 0.003, 6.0, degenerate=False),
+        _row("s2", "shadow_volume", 0.001, 3.0, degenerate=False)])
+
+
+def test_a_degenerate_configuration_is_never_a_silent_best():
+    v = agg.verdict_table(_degenerate_table()).set_index(["scene", "technique"])
+    # a sound configuration is chosen over a degenerate one, whatever their errors
+    assert v.loc[("s1", "shadow_map"), "label"] == "shadow_map"
+    assert v.loc[("s2", "shadow_map"), "label"] == "shadow_map" and v.loc[("s2", "shadow_map"), "error"] == 0.003
+    assert not v.loc[("s2", "shadow_map"), "degenerate"]
+    # a family with only degenerate configurations shows one, marked, and fails though under 1 %
+    assert v.loc[("s1", "planar"), "degenerate"] and bool(v.loc[("s1", "planar"), "failed"])
+    assert v.loc[("s1", "planar"), "why"] == agg.DEGENERATE_WHY
+    assert not v.loc[("s1", "planar"), "best_time"] and not v.loc[("s1", "planar"), "best_error"]
+    assert v.loc[("s1", "shadow_volume"), "best_error"]
+    # the configurations table: a degenerate configuration wins nothing and fails where it is degenerate
+    table = agg.summary_table(_degenerate_table()).set_index("label")
+    assert table.loc["shadow_map:bias=1", "wins"] == []
+    assert [s for s, _ in table.loc["shadow_map:bias=1", "fails"]] == ["s1", "s2"]
+    assert agg.DEGENERATE_MARK in table.loc["shadow_map:bias=1", "fails"][1][1]
+    # results.csv of a study before issue 35 (no column): nothing is degenerate
+    old = agg.verdict_table(_table())
+    assert not old["degenerate"].astype(bool).any()
+
+
+def test_the_study_pages_mark_a_degenerate_cell(tmp_path):
+    from shadowlab.study import report
+
+    lines = "\n".join(report.verdict_markdown(_degenerate_table()))
+    assert f"0.900 % {agg.DEGENERATE_MARK}" in lines
+    html = report.write_study_html(tmp_path, _degenerate_table(), {"name": "t"}).read_text()
+    assert html.count(agg.DEGENERATE_MARK) >= 3   # the planar cell, the legend, the scene table's row

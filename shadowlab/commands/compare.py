@@ -117,6 +117,8 @@ def write_run(rd: RunDirectory, result: Comparison, repeat: int, warmup: int, pa
         # per light: the sampled truth's per-pixel standard error bound (DESIGN §9; 0 for a point-like light)
         "truth_stderr_max": [float(m.stats.get("truth_stderr_max", 0.0)) for m in result.truth],
         "notes": result.notes + [n for n in [perceptual.missing_note()] if n],
+        # the notes on degenerate results (also in notes): the page shows them at the top
+        "judgement": [n for ms in result.results for m in ms for n in m.judgement],
         **provenance.record(),
     }
     write_comparison(rd, df, configs, record, signed_limit=limit, pass_timing=pass_timing)

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from .. import provenance
-from ..study.aggregate import is_true
+from ..study.aggregate import DEGENERATE_MARK, is_true
 from ..validation import RunError
 from . import pictures
 from .insets import common_insets, wrong_pixels
@@ -174,13 +174,15 @@ def write_comparison(rd: RunDirectory, rows: pd.DataFrame, configs: list[ConfigI
     rd.record("run.json", run)
     rd.page("compare.html", title=f"shadowlab: {run['scene']['name']}", renderer=run.get("renderer"),
             provenance=provenance_items(run), run=run, table=compare_table(rows), insets=insets,
-            images=images, error_colors=error_legend(), captions=captions_of(rows))
+            images=images, error_colors=error_legend(), captions=captions_of(rows), degenerate_mark=DEGENERATE_MARK)
     return run
 
 
 def captions_of(rows: pd.DataFrame) -> dict[str, list[str]]:
     """Caption lines per configuration label from its first light's metrics row: error rate and
-    the false shadow / false lit split, time per frame and set-up time."""
+    the false shadow / false lit split, a degenerate configuration's mark (it draws almost no
+    shadow where the truth has one: its small error rate must not read as "nearly right"), time
+    per frame and set-up time."""
     out = {}
     first = rows[rows["light"] == rows["light"].min()] if "light" in rows.columns else rows
     for _, r in first.iterrows():
@@ -188,6 +190,8 @@ def captions_of(rows: pd.DataFrame) -> dict[str, list[str]]:
         if not is_true(r.get("reference")):
             lines.append(f"error {fmt_pct(r.get('error_rate'))} (false shadow {fmt_pct(r.get('false_shadow_rate'))},"
                          f" false lit {fmt_pct(r.get('false_lit_rate'))})")
+            if is_true(r.get("degenerate")):
+                lines.append(f"{DEGENERATE_MARK}: almost no shadow drawn (see the notes)")
         timing = f"{fmt_ms(r.get('time_ms_median'))} ms per frame" if fmt_ms(r.get("time_ms_median")) else "no time"
         if fmt_ms(r.get("setup_ms")):
             timing += f" · set-up {fmt_ms(r.get('setup_ms'))} ms"
@@ -210,9 +214,14 @@ def error_legend() -> list[tuple[str, str]]:
 
 def compare_table(rows: pd.DataFrame) -> dict:
     """The run page's metrics table as {"columns": [...], "rows": [[...]]} of display strings
-    (:func:`shadowlab.metrics.format_table` in its "report" form)."""
+    (:func:`shadowlab.metrics.format_table` in its "report" form), a degenerate row's
+    configuration marked :data:`~shadowlab.study.aggregate.DEGENERATE_MARK`."""
     from ..metrics import format_table
 
+    if "degenerate" in rows.columns and "short_label" in rows.columns:
+        rows = rows.copy()
+        marked = rows["degenerate"].map(is_true)
+        rows.loc[marked, "short_label"] = rows.loc[marked, "short_label"].astype(str) + f" {DEGENERATE_MARK}"
     t = format_table(rows, "report")
     return {"columns": list(t.columns), "rows": t.astype(str).values.tolist()}
 

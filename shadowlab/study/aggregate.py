@@ -40,8 +40,13 @@ SOFT_FAMILY = "soft shadows"
 CONFIG_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "reference", "lights",
                   "evaluated_pixels", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
                   "visibility_mae", "time_ms", "time_iqr_ms", "setup_ms", "preprocess_ms", "moving_ms",
-                  "scene_metric", "scene_metric_value", "wrong_pixels", "run_dir", "shaded_image", "error_image",
-                  "signed_image", "footprint_image"]
+                  "scene_metric", "scene_metric_value", "wrong_pixels", "degenerate", "run_dir", "shaded_image",
+                  "error_image", "signed_image", "footprint_image"]
+#: How the pages mark a degenerate configuration (:func:`shadowlab.metrics.is_degenerate`: it draws
+#: almost no shadow where the truth has one), beside its name or error, as ✗ marks a failure.
+DEGENERATE_MARK = "✗ degenerate"
+#: Why a degenerate configuration fails a scene, as the verdict table says it.
+DEGENERATE_WHY = "degenerate: draws almost no shadow where the truth has one"
 
 
 #: (rate, its pixel-count denominator column) — the rates pooled over lights by their denominators.
@@ -185,7 +190,9 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
     frame; GL set-up — textures, programs — is not, so ``setup_ms`` is not in it);
     ``scene_metric`` = the column ``scene_metrics[scene]`` names (the metric the scene exists for;
     '' when none) and ``scene_metric_value`` its mean over lights;
-    ``wrong_pixels`` = error_rate × evaluated_pixels (rounded); and from the first light's row
+    ``wrong_pixels`` = error_rate × evaluated_pixels (rounded); ``degenerate`` (bool: degenerate on
+    any of the lights, :func:`shadowlab.metrics.is_degenerate`; False where results.csv has no such
+    column, a study older than issue 35); and from the first light's row
     (the one with images): ``run_dir, shaded_image, error_image, signed_image, footprint_image``
     ('' where absent; ``signed_image``: the signed difference
     map V − G of a soft configuration, :func:`shadowlab.report.signed_picture`).
@@ -225,6 +232,7 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
         row["wrong_pixels"] = (float(round(row["error_rate"] * n)) if not (is_missing(n) or
                                                                             is_missing(row["error_rate"]))
                                else math.nan)
+        row["degenerate"] = bool(truthy(g["degenerate"]).any()) if "degenerate" in g.columns else False
         for col in _IMAGE_COLUMNS:
             row[col] = first[col] if col in g.columns else ""
         rows.append(row)
@@ -272,18 +280,20 @@ def summary_table(results: pd.DataFrame) -> pd.DataFrame:
     :func:`per_configuration`), ``worst_error_rate`` (its largest: the median hides a
     configuration that fails a few scenes), ``scenes`` (ran, ok), ``failed`` (scenes whose run failed),
     ``wins`` (list of (scene_family, scene) where its error rate is the lowest among the
-    scene's non-reference configurations; ties count for each), ``fails`` (list of (scene,
-    reason): its run failed, or its error rate exceeds :data:`FAIL_ERROR_RATE`)."""
+    scene's non-reference configurations that are not degenerate; ties count for each), ``fails``
+    (list of (scene, reason): its run failed, its error rate exceeds :data:`FAIL_ERROR_RATE`, or
+    it is degenerate there — :data:`DEGENERATE_MARK` in the reason)."""
     cfg = per_configuration(results)
     conf = cfg[~cfg["reference"].astype(bool)]
     fails = failed_runs(results)
     fails = fails[~fails["reference"].astype(bool)]
     wins: dict[str, list] = {}
     for scene, g in conf.groupby("scene", sort=False):
-        best = g["error_rate"].min()
+        sound = g[~g["degenerate"].astype(bool)]  # a configuration that draws no shadow wins nothing
+        best = sound["error_rate"].min()
         if pd.isna(best):
             continue
-        for _, r in g[g["error_rate"] == best].iterrows():
+        for _, r in sound[sound["error_rate"] == best].iterrows():
             wins.setdefault(r["label"], []).append((r["scene_family"], scene))
     labels: dict[str, dict] = {}
     for _, r in pd.concat([conf[["technique", "label", "short_label"]],
@@ -294,7 +304,8 @@ def summary_table(results: pd.DataFrame) -> pd.DataFrame:
         g = conf[conf["label"] == label]
         f = fails[fails["label"] == label]
         bad = [(s, f"failed: {e}" if e else "failed") for s, e in zip(f["scene"], f["error"])]
-        bad += [(s, fmt_pct(e)) for s, e in zip(g["scene"], g["error_rate"]) if e > FAIL_ERROR_RATE]
+        bad += [(s, fmt_pct(e) + (f" {DEGENERATE_MARK}" if d else "")) for s, e, d in
+                zip(g["scene"], g["error_rate"], g["degenerate"].astype(bool)) if e > FAIL_ERROR_RATE or d]
         rows.append({"technique": info["technique"], "label": label, "short_label": info["short_label"],
                      "median_error_rate": g["error_rate"].median() if len(g) else math.nan,
                      "median_time_ms": g["time_ms"].median() if len(g) else math.nan,
@@ -377,22 +388,27 @@ def fail_threshold(metric: str) -> float:
 #: Columns of :func:`verdict_table`.
 VERDICT_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "metric", "error", "time_ms",
                    "moving_ms", "setup_ms", "scene_metric", "scene_metric_value", "configurations", "failed", "why",
-                   "best_error", "best_time", "best_moving"]
+                   "degenerate", "best_error", "best_time", "best_moving"]
 
 
 def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None) -> pd.DataFrame:
     """The study's headline, long form: one row per (scene, technique family) that was asked to
     run there — the family's *best configuration* on the scene, i.e. the lowest judged error
-    (:func:`judged_metric`), ties broken by time.
+    (:func:`judged_metric`), ties broken by time, among its configurations that are not
+    degenerate (:func:`shadowlab.metrics.is_degenerate`: they draw almost no shadow where the
+    truth has one, and their error understates what is lost). Only when every configuration of
+    the family is degenerate is one chosen, and then it is marked (``degenerate``) and fails.
 
     Columns (:data:`VERDICT_COLUMNS`): ``metric`` (the judged column) and ``error`` (its value),
     ``time_ms`` (static light: per-frame time), ``moving_ms`` (moving light: per-frame time plus
     light-dependent preprocessing), ``setup_ms``; the scene's own metric and its value;
     ``configurations`` (how many of the family's configurations ran); ``failed`` (bool: the best
-    configuration's error is above :func:`fail_threshold`, or every configuration's run failed)
-    and ``why``; ``best_error`` / ``best_time`` / ``best_moving`` (bool: the lowest error in the
-    scene's row, within :data:`TIE_TOLERANCE`; the lowest static / moving time among the row's
-    families that do not fail, within :data:`TIME_TIE`)."""
+    configuration's error is above :func:`fail_threshold`, it is degenerate, or every
+    configuration's run failed) and ``why``; ``degenerate`` (bool: the chosen configuration is
+    degenerate); ``best_error`` / ``best_time`` / ``best_moving`` (bool: the lowest error in the
+    scene's row among the families whose choice is not degenerate, within
+    :data:`TIE_TOLERANCE`; the lowest static / moving time among the row's families that do not
+    fail, within :data:`TIME_TIE`)."""
     cfg = per_configuration(results, scene_metrics)
     conf = cfg[~cfg["reference"].astype(bool)] if len(cfg) else cfg
     fails = failed_runs(results)
@@ -412,15 +428,21 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None) -> p
             ft = f[f["technique"] == tech] if len(f) else f
             row = dict.fromkeys(VERDICT_COLUMNS, math.nan)
             row.update(scene=scene, scene_family=fam_of.get(scene, ""), technique=tech, metric=metric,
-                       configurations=len(gt), best_error=False, best_time=False, best_moving=False)
-            scored = gt[gt["_err"].notna()].sort_values(["_err", "time_ms"], kind="stable", na_position="last")
+                       configurations=len(gt), degenerate=False, best_error=False, best_time=False,
+                       best_moving=False)
+            # a degenerate configuration is never the family's best while a sound one ran
+            scored = gt[gt["_err"].notna()].assign(_deg=lambda d: d["degenerate"].astype(bool)).sort_values(
+                ["_deg", "_err", "time_ms"], kind="stable", na_position="last")
             if len(scored):
                 best = scored.iloc[0]
                 row.update(label=best["label"], short_label=best["short_label"], error=float(best["_err"]),
                            time_ms=best["time_ms"], moving_ms=best["moving_ms"], setup_ms=best["setup_ms"],
                            scene_metric=best["scene_metric"], scene_metric_value=best["scene_metric_value"])
-                row["failed"] = bool(best["_err"] > limit)
-                row["why"] = f"{metric} above {fmt_limit(metric, limit)}" if row["failed"] else ""
+                row["degenerate"] = bool(best["_deg"])
+                over = bool(best["_err"] > limit)
+                row["failed"] = over or row["degenerate"]
+                row["why"] = "; ".join(([f"{metric} above {fmt_limit(metric, limit)}"] if over else [])
+                                       + ([DEGENERATE_WHY] if row["degenerate"] else []))
             else:
                 first = ft.iloc[0] if len(ft) else None
                 row.update(label=first["label"] if first is not None else "", short_label=first["short_label"]
@@ -430,9 +452,10 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None) -> p
     out = pd.DataFrame(rows, columns=VERDICT_COLUMNS)
     for scene, idx in out.groupby("scene", sort=False).groups.items():
         part = out.loc[idx]
-        if part["error"].notna().any():
+        sound = part[~part["degenerate"].astype(bool)]  # a lost shadow's small error is no row's best
+        if sound["error"].notna().any():
             tol = TIE_TOLERANCE[part["metric"].iloc[0]]
-            out.loc[idx, "best_error"] = part["error"] <= part["error"].min() + tol
+            out.loc[sound.index, "best_error"] = sound["error"] <= sound["error"].min() + tol
         ok = part[~part["failed"].astype(bool)]
         for col, flag in (("time_ms", "best_time"), ("moving_ms", "best_moving")):
             if ok[col].notna().any():

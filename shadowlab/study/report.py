@@ -28,7 +28,7 @@ from ..metrics import COLUMN_BY_NAME
 from ..output.pages import fmt_ms as fmt_ms_short
 from ..output.pages import fmt_num
 from ..output.pareto import pareto_plot
-from .aggregate import (FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, TIME_TIE, as_text, failed_runs, family_order,
+from .aggregate import (DEGENERATE_MARK, FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, TIME_TIE, as_text, failed_runs, family_order,
                         family_table, fmt_limit, fmt_ms, fmt_pct, is_missing, judged_metric, names_text, normalised,
                         per_configuration, scenes_in_order, summary_table, verdict_sentences, verdict_table,
                         write_text_atomic)
@@ -92,14 +92,17 @@ def verdict_markdown(results: pd.DataFrame, meta: dict | None = None) -> list[st
         err = f"**{c['error']}**" if c["best_error"] else c["error"]
         time = f"**{c['time']} ms**" if c["best_time"] else f"{c['time']} ms"
         moving = f" (moving {c['moving']})" if c["moves_differ"] else ""
-        return f"{err}{' ✗' if c['failed'] else ''} · {time}{moving}"
+        mark = f" {DEGENERATE_MARK}" if c["degenerate"] else " ✗" if c["failed"] else ""
+        return f"{err}{mark} · {time}{moving}"
 
     lines = ["## Verdicts", "",
              _md_table(["scene"] + grid["families"], [[r["scene"]] + [cell(c) for c in r["cells"]] for r in grid["rows"]]),
              "", f"Each cell: the family's best configuration on the scene — its error (share of wrong pixels; soft "
              f"scenes: mean |V − G|) and its ms per frame (moving: with its per-light preprocessing). Bold: best in "
              f"the row; ✗: fails (error above {fmt_limit('error_rate', FAIL_ERROR_RATE)}, soft scenes above "
-             f"{fmt_limit('visibility_mae', FAIL_VISIBILITY_MAE)}).", ""]
+             f"{fmt_limit('visibility_mae', FAIL_VISIBILITY_MAE)})"
+             + (f"; {DEGENERATE_MARK}: every configuration of the family draws almost no shadow where the truth "
+                f"has one (a fail)" if verdicts["degenerate"].astype(bool).any() else "") + ".", ""]
     lines += [f"- {s}" for _, s in verdict_sentences(verdicts)]
     return lines + [""]
 
@@ -342,6 +345,7 @@ def verdict_grid(verdicts: pd.DataFrame, scenes_meta: dict) -> dict:
                 and r["moving_ms"] > r["time_ms"] * 1.05,
                 "scene_metric": _metric_text(as_text(r["scene_metric"]), r["scene_metric_value"]),
                 "failed": bool(r["failed"]), "why": as_text(r["why"]), "best_error": bool(r["best_error"]),
+                "degenerate": bool(r.get("degenerate", False)) if not is_missing(r.get("degenerate")) else False,
                 "best_time": bool(r["best_time"]), "best_moving": bool(r["best_moving"])}
         rows.append({"scene": scene, "family": as_text(g["scene_family"].iloc[0]), "metric": g["metric"].iloc[0],
                      "scene_metric": info.get("metric") or "", "purpose": info.get("purpose") or "",
@@ -358,7 +362,8 @@ def _scene_table(c: pd.DataFrame, metric: str, scene_metric: str) -> dict:
     columns += ["ms per frame", "set-up ms", "moving-light ms"]
     rows = []
     for _, r in c.iterrows():
-        row = [as_text(r["short_label"]), _error_text(metric, r[metric]), _metric_text("false_shadow_rate",
+        name = as_text(r["short_label"]) + (f" {DEGENERATE_MARK}" if r.get("degenerate") else "")
+        row = [name, _error_text(metric, r[metric]), _metric_text("false_shadow_rate",
                r["false_shadow_rate"]), _metric_text("false_lit_rate", r["false_lit_rate"]),
                _metric_text("boundary_error_px", r["boundary_error_px"]), fmt_num(r["visibility_mae"])]
         if scene_metric:
@@ -389,7 +394,8 @@ def _scene_section(study_dir: Path, scene: str, c: pd.DataFrame, fails: pd.DataF
     insets = [Inset(tuple(i["box"]), tuple(size), i["wrong"], k + 1) for k, i in enumerate(record.get("insets", []))]
     captions = {}
     for _, r in c.iterrows():
-        lines = [] if r["reference"] else [f"{metric.replace('_', ' ')} {_error_text(metric, r[metric])}"]
+        lines = [] if r["reference"] else [f"{metric.replace('_', ' ')} {_error_text(metric, r[metric])}"
+                                           + (f" {DEGENERATE_MARK}: almost no shadow drawn" if r["degenerate"] else "")]
         lines.append(f"{fmt_ms_short(r['time_ms'])} ms per frame" + (f" · moving {fmt_ms_short(r['moving_ms'])} ms"
                                                                if r["preprocess_ms"] else ""))
         if info.get("metric") and not r["reference"]:
@@ -474,7 +480,7 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
         pareto=_rel(study_dir, pareto_png) or quote(Path(pareto_png).as_posix()),
         summary=_summary_rows(results),
         failed=[[as_text(r["scene"]), as_text(r["label"]), as_text(r["error"])] for _, r in fails.iterrows()],
-        scenes=sections, error_colors=error_legend(), tuned=tuned_tables(meta),
+        scenes=sections, error_colors=error_legend(), tuned=tuned_tables(meta), degenerate_mark=DEGENERATE_MARK,
         predictions=prediction_tables(meta), agreement=agreement_section(results))
 
 

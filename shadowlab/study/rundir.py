@@ -69,11 +69,13 @@ def _write(rd: RunDirectory, scene: SceneRuns, df: pd.DataFrame, record: dict) -
     configs = [_config_images(record["ground_truth"], truth, True)]
     configs += [_config_images(spec, res, False) for spec, res in scene.configs.items()]
     notes = list(truth["meta"]["notes"])
+    judgement = [n for res in scene.configs.values() for n in res["meta"].get("judgement", [])]
     for spec, res in scene.configs.items():
         notes.extend(f"{spec}: {n}" for n in res["meta"]["notes"])
+        notes.extend(res["meta"].get("judgement", []))  # they name the configuration themselves
     run = {**record, "scene": truth["meta"]["scene"], "camera": truth["meta"]["camera"],
            "configurations": [{"label": c.label, "technique": c.technique, "params": c.params} for c in configs[1:]],
-           "notes": notes}
+           "notes": notes, "judgement": judgement}
     write_comparison(rd, df, configs, run, signed_limit=STUDY_SIGNED_LIMIT,
                      pass_timing=bool(record.get("pass_timing")))
 

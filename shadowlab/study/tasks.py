@@ -222,7 +222,10 @@ def _config(task: dict) -> dict:
         row.update(judged)
     ev0 = frame.evaluated(0)
     arrays = {"mask_0": np.where(ev0, ms[0].visibility, np.nan).astype(np.float32)}
-    meta = {"rows": rows, "notes": list(dict.fromkeys(tech.notes))}
+    # the evaluator's notes on the result (degenerate, bias beyond the casters) name the
+    # configuration themselves: the run notes take them without the spec prefix
+    meta = {"rows": rows, "notes": list(dict.fromkeys(tech.notes)),
+            "judgement": [n for m in ms for n in m.judgement]}
     return {"meta": meta, "arrays": arrays, "files": files}
 
 

@@ -378,6 +378,19 @@ class Technique:
         key declared in :attr:`STATS`."""
         return {}
 
+    def degenerate_causes(self, stats: dict) -> list[str]:
+        """The likely causes, as short phrases, of a result that draws almost no shadow where the
+        truth has one (a *degenerate* result, :func:`shadowlab.metrics.is_degenerate`) or whose bias
+        exceeds the casters' heights, for the run's note (:meth:`shadowlab.pipeline.Evaluator.judge`).
+        Why here: only the technique knows what its figures mean (a near plane, a bias in window
+        depth), so the core names no cause itself. ``stats``: the measurement's :meth:`stats` (the
+        light's, combined over light samples) plus the evaluator's ``occluder_height_median``
+        (world distance from the truth's shadowed pixels to their first caster; NaN when unknown),
+        ``truth_shadowed_share`` and ``shadowed_share`` (the truth's and this result's shadowed
+        shares of the evaluated pixels). Read it with ``stats.get``: keys come and go with the
+        technique's version. The default names none: the note then says "cause unknown"."""
+        return []
+
     # -- resources ---------------------------------------------------------------
     def program(self, name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()):
         """The cached program of ``shaders/<name>`` (:func:`shadowlab.gl.program`), held by this

@@ -507,6 +507,50 @@ class DepthMapTechnique(TexelMapping, Technique):
                 "texel_world": float(face.texel_world) or None,
                 "bias_world_median": median, "bias_world_max": largest}
 
+    def degenerate_causes(self, stats: dict) -> list[str]:
+        """Why a depth map lost its shadows (:meth:`Technique.degenerate_causes`), from the
+        measurement's figures: a near plane so close that perspective window depth crowds into
+        the top of [0, 1] (``near_plane`` / ``far_plane`` < 1e-3); a bias that amounts, at the
+        receivers, to more than the casters' height above their shadows (``bias_world_median``
+        against ``occluder_height_median``) or to a large share (≥ 10 %) of the map's
+        ``depth_range`` — or, without the world figure, a window-depth ``bias`` of half the
+        window range or more (at 1, every receiver passes the comparison); else depth precision.
+        Keys are read with ``stats.get`` (older runs lack the plane and bias figures)."""
+        def g(key):
+            try:
+                v = float(stats.get(key))
+            except (TypeError, ValueError):
+                return None
+            return v if np.isfinite(v) else None
+
+        near, far, depth_range = g("near_plane"), g("far_plane"), g("depth_range")
+        bias_world, bias_max, height = g("bias_world_median"), g("bias_world_max"), g("occluder_height_median")
+        bias = self.params().get("bias")
+        causes = []
+        if near is not None and far and near > 0 and near / far < 1e-3:
+            causes.append(f"the near plane at {near:.3g}, far/near = {far / near:.3g}: window depth crowds into the top "
+                          f"{near / (far + near):.2g} of [0, 1] over the far half of the depth range, where the bias "
+                          f"and the depth format's steps swallow the gap between caster and receiver")
+        named = f"the bias ({bias:g} in window depth)" if bias is not None else "the bias"
+        if bias_world is not None:
+            at = (f"amounts to {bias_world:.3g} world units at the receivers (median"
+                  + (f"; max {bias_max:.3g})" if bias_max is not None else ")"))
+            if height is not None and bias_world > height:
+                causes.append(f"{named} {at}, more than the casters' median height {height:.3g} above their shadows")
+            elif depth_range and bias_world >= 0.1 * depth_range:
+                causes.append(f"{named} {at}, {bias_world / depth_range:.0%} of the map's depth range {depth_range:.3g}")
+        elif bias is not None and float(bias) >= 0.5:
+            causes.append(f"{named} spans the whole window-depth range [0, 1]: every receiver passes the depth comparison"
+                          if float(bias) >= 1.0 else
+                          f"{named} spans {float(bias):.0%} of the window-depth range [0, 1]: most receivers pass the "
+                          f"depth comparison")
+        if not causes:
+            bits = self.params().get("depth_bits")
+            causes.append(f"depth precision: {f'{bits}-bit depth' if bits else 'the depth format'} over a depth range of "
+                          + (f"{depth_range:.3g}" if depth_range else "unknown size")
+                          + (f" against a bias of {bias:g} in window depth" if bias is not None else ""))
+        return causes
+
 
 # --------------------------------------------------------------------------- soft shadows: parallel planes
 

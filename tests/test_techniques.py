@@ -17,7 +17,7 @@ def test_spec_values_are_typed():
     t = from_spec("shadow_map:resolution=1024,bias=0.002,depth_bits=16,variant=slope,hardware_offset=on")
     p = t.params()
     assert (p["resolution"], p["bias"], p["depth_bits"], p["variant"], p["hardware_offset"]) == (1024, 0.002, 16, "slope", True)
-    assert t.spec().startswith("shadow_map:resolution=1024,bias=0.002,depth_bits=16,variant=slope,")
+    assert t.spec().startswith("shadow_map:resolution=1024,bias=0.002,bias_space=world,depth_bits=16,variant=slope,")
     assert t.short_label() == "shadow_map:resolution=1024,depth_bits=16,variant=slope,hardware_offset=true"
 
 

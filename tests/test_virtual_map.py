@@ -72,7 +72,7 @@ def test_one_page_is_the_plain_shadow_map(lab):
     """virtual_resolution = page_size: one page, one level — the page machinery reduces to a
     plain map and must give shadow_map's slope variant bit for bit (same fit, same bias)."""
     frame = lab.frame("box_on_plane", SMALL)
-    plain = measure(from_spec("shadow_map:resolution=128,variant=slope,bias=0.0005,projection=frustum"), frame, 0,
+    plain = measure(from_spec("shadow_map:resolution=128,variant=slope,bias=0.0005,bias_space=window,projection=frustum"), frame, 0,
                     repeat=1, warmup=0).visibility
     virtual = measure(from_spec("virtual_map:virtual_resolution=128,page_size=128"), frame, 0, repeat=1,
                       warmup=0).visibility

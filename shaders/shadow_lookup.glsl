@@ -44,6 +44,7 @@
 #define DEPTH_COMPARISON_POINT 0
 #define DEPTH_COMPARISON_RECEIVER_PLANE 1
 #define DEPTH_COMPARISON_ADAPTIVE 2
+#define WORLD_PAST_LIGHT 2.0             // a window-depth bias past every depth: the comparison lights
 #define NEAR_DEPTH 0.0                   // window depths of a face's near and far planes
 #define FAR_DEPTH 1.0
 #ifndef MAX_FACES
@@ -163,8 +164,13 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
         else
             extra = u_slope_scale * max(abs(edge.x), abs(edge.y));  // edge-on to the light
     }
-    // The world bias: Q moved u_bias_world towards the light, in window depth at Q.
-    float world = u_bias_world > 0.0 ? -window_change(f, Q, light_dir_to(Q) * u_bias_world) : 0.0;
+    // The world bias: Q moved u_bias_world towards the light, in window depth at Q; a move that
+    // reaches the light's plane of projection (w <= 0) lifts the point past every caster: lit.
+    float world = 0.0;
+    if (u_bias_world > 0.0) {
+        vec3 delta = light_dir_to(Q) * u_bias_world;
+        world = (u_light_matrix[f] * vec4(Q + delta, 1.0)).w > 0.0 ? -window_change(f, Q, delta) : WORLD_PAST_LIGHT;
+    }
     float bias = u_bias + world + extra;
     float ref = c.z - bias;
     vec2 atlas = atlas_texel(f, c.xy);

@@ -17,7 +17,8 @@ from shadowlab.timing import Timing
 
 from conftest import SMALL, make_scene
 
-BIAS_ONE = "shadow_map:bias=1.0"
+BIAS_ONE = "shadow_map:bias=1.0,bias_space=window"  # the issue's broken configuration (window depth)
+WORLD_ONE = "shadow_map:bias=1.0"  # the default bias_space: 1 x the scene's extent towards the light
 
 
 def test_thresholds_are_the_documented_ones():
@@ -37,8 +38,11 @@ def test_a_bias_of_one_is_degenerate_and_its_note_names_the_bias(lab):
     """box_on_plane, 160x120: shadow_map:bias=1.0 passes every depth comparison — 2.66 % wrong,
     all of the truth's shadow lost — and is flagged; the default shadow map is not; the truth's
     row never is."""
-    df = measure_configs(None, [BIAS_ONE, "shadow_map"], evaluator=lab.evaluator("box_on_plane", SMALL))
-    truth, bad, good = (df.iloc[i] for i in range(3))
+    df = measure_configs(None, [BIAS_ONE, "shadow_map", WORLD_ONE], evaluator=lab.evaluator("box_on_plane", SMALL))
+    truth, bad, good, world = (df.iloc[i] for i in range(4))
+    assert bool(world["degenerate"]) and world["false_lit_rate"] == 1.0  # moved past the light: lit
+    assert "likely cause: the bias (1 x the scene's extent, bias_space=world) amounts to" in world["notes"]
+    df = df.iloc[:3]
     assert bool(truth["reference"]) and not bool(truth["degenerate"])
     assert bool(bad["degenerate"]) and not bool(good["degenerate"])
     assert bad["truth_shadowed_pixels"] / bad["evaluated_pixels"] > metrics.DEGENERATE_TRUTH_SHARE
@@ -102,9 +106,10 @@ def test_the_depth_map_names_its_causes_from_its_stats(lab):
     ev = lab.evaluator("box_on_plane", SMALL)
     near = ev.judge(_measurement("shadow_map", {"near_plane": 0.001, "far_plane": 20.0, "depth_range": 20.0}), _row())
     assert len(near) == 1 and "likely cause: the near plane at 0.001, far/near = 2e+04" in near[0]
-    biased = ev.judge(_measurement("shadow_map:bias=0.01", {"bias_world_median": 0.9, "bias_world_max": 1.5,
-                                                            "depth_range": 20.0}), _row(shadowed=300))
-    assert len(biased) == 1 and biased[0].startswith("shadow_map:bias=0.01 has a bias above its casters' heights")
+    biased = ev.judge(_measurement("shadow_map:bias=0.01,bias_space=window", {"bias_world_median": 0.9, "bias_world_max": 1.5,
+                                                                             "depth_range": 20.0}), _row(shadowed=300))
+    assert len(biased) == 1 and biased[0].startswith("shadow_map:bias=0.01,bias_space=window has a bias above its "
+                                                     "casters' heights")
     assert ("the bias (0.01 in window depth) amounts to 0.9 world units at the receivers (median; max 1.5), more "
             "than the casters' median height 0.75 above their shadows") in biased[0]
     assert ev.judge(_measurement("shadow_map", {"bias_world_median": 0.1}), _row(shadowed=300)) == []

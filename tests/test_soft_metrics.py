@@ -134,6 +134,7 @@ def test_every_row_carries_the_truths_stderr():
     # the caches key on the light object: id(light) → (light, value)
     ev._contact = {id(light): (light, np.zeros(G.shape, bool)) for light in lights}
     ev._overlap = {id(light): (light, np.zeros(G.shape, bool)) for light in lights}
+    ev._height = {id(light): (light, float("nan")) for light in lights}
     no_time = timing.Timing(float("nan"), float("nan"), [])
     ev._truth[id(lights[0])] = (lights[0], Measurement(ev.truth_technique, 0, G, no_time,
                                                        {"truth_stderr_max": 0.015625}))

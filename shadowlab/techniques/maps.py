@@ -531,7 +531,9 @@ class DepthMapTechnique(TexelMapping, Technique):
             causes.append(f"the near plane at {near:.3g}, far/near = {far / near:.3g}: window depth crowds into the top "
                           f"{near / (far + near):.2g} of [0, 1] over the far half of the depth range, where the bias "
                           f"and the depth format's steps swallow the gap between caster and receiver")
-        named = f"the bias ({bias:g} in window depth)" if bias is not None else "the bias"
+        unit = "x the scene's extent, bias_space=world" if self.params().get("bias_space") == "world" \
+            else "in window depth"
+        named = f"the bias ({bias:g} {unit})" if bias is not None else "the bias"
         if bias_world is not None:
             at = (f"amounts to {bias_world:.3g} world units at the receivers (median"
                   + (f"; max {bias_max:.3g})" if bias_max is not None else ")"))
@@ -548,7 +550,7 @@ class DepthMapTechnique(TexelMapping, Technique):
             bits = self.params().get("depth_bits")
             causes.append(f"depth precision: {f'{bits}-bit depth' if bits else 'the depth format'} over a depth range of "
                           + (f"{depth_range:.3g}" if depth_range else "unknown size")
-                          + (f" against a bias of {bias:g} in window depth" if bias is not None else ""))
+                          + (f" against a bias of {bias:g} {unit}" if bias is not None else ""))
         return causes
 
 

@@ -5,8 +5,21 @@ frustum) or six (a point light's cube, 90° faces, chosen in the lookup by the m
 light-to-point vector). Passes: the casters' depth from the light (one per face and layer), an
 optional resolve, then one lookup pass over the shared G-buffer writing visibility.
 
-Variants (``variant=``), tuned by ``bias`` (window depth), ``slope_scale``, ``normal_offset``
-(texels) and ``adaptive_epsilon`` (a fraction of the scene's extent):
+Variants (``variant=``), tuned by ``bias``, ``slope_scale``, ``normal_offset`` (texels) and
+``adaptive_epsilon`` (a fraction of the scene's extent). ``bias`` means what ``bias_space`` says:
+
+- ``world`` (the default): ``bias`` × the scene's extent is a distance; the lookup moves the
+  receiver that far towards the light and converts the move to window depth at the receiver
+  (exactly, through the map's matrix: ``window_change`` in shaders/shadow_lookup.glsl). It then
+  means the same distance at every receiver whatever the near plane: a window-depth bias is
+  stretched by z²/near in a perspective map, so a near plane 1000x closer turns 0.002 of window
+  depth into metres (0.002 · z² / near: a table 2 m below a lamp whose near plane is 0.4 mm
+  away gets a bias of about 20 m, and every shadow is lost). Scaled by the extent so that one
+  default serves a room and a city.
+- ``window``: window-depth units [0, 1], the seed's and the literature's form (the bias
+  experiments, ``dual``'s offset cap).
+
+The variants:
 
 - ``none``: compare with no offset — shows acne;
 - ``constant``: subtract ``bias``;
@@ -68,10 +81,13 @@ then
 - point: ``projection=frustum`` — one frustum around those points; ``cube`` — six faces;
   ``auto`` — the frustum when the points fit in a cone of
   ``geometry.frusta.MAX_POINT_HALF_ANGLE``, else the cube.
-Near planes sit in front of every caster point a view can see — along the view's axis, not at
-the nearest caster's distance, which would clip an off-axis caster that is closer in depth
-(:func:`shadowlab.geometry.frusta.perspective_range`) — unless ``near`` forces one (to show what
-a too-close near plane does to depth precision); far planes just past the farthest receiver.
+Near planes of perspective maps sit just in front of the nearest caster *triangle* inside each
+view's frustum, measured along the view's axis (:func:`shadowlab.geometry.frusta.perspective_fit`:
+every caster triangle clipped to the frustum, :mod:`shadowlab.geometry.caster_depth`), not in
+front of caster bounding boxes — a light inside a caster's box, a lamp inside a room modelled as
+one mesh, would otherwise get the floor far × 1e-4 — unless ``near`` forces one (to show what a
+too-close near plane does to depth precision). Casters nearer than that floor are clipped, with
+a note; far planes lie just past the farthest receiver.
 """
 from __future__ import annotations
 

@@ -13,9 +13,16 @@
    (``--techniques``), error_rate, false_lit_rate and the degenerate flag — the same script run
    on an older revision (``--parts defaults``, a checkout of it on PYTHONPATH) gives the
    "before" column; ``--before CSV`` joins that file into ``defaults_before_after.csv``.
+3. ``bias``: the default constant bias re-chosen. On every shipped hard-light scene and light,
+   the exact bias optimiser (:mod:`shadowlab.tuning.exact_bias`, one render) gives
+   ``shadow_map``'s error at every ``bias`` (``bias_space=world``: × the scene's extent on
+   perspective maps, the window-depth bias on orthographic ones); ``bias.csv`` holds each
+   scene's optimum and the error at the default, ``bias_candidates.csv`` the mean and largest
+   regret (error above the scene's optimum) of each candidate default, and, with ``--before``,
+   on how many scene-lights it is worse than the old default.
 
     python experiments/light_frusta.py [--out results/light_frusta] [--size 320x240]
-        [--parts frusta,defaults] [--scenes a,b] [--before OLD_defaults.csv]
+        [--parts frusta,defaults,bias] [--scenes a,b] [--before OLD_defaults.csv]
 """
 from __future__ import annotations
 
@@ -112,11 +119,64 @@ def default_rows(scene_name: str, size: tuple[int, int], techniques: list[str]) 
     return rows
 
 
+#: Candidate defaults of ``bias`` (``bias_space=world``) the bias part evaluates.
+BIAS_CANDIDATES = np.unique(np.append(np.geomspace(2.5e-4, 0.02, 19), DEFAULT_BIAS))
+
+
+def bias_rows(scene_name: str, size: tuple[int, int]) -> list[dict]:
+    """Part 3 for one scene: per light shadow_map renders for (hard lights only: the exact
+    optimiser is not valid for a light-sampled area light), the exact error curve of ``bias``
+    at the candidates, the optimum and the default's error."""
+    from shadowlab.pipeline import Evaluator, check_lights
+    from shadowlab.techniques import TechniqueError, from_spec
+    from shadowlab.tuning.exact_bias import exact_bias_tune
+
+    scene = load_scene(scene_name)
+    frame = Frame(scene, *size)
+    rows = []
+    try:
+        ev = Evaluator(frame)
+        for li, light in enumerate(scene.lights):
+            try:
+                check_lights([from_spec("shadow_map")], scene, [li])
+            except TechniqueError:
+                continue
+            if light.type_name == "area":
+                continue
+            r = exact_bias_tune(ev, "shadow_map", li)
+            curve = r.points[0].curve
+            opt = curve.optimum("error_rate")
+            row = {"scene": scene_name, "light": li, "light_type": light.type_name, "optimum_bias": opt.bias,
+                   "optimum_error": opt.value, "default_error": curve.at(DEFAULT_BIAS)["error_rate"],
+                   "emulation_mismatch": r.emulation_mismatch}
+            row.update({f"error_at_{k:.4g}": curve.at(k)["error_rate"] for k in BIAS_CANDIDATES})
+            rows.append(row)
+    finally:
+        frame.release()
+    return rows
+
+
+def bias_candidates(rows: pd.DataFrame, before: pd.DataFrame | None) -> pd.DataFrame:
+    """Per candidate default: mean and largest regret over the scene-lights (percentage points)
+    and, given the old revision's defaults, how many are worse than its shadow_map (by > 0.01 pp)."""
+    if before is not None:
+        old = before[before["technique"] == "shadow_map"][["scene", "light", "error_rate"]]
+        rows = rows.merge(old.rename(columns={"error_rate": "before"}), on=["scene", "light"], how="left")
+    out = []
+    for k in BIAS_CANDIDATES:
+        err = rows[f"error_at_{k:.4g}"]
+        regret = err - rows["optimum_error"]
+        out.append({"bias": k, "mean_error_pct": 100 * err.mean(), "mean_regret_pp": 100 * regret.mean(),
+                    "max_regret_pp": 100 * regret.max(),
+                    "worse_than_before": int(((err - rows["before"]) > 1e-4).sum()) if before is not None else None})
+    return pd.DataFrame(out)
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="results/light_frusta")
     ap.add_argument("--size", default="320x240")
-    ap.add_argument("--parts", default="frusta,defaults")
+    ap.add_argument("--parts", default="frusta,defaults,bias")
     ap.add_argument("--scenes", default=None, help="comma-separated (default: every shipped scene)")
     ap.add_argument("--techniques", default=",".join(TECHNIQUES))
     ap.add_argument("--before", default=None, help="a defaults.csv from an older revision to join")
@@ -134,8 +194,17 @@ def main(argv=None) -> None:
     if "defaults" in parts:
         rows = [r for s in tqdm(scenes, desc="defaults") for r in default_rows(s, size, args.techniques.split(","))]
         pd.DataFrame(rows).to_csv(out / "defaults.csv", index=False)
+    before = None
     if args.before:
-        old, new = pd.read_csv(args.before), pd.read_csv(out / "defaults.csv")
+        before = pd.read_csv(args.before)
+        # an older revision names the scenes it did not ship by their file's path
+        before["scene"] = [Path(s).stem if str(s).endswith(".toml") else s for s in before["scene"]]
+    if "bias" in parts:
+        rows = pd.DataFrame([r for s in tqdm(scenes, desc="bias") for r in bias_rows(s, size)])
+        rows.to_csv(out / "bias.csv", index=False)
+        bias_candidates(rows, before).to_csv(out / "bias_candidates.csv", index=False)
+    if before is not None:
+        old, new = before, pd.read_csv(out / "defaults.csv")
         key = ["scene", "light", "technique"]
         both = old[key + ["error_rate", "false_lit_rate"]].merge(
             new[key + ["error_rate", "false_lit_rate", "degenerate"]], on=key, suffixes=("_before", "_after"))

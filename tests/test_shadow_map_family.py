@@ -81,8 +81,7 @@ def test_filters_give_fractional_visibility(lab, filt):
     partial = (vis[ev] > 0.01) & (vis[ev] < 0.99)
     assert partial.sum() > 50, "filtered edges must be fractional"
     m = compare(vis, lab.truth("sm_contact", SIZE), ev)
-    # visibility_mae measured 0.0107 for pcf5 at the world-distance default bias (0.0098 in window depth)
-    assert m["error_rate"] < 0.01 and 0 < m["visibility_mae"] < 0.015
+    assert m["error_rate"] < 0.01 and 0 < m["visibility_mae"] < 0.01
 
 
 def test_two_layer_variants_need_no_bias_on_nonconvex_casters(lab):

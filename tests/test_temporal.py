@@ -171,11 +171,11 @@ def test_coarse_shadow_map_shimmers_under_the_rotating_sun(tmp_path, ctx):
                   out=tmp_path / "sun")
     s = pd.read_csv(out / "summary.csv").set_index("short_label")
     sm, sv = s.loc["shadow_map:resolution=128"], s.loc["shadow_volume"]
-    # measured: shadow_map flip_rate per pair 0.0043, 0.0049, 0.0042 (0.0119-0.0129 with the window-depth
-    # bias, whose acne flickered too); shadow_volume 0, 0, 0
+    # measured: shadow_map flip_rate per pair 0.0119, 0.0128, 0.0129; shadow_volume 0, 0, 0
+    # (temporal_error 0.0138-0.0142 against 0.0001, 0, 0)
     df = pd.read_csv(out / "frames.csv")
     sm_pairs = df[(df["short_label"] == "shadow_map:resolution=128") & (df["frame"] > 0)]["flip_rate"]
-    assert sm_pairs.min() > 0.003
+    assert sm_pairs.min() > 0.008
     assert sv["flip_rate_max"] < 0.001
     assert sm["flip_rate_mean"] > 10 * max(sv["flip_rate_mean"], 1e-4)
     assert sm["temporal_error_mean"] > sv["temporal_error_mean"]

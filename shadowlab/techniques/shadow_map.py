@@ -8,14 +8,17 @@ optional resolve, then one lookup pass over the shared G-buffer writing visibili
 Variants (``variant=``), tuned by ``bias``, ``slope_scale``, ``normal_offset`` (texels) and
 ``adaptive_epsilon`` (a fraction of the scene's extent). ``bias`` means what ``bias_space`` says:
 
-- ``world`` (the default): ``bias`` × the scene's extent is a distance; the lookup moves the
-  receiver that far towards the light and converts the move to window depth at the receiver
-  (exactly, through the map's matrix: ``window_change`` in shaders/shadow_lookup.glsl). It then
-  means the same distance at every receiver whatever the near plane: a window-depth bias is
-  stretched by z²/near in a perspective map, so a near plane 1000x closer turns 0.002 of window
-  depth into metres (0.002 · z² / near: a table 2 m below a lamp whose near plane is 0.4 mm
-  away gets a bias of about 20 m, and every shadow is lost). Scaled by the extent so that one
-  default serves a room and a city.
+- ``world`` (the default): a distance the lookup moves the receiver towards the light,
+  converted to window depth at the receiver (exactly, through the map's matrix:
+  ``window_change`` in shaders/shadow_lookup.glsl), so that it means the same distance at every
+  receiver whatever the near plane. A window-depth bias is stretched by z²/near in a
+  perspective map, so a near plane 1000x closer turns 0.002 of window depth into metres
+  (0.002 · z² / near: a table 2 m below a lamp whose near plane is 0.4 mm away gets a bias of
+  about 20 m, and every shadow is lost). On perspective maps the distance is ``bias`` × the
+  scene's extent (one default serves a room and a city); on orthographic maps (lights at
+  infinity) window depth is linear, so the window-depth bias already is one distance
+  everywhere, ``bias`` × the map's depth range, and is kept: the defaults were chosen so
+  (docs/tuning.md, "Near planes and the world-distance bias").
 - ``window``: window-depth units [0, 1], the seed's and the literature's form (the bias
   experiments, ``dual``'s offset cap).
 
@@ -112,14 +115,16 @@ COMPARISON_PARAMS = {
                         # powers of two from coarse to a cube atlas's practical limit (3 x 8192 wide)
                         tune=TuneRange(256, 8192, log=True)),
     "bias": Param(0.002, "constant depth bias: with bias_space=world a distance towards the light, as a fraction "
-                         "of the scene's extent; with window, window-depth units [0, 1] (dual: the offset cap, "
-                         "window depth)",
+                         "of the scene's extent (perspective maps) or of the depth range (orthographic maps); "
+                         "with window, window-depth units [0, 1] (dual: the offset cap, window depth)",
                   # acne below ~1e-6 of the depth range (or extent) even at 32 bits; 0.05 detaches every contact
                   min=0.0, max=1.0, tune=TuneRange(1e-6, 0.05, log=True)),
-    "bias_space": Param("world", "what bias measures: world (bias x the scene's extent, a distance moved towards the "
-                                 "light at each receiver and converted to window depth there: the same distance "
-                                 "whatever the near plane) or window (window depth, the seed's and the literature's "
-                                 "form, which a near plane close to the light turns into metres)",
+    "bias_space": Param("world", "what bias measures: world (a distance moved towards the light at each receiver, "
+                                 "the same whatever the near plane: bias x the scene's extent on perspective maps, "
+                                 "converted to window depth at the receiver; on orthographic maps window depth is "
+                                 "linear and the bias is kept as it is, bias x the depth range) or window (window "
+                                 "depth, the seed's and the literature's form, which a near plane close to the light "
+                                 "turns into metres)",
                         choices=("world", "window")),
     "depth_bits": Param(24, "depth format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
     "variant": Param("constant", "depth comparison", choices=VARIANTS),
@@ -169,12 +174,20 @@ class ComparisonVariants:
         return self.variant == "second_depth", ((float(self.slope_scale), float(self.offset_units))
                                                 if hardware else None)
 
+    def converts_world_bias(self) -> bool:
+        """True when the lookup converts a world-distance bias at each receiver: ``bias_space``
+        world on a perspective map. An orthographic map's window depth is linear, so there a
+        window-depth bias already is one world distance everywhere (× the depth range)."""
+        return self.bias_space == "world" and self.atlas.faces[0].proj[3, 3] != 1.0
+
     def bias_window_world(self) -> tuple[float, float]:
-        """The constant bias as (window depth, world distance): ``bias`` in its ``bias_space``
-        (world: × the scene's extent); none for the variants without one."""
+        """The constant bias as (window depth, world distance), as the lookup applies it: with
+        ``bias_space=world``, ``bias`` × the scene's extent as a distance on perspective maps,
+        and ``bias`` in window depth (= ``bias`` × the depth range, in world units) on
+        orthographic ones; with ``window``, window depth. None for the variants without one."""
         if self.variant in UNBIASED_VARIANTS:
             return 0.0, 0.0
-        if self.bias_space == "world":
+        if self.converts_world_bias():
             return 0.0, float(self.bias) * float(self.frame.scene.extent())
         return float(self.bias), 0.0
 

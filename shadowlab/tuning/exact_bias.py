@@ -387,7 +387,7 @@ def exact_bias_tune(evaluator: Evaluator, spec: str, light: int = 0, lo: float =
         for value in values:
             t0 = time.perf_counter()
             uniforms = {GRID_UNIFORMS[grid_param]: float(value)} if grid_param else {}
-            world = getattr(tech, "bias_space", "window") == "world"
+            world = hasattr(tech, "converts_world_bias") and tech.converts_world_bias()
             if world:
                 uniforms["u_bias_world"] = 0.0  # window thresholds first, converted below
             terms = tech.comparison_terms(taps, uniforms)

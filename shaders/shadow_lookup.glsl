@@ -44,7 +44,6 @@
 #define DEPTH_COMPARISON_POINT 0
 #define DEPTH_COMPARISON_RECEIVER_PLANE 1
 #define DEPTH_COMPARISON_ADAPTIVE 2
-#define WORLD_PAST_LIGHT 2.0             // a window-depth bias past every depth: the comparison lights
 #define NEAR_DEPTH 0.0                   // window depths of a face's near and far planes
 #define FAR_DEPTH 1.0
 #ifndef MAX_FACES
@@ -98,6 +97,7 @@ out float out_visibility;
 #include "atlas.glsl"
 
 #include "receiver_plane.glsl"
+#include "world_bias.glsl"
 
 // The uv of the centre of atlas texel t of face f.
 vec2 texel_centre_uv(int f, ivec2 t) {
@@ -108,15 +108,6 @@ vec2 texel_centre_uv(int f, ivec2 t) {
 vec3 from_map(int f, vec3 m) {
     vec4 w = u_light_matrix_inverse[f] * vec4(m, 1.0);
     return w.xyz / w.w;
-}
-
-// The window-depth change of face f's map when the world point X moves by delta (exact, no
-// cancellation between two nearly equal depths): d(X + δ) − d(X) = (m.z s.w − s.z m.w) /
-// (s.w (s.w + m.w)), s = M X, m = M δ.
-float window_change(int f, vec3 X, vec3 delta) {
-    vec4 s = u_light_matrix[f] * vec4(X, 1.0);
-    vec4 m = u_light_matrix[f] * vec4(delta, 0.0);
-    return (m.z * s.w - s.z * m.w) / (s.w * (s.w + m.w));
 }
 
 // Adaptive depth bias (Dou et al. 2014) of the receiver point Q (normal N, map coordinates c)
@@ -164,13 +155,7 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
         else
             extra = u_slope_scale * max(abs(edge.x), abs(edge.y));  // edge-on to the light
     }
-    // The world bias: Q moved u_bias_world towards the light, in window depth at Q; a move that
-    // reaches the light's plane of projection (w <= 0) lifts the point past every caster: lit.
-    float world = 0.0;
-    if (u_bias_world > 0.0) {
-        vec3 delta = light_dir_to(Q) * u_bias_world;
-        world = (u_light_matrix[f] * vec4(Q + delta, 1.0)).w > 0.0 ? -window_change(f, Q, delta) : WORLD_PAST_LIGHT;
-    }
+    float world = world_bias(f, Q, u_bias_world);  // Q moved u_bias_world towards the light
     float bias = u_bias + world + extra;
     float ref = c.z - bias;
     vec2 atlas = atlas_texel(f, c.xy);

@@ -2,7 +2,8 @@
 // level it wants (virtual_common.glsl, as the request pass computed it), walks up to the finest
 // resident level at or above it through the page table (UE5 falls back to a coarser mip where a
 // page is missing), and compares its window depth, less a constant and a slope-scaled bias (as
-// shadow_lookup.glsl's `slope` variant, with that level's texel), with the physical page's texel.
+// shadow_lookup.glsl's `slope` variant, with that level's texel; the constant part in window depth
+// or, u_bias_world, a world distance converted at the receiver), with the physical page's texel.
 // Points off the virtual map, or behind a perspective map's centre of projection, are lit.
 #include "fullscreen.glsl"
 
@@ -18,6 +19,7 @@ uniform vec2 u_atlas_size;
 #include "cube_face.glsl"
 #include "atlas.glsl"
 #include "receiver_plane.glsl"
+#include "world_bias.glsl"
 #include "virtual_common.glsl"
 uniform sampler2D u_pool;                // the physical page pool: window depth
 uniform isampler2D u_page_table;         // face f, level m, page (x, y) at texel (x, f × u_face_rows + u_table_row[m] + y): slot or NOT_RESIDENT
@@ -27,6 +29,7 @@ uniform int u_pool_side;                 // pages per side of the pool
 uniform int u_page_size;                 // texels per side of a page
 uniform float u_virtual_resolution;      // texels per side of level 0
 uniform float u_bias;                    // window depth
+uniform float u_bias_world;              // world distance towards the light (0: none; world_bias.glsl)
 uniform float u_slope_scale;             // multiple of the receiver's depth change over one texel
 out float out_visibility;
 
@@ -61,6 +64,7 @@ void main() {
         extra = u_slope_scale * (abs(dz.x) + abs(dz.y)) * texel_uv;
     else
         extra = u_slope_scale * max(abs(edge.x), abs(edge.y));  // edge-on to the light
-    out_visibility = c.z - (u_bias + extra) <= stored ? LIT : SHADOWED;
+    // Level 0's matrix converts the world bias: the levels crop it sideways, their depth is its.
+    out_visibility = c.z - (u_bias + world_bias(f, P, u_bias_world) + extra) <= stored ? LIT : SHADOWED;
 }
 #endif

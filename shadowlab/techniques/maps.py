@@ -283,8 +283,8 @@ def window_to_world(light_matrix: np.ndarray, points: np.ndarray, to_light: np.n
     projection · view, (4, 4), or (N, 4, 4) per point) by ``window`` (N,) — the world size of a
     window-depth bias at each receiver. Exact for any projective map: with s = M X and m = M δ̂,
     moving t along δ̂ changes window depth by Δ = t (m.z s.w − s.z m.w) / (s.w (s.w + t m.w)),
-    solved for t at Δ = −window. ``shaders/shadow_lookup.glsl``'s ``window_change`` is the
-    forward form. +inf where no distance does (the depth cannot fall that far)."""
+    solved for t at Δ = −window. ``shaders/world_bias.glsl``'s ``window_change`` is the forward
+    form. +inf where no distance does (the depth cannot fall that far)."""
     M = np.asarray(light_matrix, np.float64)
     X = np.c_[np.asarray(points, np.float64), np.ones(len(points))]
     D = np.c_[np.asarray(to_light, np.float64), np.zeros(len(points))]
@@ -531,8 +531,8 @@ class DepthMapTechnique(TexelMapping, Technique):
             causes.append(f"the near plane at {near:.3g}, far/near = {far / near:.3g}: window depth crowds into the top "
                           f"{near / (far + near):.2g} of [0, 1] over the far half of the depth range, where the bias "
                           f"and the depth format's steps swallow the gap between caster and receiver")
-        unit = "x the scene's extent, bias_space=world" if self.params().get("bias_space") == "world" \
-            else "in window depth"
+        converts = getattr(self, "converts_world_bias", None)
+        unit = "x the scene's extent, bias_space=world" if converts is not None and converts() else "in window depth"
         named = f"the bias ({bias:g} {unit})" if bias is not None else "the bias"
         if bias_world is not None:
             at = (f"amounts to {bias_world:.3g} world units at the receivers (median"

@@ -10,7 +10,7 @@ Variants (``variant=``), tuned by ``bias``, ``slope_scale``, ``normal_offset`` (
 
 - ``world`` (the default): a distance the lookup moves the receiver towards the light,
   converted to window depth at the receiver (exactly, through the map's matrix:
-  ``window_change`` in shaders/shadow_lookup.glsl), so that it means the same distance at every
+  ``world_bias`` in shaders/world_bias.glsl), so that it means the same distance at every
   receiver whatever the near plane. A window-depth bias is stretched by z²/near in a
   perspective map, so a near plane 1000x closer turns 0.002 of window depth into metres
   (0.002 · z² / near: a table 2 m below a lamp whose near plane is 0.4 mm away gets a bias of
@@ -178,7 +178,8 @@ class ComparisonVariants:
         """True when the lookup converts a world-distance bias at each receiver: ``bias_space``
         world on a perspective map. An orthographic map's window depth is linear, so there a
         window-depth bias already is one world distance everywhere (× the depth range)."""
-        return self.bias_space == "world" and self.atlas.faces[0].proj[3, 3] != 1.0
+        atlas = getattr(self, "atlas", None)  # before setup the map's projection is not known yet
+        return self.bias_space == "world" and (atlas is None or atlas.faces[0].proj[3, 3] != 1.0)
 
     def bias_window_world(self) -> tuple[float, float]:
         """The constant bias as (window depth, world distance), as the lookup applies it: with

@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 .PHONY: run test clean install experiments
 
 # constraints.txt pins every package to the versions the test suite was run with.
-$(STAMP): pyproject.toml constraints.txt
+$(STAMP): pyproject.toml setup.py constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,perceptual]'
@@ -20,10 +20,12 @@ install: $(STAMP)
 run: $(STAMP)
 	$(BIN)/shadowlab study quick --out results/study-quick
 
-# The tests, then the quick study and the soft-shadow study held against their committed
-# baselines (what CI runs).
+# The tests, the lab installed from its wheel into a fresh venv outside the tree (an editable
+# install hides packaging mistakes), then the quick study and the soft-shadow study held against
+# their committed baselines (what CI runs).
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
+	bash tests/install_check/run.sh $(BIN)/python
 	$(BIN)/shadowlab study quick --out results/study-quick
 	$(BIN)/shadowlab check results/study-quick tests/baselines/quick.csv
 	$(BIN)/shadowlab study soft_quick --out results/study-soft_quick

@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# The lab as a user installs it (issue 36): a wheel built from a clean copy of the tracked
+# sources, installed (not editable) into a fresh venv outside the source tree, and the commands
+# run from there — compare, tune, one tiny study. An editable install hides packaging mistakes
+# (a package missing from the wheel broke every command of a plain install).
+# Usage: tests/install_check/run.sh PYTHON   (make test passes the repository's .venv python)
+set -euo pipefail
+repo=$(cd "$(dirname "$0")/../.." && pwd)
+python=${1:-python3}
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+echo "install check in $work"
+mkdir "$work/src"
+(cd "$repo" && git ls-files -z | xargs -0 -I{} cp --parents {} "$work/src/")
+"$python" -m pip wheel --quiet --no-deps -w "$work/dist" "$work/src" 2>/dev/null
+"$python" -m venv "$work/venv"
+"$work/venv/bin/python" -m pip install --quiet --upgrade pip
+"$work/venv/bin/python" -m pip install --quiet -c "$repo/constraints.txt" "$work"/dist/shadowlab-*.whl
+cp "$repo/tests/install_check/tiny.toml" "$work/tiny.toml"
+cd "$work"   # outside the source tree: the installed package is what runs
+lab="$work/venv/bin/shadowlab"
+"$lab" --version
+"$lab" compare box_on_plane -t shadow_map -t shadow_volume --size 160x120 --repeat 1 --out "$work/compare"
+"$lab" tune sm_contact -t shadow_map --size 160x120 --out "$work/tune"
+"$lab" study "$work/tiny.toml" --out "$work/study"
+test -f "$work/compare/report.html" && test -f "$work/tune/best.json" && test -f "$work/study/study.html"
+echo "install check: compare, tune and study ran from the installed wheel"

@@ -74,9 +74,9 @@ def test_city_licence_notice_ships_with_the_meshes():
     readme = (MESHES / "README.md").read_text(encoding="utf-8")
     assert "city_sf_NOTICE.txt" in readme and "© OpenStreetMap contributors" in readme
     data = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
-    patterns = data["tool"]["setuptools"]["package-data"]["shadowlab.scenes.meshes"]
+    patterns = data["tool"]["setuptools"]["package-data"]["shadowlab.scenes"]
     for f in ("city_sf_NOTICE.txt", "city_sf_buildings.ply.gz", "city_wires_grass.ply.gz"):
-        assert any(Path(f).match(p) for p in patterns), f
+        assert any(Path("meshes", f).match(p) for p in patterns), f
 
 
 def test_city_suite_runs_the_city_scenes():

@@ -157,7 +157,10 @@ def normal_view(light, receivers: np.ndarray, casters: frusta.Casters, resolutio
         notes.append(f"moment_soft: receivers lie up to {half:.1f} degrees from the light's normal, more than the "
                      f"map's {frusta.MAX_POINT_HALF_ANGLE}; {outside} of them lie outside the map and are treated as lit")
         half = frusta.MAX_POINT_HALF_ANGLE
-    near, far, fit_notes = frusta.perspective_fit(p, d[front] + p, casters, [look_along(p, axis)], 2 * half)
+    # The near plane is fitted over the cone around the square (tan × √2): aligned_face may turn the
+    # square about its axis afterwards, and its corners must not lose a nearer caster.
+    cone = 2 * float(np.degrees(np.arctan(np.sqrt(2.0) * np.tan(np.radians(half)))))
+    near, far, fit_notes = frusta.perspective_fit(p, d[front] + p, casters, [look_along(p, axis)], cone)
     return frusta.perspective_view(p, axis, 2 * half, near, far, resolution), notes + fit_notes
 
 

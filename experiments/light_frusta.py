@@ -36,6 +36,7 @@ import pandas as pd
 from shadowlab import provenance
 from shadowlab.frame import Frame
 from shadowlab.geometry import frusta
+from shadowlab.geometry import transforms as tf
 from shadowlab.geometry.transforms import BIAS
 from shadowlab.scene import builtin_scenes, load_scene
 
@@ -68,9 +69,8 @@ def frusta_rows(scene_name: str, size: tuple[int, int]) -> list[dict]:
             box_near, box_far = frusta.perspective_range(light.position, pts, frame.caster_bounds(), axes, fov)
             receivers = frame.compact_position[slot.evaluated]
             to_light, _ = light.to_light(receivers)
-            box_views = [frusta.LightView(v.view, v.proj.copy()) for v in views]
-            for v in box_views:  # the same views with the box fit's planes
-                v.proj[:] = frusta.perspective_view(light.position, -v.view[2, :3], fov, box_near, box_far, 2048).proj
+            box_proj = tf.perspective(fov, 1.0, box_near, box_far)  # the same views with the box fit's planes
+            box_views = [frusta.LightView(v.view, box_proj) for v in views]
             face = cube_face_index(receivers, light.position, len(views))
             mats = np.stack([BIAS @ v.view_proj for v in box_views])[face]
             before = window_to_world(mats, receivers, to_light, np.full(len(receivers), DEFAULT_BIAS))

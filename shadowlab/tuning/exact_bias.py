@@ -123,7 +123,8 @@ def tap_thresholds(receiver: np.ndarray, stored: np.ndarray, extra: np.ndarray,
 
 def world_thresholds(tech: DepthMapTechnique, thresholds: np.ndarray, normal_offset: float) -> np.ndarray:
     """Float32 (taps, H·W): window-depth tap ``thresholds`` (rendered with no world bias) as
-    thresholds of ``bias`` with ``bias_space=world`` — the distance towards the light, as a
+    thresholds of ``bias`` with ``bias_space=world`` on a perspective map (the lookup converts it
+    there: ``converts_world_bias``) — the distance towards the light, as a
     fraction of the scene's extent, that lowers each pixel's window depth by its threshold
     (:func:`shadowlab.techniques.maps.window_to_world` at the lookup point, the G-buffer point
     moved ``normal_offset`` texels along its normal as the lookup moves it). Thresholds ≤ 0 (lit

@@ -28,10 +28,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from shadowlab import provenance
+from shadowlab.output import provenance
 from shadowlab.commands.animate import animate
 from shadowlab.output.pictures import PLOT_DPI
-from shadowlab.study.aggregate import per_configuration
+from shadowlab.analysis.aggregate import per_configuration
 from shadowlab.study.experiment import run_experiment_suite
 
 SUITE = "equal_memory"

@@ -31,12 +31,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from shadowlab import provenance
-from shadowlab.frame import Frame
-from shadowlab.pipeline import measure
+from shadowlab.output import provenance
+from shadowlab.gpu.frame import Frame
+from shadowlab.measurement.pipeline import measure
 from shadowlab.scene import load_scene, parse_scene
 from shadowlab.techniques import from_spec
-from shadowlab.metrics import PENUMBRA_HIGH, PENUMBRA_LOW
+from shadowlab.evaluation.metrics import PENUMBRA_HIGH, PENUMBRA_LOW
 
 SCENES = ["soft_banding", "soft_below_plane", "soft_contact_hardening", "soft_large_close", "soft_moving_caster",
           "soft_overlap", "soft_two_heights"]

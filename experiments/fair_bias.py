@@ -30,13 +30,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from shadowlab import provenance
-from shadowlab.frame import Frame
+from shadowlab.output import provenance
+from shadowlab.gpu.frame import Frame
 from shadowlab.output.pictures import PLOT_DPI
-from shadowlab.pipeline import Evaluator, measure_configs
+from shadowlab.measurement.pipeline import Evaluator, measure_configs
 from shadowlab.scene import builtin_scenes, load_scene
 from shadowlab.scene.reading import parse_scene
-from shadowlab.techniques.shadow_map import VARIANTS
+from shadowlab.techniques.maps.shadow_map import VARIANTS
 from shadowlab.tuning.exact_bias import BiasCurve, exact_bias_tune
 from shadowlab.tuning.global_setting import SceneCurve, leave_one_out
 
@@ -111,7 +111,7 @@ def regret_table(size, scenes) -> tuple[pd.DataFrame, dict]:
 
 def global_table(curves: dict) -> pd.DataFrame:
     """Part 2: leave-one-out over the hard cases' constant-bias curves, per fit."""
-    from shadowlab.techniques.shadow_map import COMPARISON_PARAMS
+    from shadowlab.techniques.maps.shadow_map import COMPARISON_PARAMS
 
     default = COMPARISON_PARAMS["bias"].default
     rows = []

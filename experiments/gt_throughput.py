@@ -7,7 +7,7 @@ shares with evaluation (exact float64 hit points) and its own per-frame work (of
 are reported separately, and amortised over one light in ``gt_end_to_end_rays_per_s``;
 ``gt_end_to_end_over_raw`` is that against raw Embree — the hard truth's "fraction of raw
 Embree at one light" of issue 27. The frame's pass forms the default-offset origins beside the
-exact points (:meth:`shadowlab.frame.Frame.compute_exact_points`), so ``exact_points_ms_per_frame``
+exact points (:meth:`shadowlab.gpu.frame.Frame.compute_exact_points`), so ``exact_points_ms_per_frame``
 holds both and ``offset_origins_ms_per_frame`` is 0 unless the truth's ``offset_scale`` is not
 the default (then its origins are a pass of their own, timed there).
 Area lights (``--area-scenes``): the scene's first light is replaced by a rect area light at its
@@ -25,7 +25,7 @@ Besides wall-clock seconds, ``cpu_gt_over_raw`` and ``cpu_gt_end_to_end_over_raw
 fractions in CPU seconds of this process (all threads), which other processes' load disturbs
 far less.
 
-Before and after issue 27 (compiled per-ray passes, :mod:`shadowlab.compiled_truth`; same bits),
+Before and after issue 27 (compiled per-ray passes, :mod:`shadowlab.truth.compiled`; same bits),
 measured with this script's protocol on the same 2-core machine (Intel Xeon, llvmpipe — Embree
 runs on the CPU either way), the old and new code run alternately under the same load:
 see docs/guide.md (the ``raytrace`` row and the gt_throughput entry) for the figures.
@@ -45,13 +45,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from shadowlab import gl, provenance
+from shadowlab.gpu import gl
+from shadowlab.output import provenance
 from shadowlab.cli import parse_size
-from shadowlab.frame import Frame
+from shadowlab.gpu.frame import Frame
 from shadowlab.scene.lights import T_LIGHT
 from shadowlab.scene import load_scene, parse_scene, resolve_scene_path
-from shadowlab.tracing import DEFAULT_OFFSET_SCALE, occluded, offset_origins
-from shadowlab.techniques.raytrace import RayTraced, area_chunk_rays, area_chunks, area_workers
+from shadowlab.truth.tracing import DEFAULT_OFFSET_SCALE, occluded, offset_origins
+from shadowlab.techniques.rays.raytrace import RayTraced, area_chunk_rays, area_chunks, area_workers
 
 
 def void(_result) -> None:

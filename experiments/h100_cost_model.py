@@ -3,9 +3,9 @@
 ``../shared/gpu/h100_matrix_1280x720.csv`` holds GL_TIME_ELAPSED times of 11 shipped scenes × 10
 configurations at 1280x720 on an NVIDIA H100 (commit d63d2dd, 2026-11-22), but no work
 counters: that commit had none. This experiment recomputes the counters *here*, for the same
-scenes, size, lights and specifications (one counting render each, :mod:`shadowlab.work`: the
+scenes, size, lights and specifications (one counting render each, :mod:`shadowlab.gpu.work`: the
 counters are the same on every driver, which the exact figures below check), then fits the H100's
-cost model (:func:`shadowlab.cost.fit`, target ``gpu_time_ms_median``) with its leave-one-scene-
+cost model (:func:`shadowlab.analysis.cost.fit`, target ``gpu_time_ms_median``) with its leave-one-scene-
 out error, and writes it where ``shadowlab cost predict`` can use it.
 
 What may no longer match, and how it is checked: the scenes and techniques have changed since
@@ -34,10 +34,11 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from shadowlab import cost, work  # noqa: E402
+from shadowlab.analysis import cost
+from shadowlab.gpu import work
 from shadowlab.commands import cost as cost_cmd  # noqa: E402
-from shadowlab.frame import Frame  # noqa: E402
-from shadowlab.pipeline import measure  # noqa: E402
+from shadowlab.gpu.frame import Frame  # noqa: E402
+from shadowlab.measurement.pipeline import measure  # noqa: E402
 from shadowlab.scene import load_scene  # noqa: E402
 from shadowlab.techniques import TechniqueError, from_spec  # noqa: E402
 

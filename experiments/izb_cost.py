@@ -19,7 +19,7 @@ ground truth ``raytrace`` (Embree). Parts (each writes ``<out>/<part>.csv``):
 3. ``pixels``: ``box_on_plane`` and ``sv_many_casters`` at ``--pixel-sizes``: the same four
    techniques; log-log slopes of time against pixel count, fitted on the largest sizes.
 
-Timings: wall clock around ``ctx.finish()`` (:func:`shadowlab.pipeline.measure`), median of
+Timings: wall clock around ``ctx.finish()`` (:func:`shadowlab.measurement.pipeline.measure`), median of
 ``--repeat`` renders after one warm-up. The irregular z-buffer's rays are built on the CPU in its
 (untimed) setup, so its setup figure matters as much as its render figure here.
 
@@ -41,10 +41,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from shadowlab import gl, memory, metrics, provenance
-from shadowlab.frame import Frame
+from shadowlab.gpu import gl, memory
+from shadowlab.evaluation import metrics
+from shadowlab.output import provenance
+from shadowlab.gpu.frame import Frame
 from shadowlab.output.pictures import PLOT_DPI
-from shadowlab.pipeline import Evaluator, measure
+from shadowlab.measurement.pipeline import Evaluator, measure
 from shadowlab.scene import load_scene
 from shadowlab.scene.area_lights import AreaLight
 from shadowlab.study.suite import resolve_suite_path

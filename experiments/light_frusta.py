@@ -33,8 +33,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from shadowlab import provenance
-from shadowlab.frame import Frame
+from shadowlab.output import provenance
+from shadowlab.gpu.frame import Frame
 from shadowlab.geometry import frusta
 from shadowlab.geometry import transforms as tf
 from shadowlab.geometry.transforms import BIAS
@@ -49,7 +49,7 @@ DEFAULT_BIAS = 0.002
 def frusta_rows(scene_name: str, size: tuple[int, int]) -> list[dict]:
     """Part 1 for one scene: a row per perspective light (point, spot)."""
     from shadowlab.scene.lights import PointLight
-    from shadowlab.techniques.maps import cube_face_index, shadowable_receivers, window_to_world
+    from shadowlab.techniques.maps.toolkit import cube_face_index, shadowable_receivers, window_to_world
 
     scene = load_scene(scene_name)
     frame = Frame(scene, *size)
@@ -88,7 +88,7 @@ def frusta_rows(scene_name: str, size: tuple[int, int]) -> list[dict]:
 
 def default_rows(scene_name: str, size: tuple[int, int], techniques: list[str]) -> list[dict]:
     """Part 2 for one scene: every technique that renders for a light, at its defaults."""
-    from shadowlab.pipeline import check_lights, measure_configs
+    from shadowlab.measurement.pipeline import check_lights, measure_configs
     from shadowlab.techniques import TechniqueError, from_spec
 
     scene = load_scene(scene_name)
@@ -127,7 +127,7 @@ def bias_rows(scene_name: str, size: tuple[int, int]) -> list[dict]:
     """Part 3 for one scene: per light shadow_map renders for (hard lights only: the exact
     optimiser is not valid for a light-sampled area light), the exact error curve of ``bias``
     at the candidates, the optimum and the default's error."""
-    from shadowlab.pipeline import Evaluator, check_lights
+    from shadowlab.measurement.pipeline import Evaluator, check_lights
     from shadowlab.techniques import TechniqueError, from_spec
     from shadowlab.tuning.exact_bias import exact_bias_tune
 

@@ -21,7 +21,7 @@ files, one scene object each:
 Every wire, post, rail and picket is a closed box (12 triangles); blades are open triangles. The
 output format is that of ``prepare_meshes.py`` (float32 binary little-endian PLY, gzipped with
 a zero timestamp), whose helpers this script imports. It prints each file's triangle count,
-object count (boxes or blades) and size — the figures in meshes/README.md and tests/test_city.py.
+object count (boxes or blades) and size — the figures in meshes/README.md and tests/scene/test_city.py.
 """
 from __future__ import annotations
 

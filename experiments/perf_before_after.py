@@ -34,18 +34,19 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from shadowlab import gl, memory, provenance
-from shadowlab.frame import Frame
+from shadowlab.gpu import gl, memory
+from shadowlab.output import provenance
+from shadowlab.gpu.frame import Frame
 from shadowlab.geometry import compiled_clipping
 from shadowlab.geometry.rays import ray_plane_hits
 from shadowlab.scene.lights import PointLight
-from shadowlab.pipeline import measure
+from shadowlab.measurement.pipeline import measure
 from shadowlab.scene import load_scene
 from shadowlab.techniques import from_spec
-from shadowlab.techniques.raytrace import RayTraced
-from shadowlab.tracing import occluded, offset_origins
-from shadowlab.techniques.shadow_polygons import fragment_triangles
-from shadowlab.timing import time_passes
+from shadowlab.techniques.rays.raytrace import RayTraced
+from shadowlab.truth.tracing import occluded, offset_origins
+from shadowlab.techniques.geometric.shadow_polygons import fragment_triangles
+from shadowlab.gpu.timing import time_passes
 
 sys.path.insert(0, str(Path(__file__).parent))
 from sv_scaling import torus_scene  # noqa: E402  (the scaling experiment's torus)

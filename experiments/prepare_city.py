@@ -33,7 +33,7 @@ a zero timestamp), whose helpers this script imports.
 
 It prints, per output: triangles, vertices, connected components, boundary edges, bounds and
 the compressed size, and the number of buildings (distinct shape-name prefixes) — the figures
-in meshes/README.md and tests/test_city.py.
+in meshes/README.md and tests/scene/test_city.py.
 """
 from __future__ import annotations
 

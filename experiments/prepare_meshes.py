@@ -36,7 +36,7 @@ scaled or rotated here: the scenes place the models with their ``scale`` / ``rot
 
 It prints, for each output: triangles, vertices, connected components, watertight, Euler
 characteristic, boundary edges and loops, genus, signed volume, bounds, and the compressed size
-(the figures in meshes/README.md and tests/test_real_meshes.py).
+(the figures in meshes/README.md and tests/scene/test_real_meshes.py).
 """
 from __future__ import annotations
 

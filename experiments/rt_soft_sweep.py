@@ -7,7 +7,7 @@ Stills — every soft scene (``shadowlab/scenes/soft_*.toml``; an animated one a
 samples in four configurations — plain average, ratio estimator, each with and without the
 denoiser (``ratio``, ``iterations``; ``temporal_alpha=0``: nothing to accumulate in a still) —
 plus ``contact_mae``: mean |V − G| over evaluated pixels within :data:`CONTACT_RADIUS` pixels
-of a contact line (:meth:`shadowlab.pipeline.Evaluator.contact_lines`: where a caster touches
+of a contact line (:meth:`shadowlab.measurement.pipeline.Evaluator.contact_lines`: where a caster touches
 its receiver), the blur across contact edges of hard case SS3, on the scenes that have contact
 lines (soft_contact_hardening above all).
 
@@ -19,7 +19,7 @@ temporal accumulation (``temporal_alpha`` = 0.8 / 0; without the neighbourhood c
 
 Writes results/rt_soft_sweep.csv (stills and animation rows, ``part`` says which), .png (error
 against samples per scene; flicker against samples) and .json (provenance,
-:func:`shadowlab.provenance.write_record`); the animation's run directory under
+:func:`shadowlab.output.provenance.write_record`); the animation's run directory under
 results/rt_soft_sweep/. About 5 minutes on a 2-core machine at 320x240.
 
     python experiments/rt_soft_sweep.py [--size 320x240] [--out results/rt_soft_sweep] [--frames N]
@@ -33,10 +33,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from shadowlab import gl, provenance
+from shadowlab.gpu import gl
+from shadowlab.output import provenance
 from shadowlab.commands.animate import animate
-from shadowlab.frame import Frame
-from shadowlab.pipeline import Evaluator, measure
+from shadowlab.gpu.frame import Frame
+from shadowlab.measurement.pipeline import Evaluator, measure
 from shadowlab.scene import load_scene
 from shadowlab.scenes import __path__ as _scenes_path
 from shadowlab.techniques import from_spec

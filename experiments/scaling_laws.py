@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from shadowlab.scaling import LEVEL, PARAMS, LawFit, crossovers, fit_law, scene_triangles
+from shadowlab.analysis.scaling import LEVEL, PARAMS, LawFit, crossovers, fit_law, scene_triangles
 
 SUITE = "scaling"
 #: Image sizes of the pixel sweep, 0.31 to 8.3 Mpx.
@@ -162,7 +162,7 @@ def fit_all(points: pd.DataFrame, with_corners: bool = False) -> tuple[dict[str,
     parameters on a bound, or the reason a family could not be fitted). Fitted on the cross, the
     law is then tested at the corners, which it never saw: ``corner_<T>k`` is measured / predicted
     time there (1 where pixel cost and triangle cost add, as the law assumes)."""
-    from shadowlab.study.aggregate import family_order
+    from shadowlab.analysis.aggregate import family_order
 
     fits, rows = {}, []
     for fam in family_order(points["family"].unique()):
@@ -220,7 +220,7 @@ def plot(points: pd.DataFrame, fits: dict[str, LawFit], column: str, path: Path,
     from matplotlib.ticker import NullFormatter
 
     from shadowlab.output.pictures import PLOT_DPI
-    from shadowlab.study.aggregate import family_order
+    from shadowlab.analysis.aggregate import family_order
 
     fig = Figure(figsize=(13, 5.4), dpi=PLOT_DPI)
     FigureCanvasAgg(fig)
@@ -356,7 +356,7 @@ def main(argv=None) -> None:
     show(table.drop(columns=["config"]), f"fits t = t0 + a·P^α + b·T^β (P in Mpx, T in M triangles, ms; "
                                          f"{LEVEL:.0%} intervals from the covariance)")
     show(cross, "crossovers of the fitted laws (on the cross, within the ranges both families were measured on)")
-    from shadowlab import provenance
+    from shadowlab.output import provenance
 
     record.update({"renderer": renderer, "law": "t = t0 + a*(P/1e6)^alpha + b*(T/1e6)^beta, ms",
                    "fit": "scipy curve_fit, sigma = time (relative residuals), bounds >= 0, exponents <= 3",

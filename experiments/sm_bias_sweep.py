@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from shadowlab.study.experiment import run_experiment_suite
-from shadowlab.techniques.shadow_map import ShadowMap
+from shadowlab.techniques.maps.shadow_map import ShadowMap
 
 SUITE = "sm_bias"
 # variants swept over an offset, in plot order

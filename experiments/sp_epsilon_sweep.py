@@ -30,7 +30,7 @@ import pandas as pd
 from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
-from shadowlab import provenance
+from shadowlab.output import provenance
 from shadowlab.geometry import polygon_clipping as pc
 
 # The independent oracle (shapely/GEOS, no code shared with the clipper) lives with the tests.

@@ -24,14 +24,15 @@ import numpy as np
 import pandas as pd
 from OpenGL import GL
 
-from shadowlab import gl, provenance
-from shadowlab.frame import Frame
+from shadowlab.gpu import gl
+from shadowlab.output import provenance
+from shadowlab.gpu.frame import Frame
 from shadowlab.geometry import adjacency as adj
-from shadowlab.pipeline import measure as measure_technique
+from shadowlab.measurement.pipeline import measure as measure_technique
 from shadowlab.scene import parse_scene
 from shadowlab.techniques import from_spec
-from shadowlab.techniques.shadow_volume import GS_STAGE_VOLUME
-from shadowlab.timing import time_passes
+from shadowlab.techniques.volumes.shadow_volume import GS_STAGE_VOLUME
+from shadowlab.gpu.timing import time_passes
 
 
 #: Counting modes timed on their own (CPU silhouette), one column each.

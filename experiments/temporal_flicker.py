@@ -23,7 +23,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from shadowlab import gl, provenance
+from shadowlab.gpu import gl
+from shadowlab.output import provenance
 from shadowlab.commands.animate import animate
 
 CASES = {

@@ -10,7 +10,7 @@ import argparse
 import re
 import sys
 
-from .validation import SceneError
+from .util.validation import SceneError
 
 EXIT_BAD_INPUT = 2
 EXIT_NO_GL = 3
@@ -18,7 +18,7 @@ EXIT_NO_GL = 3
 
 def parse_size(text: str) -> tuple[int, int]:
     """``'800x600'`` → (800, 600); RunError on anything else or on absurd sizes."""
-    from .commands.compare import RunError, check_size
+    from .util.validation import RunError, check_size
 
     m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text or "")
     if not m:
@@ -79,7 +79,7 @@ def _with_progress(unit: str, work):
     """Run ``work(on_step)`` under a :class:`Progress` bar of ``unit``s (the single-run commands:
     compare, animate, tune): its result, or None after printing why when no GL context could be
     made (the caller exits with :data:`EXIT_NO_GL`)."""
-    from .gl import GLContextError
+    from .gpu.gl import GLContextError
 
     bar = Progress(unit=unit)
     try:
@@ -110,9 +110,9 @@ def technique_listing(name: str | None = None) -> str:
 
 def version_text() -> str:
     """``shadowlab <version>``, followed by the code's revision (``git describe``,
-    :func:`shadowlab.provenance.revision`) when run from a git checkout."""
+    :func:`shadowlab.output.provenance.revision`) when run from a git checkout."""
     from . import __version__
-    from .provenance import revision
+    from .output.provenance import revision
 
     rev = revision()
     return f"shadowlab {__version__}" + ("" if rev.startswith("shadowlab ") else f" ({rev})")
@@ -228,7 +228,7 @@ def _cmd_suites() -> int:
 
 
 def _cmd_study(args) -> int:
-    from .gl import GLContextError
+    from .gpu.gl import GLContextError
     from .study.runner import run_study
 
     bar = StudyProgress()
@@ -317,7 +317,7 @@ def _cmd_scenes() -> int:
 
 def _cmd_compare(args) -> int:
     from .commands import compare as runmod
-    from .metrics import format_table
+    from .evaluation.metrics import format_table
 
     size = parse_size(args.size)
     out = _with_progress("pass", lambda step: runmod.compare(
@@ -382,7 +382,7 @@ def _cmd_animate(args) -> int:
 
 def _cmd_cost(args) -> int:
     from .commands import cost as cost_cmd
-    from .cost import PREDICTED_LABEL, summary_line
+    from .analysis.cost import PREDICTED_LABEL, summary_line
 
     if args.cost_command == "fit":
         counters = [c.strip() for c in args.counters.split(",") if c.strip()] if args.counters else None

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from conftest import SMALL, make_scene
+from helpers import SMALL, make_scene
 
 #: One light of each area shape over the floor of :func:`assert_fully_lit`.
 LIGHTS = {

@@ -1,6 +1,6 @@
 """The exact visible fraction of a planar area light (rect, or disc as a polygon) from a point,
 behind polygonal occluders — the oracle the sampled ground truth is tested against
-(tests/test_soft_truth.py), written from the definition (DESIGN §7), independently of
+(tests/truth/test_soft_truth.py), written from the definition (DESIGN §7), independently of
 shadowlab's sampling code.
 
 From P, each occluding triangle is centrally projected onto the light's plane; the union of
@@ -114,7 +114,7 @@ def occluded_region(light, triangles: np.ndarray, p: np.ndarray, normal: np.ndar
     and GEOS's union loses precision on them: measured on soft_large_close at 160x120, 2 of
     400 random points off by 3e-4 (e.g. a point where adding the box, whose shadow misses the
     light, raised V from 0.956864 to 0.957159), others by ~1e-9; with it the oracle and
-    shadowlab's exact_soft agree to 1e-12 there (tests/test_exact_soft.py)."""
+    shadowlab's exact_soft agree to 1e-12 there (tests/techniques/geometric/test_exact_soft.py)."""
     c, n, t, b = _frame(light)
     p = np.asarray(p, np.float64)
     d_p = (p - c) @ n

@@ -2,11 +2,11 @@
 scene, with per-frame metrics, temporal metrics and the flicker pictures.
 
 Per frame k (time t_k = k / (n − 1), :func:`shadowlab.scene.animation.frame_times`): the scene at t_k
-(:func:`shadowlab.scene.animation.scene_at`) → a :class:`~shadowlab.frame.Frame` → the truth and each
-technique on every light through :mod:`shadowlab.pipeline` (``measure``; one untimed-in-effect
+(:func:`shadowlab.scene.animation.scene_at`) → a :class:`~shadowlab.gpu.frame.Frame` → the truth and each
+technique on every light through :mod:`shadowlab.measurement.pipeline` (``measure``; one untimed-in-effect
 render unless ``repeat`` says otherwise; before each, ``Technique.begin_frame`` tells the technique
 which frame and light it is measuring, for state it keeps across frames) → the usual metrics row plus ``frame``, ``t`` and, from
-frame 1 on, the temporal columns of :mod:`shadowlab.temporal` against frame k−1.
+frame 1 on, the temporal columns of :mod:`shadowlab.evaluation.temporal` against frame k−1.
 
 Outputs (through the one run-directory writer, :class:`shadowlab.output.rundir.RunDirectory`:
 written into a temporary sibling and moved into place at the end, so a failed run leaves earlier
@@ -16,7 +16,7 @@ light: mean error rate, flip rate mean/p95/max, temporal error mean/max, median 
 ``flicker_<name>.png`` (per technique, first light: per pixel, how many frame pairs flipped where
 the truth did not, coloured over the last frame's shaded truth in grey), ``strip_<name>.gif``
 (per technique, first light: truth | technique | error map, one labelled GIF frame per animation
-frame), ``animation.json`` (provenance, :mod:`shadowlab.provenance`) and ``report.html``
+frame), ``animation.json`` (provenance, :mod:`shadowlab.output.provenance`) and ``report.html``
 (template ``animate.html``). These names are a contract: users' scripts read them.
 
 The GIFs are written, and their frames labelled, with Pillow (GIF writer, ImageDraw and its
@@ -33,17 +33,22 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..measurement.scenes import load_measured_scene
 from ..output import pictures
-from .. import gl, metrics, provenance, temporal, timing
+from ..gpu import gl, timing
+from ..evaluation import metrics, temporal
+from ..output import provenance
 from ..scene.animation import frame_times, scene_at
-from ..frame import Frame
-from ..pipeline import Evaluator, StepCallback, build_techniques, check_lights, measure, pass_order
+from ..gpu.frame import Frame
+from ..measurement.pipeline import (
+    Evaluator, StepCallback, build_techniques, check_lights, measure, pass_order,
+)
 from ..output.pages import provenance_items
 from ..output.rundir import RunDirectory, error_legend, safe_name
-from ..shading import ShadingPass
-from ..validation import RunError
-from .compare import check_size
-from ..scene import Scene, load_scene
+from ..gpu.shading import ShadingPass
+from ..util.validation import RunError
+from ..util.validation import check_size
+from ..scene import Scene
 
 #: Display time of one GIF frame, milliseconds.
 GIF_FRAME_MS = 150
@@ -225,7 +230,7 @@ def flicker_picture(path: Path, counts: np.ndarray, covered: np.ndarray, underla
 
 def summary_table(df: pd.DataFrame) -> pd.DataFrame:
     """Per configuration and light (``label``, ``light``): frames, mean error rate, flip rate
-    mean/p95/max and temporal error mean/max over the frame pairs (:func:`shadowlab.temporal.summarise`)
+    mean/p95/max and temporal error mean/max over the frame pairs (:func:`shadowlab.evaluation.temporal.summarise`)
     and ``time_ms_median``, the median over frames of each frame's median time (the cost beside
     the stability). Columns are only ever added: summary.csv is read by users' scripts."""
     rows = []
@@ -250,7 +255,7 @@ def animate(scene_ref, specs: list[str], frames: int | None = None, size: tuple[
     if repeat < 1 or warmup < 0:
         raise RunError(f"--repeat must be >= 1 and --warmup >= 0, got {repeat} and {warmup}")
     size = check_size(size)
-    scene = load_scene(scene_ref)
+    scene = load_measured_scene(scene_ref)
     techniques = build_techniques(specs)
     check_lights(techniques, scene, where="animate runs every technique on every light: ")
     n = frame_count(scene, frames)

@@ -1,6 +1,6 @@
 """A comparison run: one scene, the ground truth and N technique configurations → a run directory.
 
-The measuring is :func:`shadowlab.pipeline.compare_frame`; this module checks the arguments
+The measuring is :func:`shadowlab.measurement.pipeline.compare_frame`; this module checks the arguments
 and writes what DESIGN §6 promises: ``metrics.csv``, ``masks.npz``, ``run.json``, the images and
 ``pictures.html``. Everything is written into a temporary sibling directory and moved into place
 at the very end, so a run that fails leaves earlier results untouched.
@@ -13,27 +13,21 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .. import gl, metrics, perceptual, provenance, timing
+from ..measurement.scenes import load_measured_scene
+from ..gpu import gl, timing
+from ..evaluation import metrics, perceptual
+from ..output import provenance
 from ..output import pictures
 from ..output.rundir import ConfigImages, RunDirectory, write_comparison
-from ..validation import RunError
-from ..frame import Frame
-from ..pipeline import Comparison, StepCallback, build_techniques, check_lights, compare_frame, pass_order
-from ..scene import Scene, load_scene
-from ..shading import ShadingPass
-
-#: The largest image a run accepts, in pixels (GL's usual maximum framebuffer side, squared).
-MAX_PIXELS = 8192 * 8192
+from ..util.validation import RunError, check_size  # noqa: F401  (check_size: the commands' size check)
+from ..gpu.frame import Frame
+from ..measurement.pipeline import (
+    Comparison, StepCallback, build_techniques, check_lights, compare_frame, pass_order,
+)
+from ..scene import Scene
+from ..gpu.shading import ShadingPass
 #: Re-exported for scripts that read metrics.csv (DESIGN §6 column order).
 CONTRACT_COLUMNS = metrics.CONTRACT_COLUMNS
-
-
-def check_size(size: tuple[int, int]) -> tuple[int, int]:
-    """``size`` = (width, height) if it is a sensible image size; RunError otherwise."""
-    w, h = map(int, size)
-    if w < 8 or h < 8 or w * h > MAX_PIXELS:
-        raise RunError(f"--size {w}x{h} is out of range (each side >= 8, at most {MAX_PIXELS} pixels)")
-    return w, h
 
 
 def default_out_dir(scene: Scene) -> Path:
@@ -52,7 +46,7 @@ def compare(scene_ref, specs: list[str], size: tuple[int, int] = (800, 600), out
     if repeat < 1 or warmup < 0:
         raise RunError(f"--repeat must be >= 1 and --warmup >= 0, got {repeat} and {warmup}")
     size = check_size(size)
-    scene = load_scene(scene_ref)
+    scene = load_measured_scene(scene_ref)
     techniques = build_techniques(specs)
     check_lights(techniques, scene)
     out = Path(out) if out is not None else default_out_dir(scene)

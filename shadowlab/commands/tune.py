@@ -26,18 +26,21 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from .. import gl, metrics, provenance
-from ..frame import Frame
+from ..measurement.scenes import load_measured_scene
+from ..gpu import gl
+from ..evaluation import metrics
+from ..output import provenance
+from ..gpu.frame import Frame
 from ..output import tune_plots
 from ..output.pages import provenance_items
 from ..output.rundir import RunDirectory
-from ..pipeline import Comparison, Evaluator, check_lights, compare_frame
-from ..scene import load_scene
+from ..measurement.pipeline import Comparison, Evaluator, check_lights, compare_frame
 from ..techniques import from_spec
 from ..tuning import exact_bias
 from ..tuning.tuner import DEFAULT_BUDGET, TuneOutcome, find_best, plan_tune
-from ..validation import RunError
-from .compare import check_size, write_run
+from ..util.validation import RunError
+from ..util.validation import check_size
+from .compare import write_run
 
 #: Rows of the page's table of best candidates.
 TOP_CANDIDATES = 15
@@ -56,7 +59,7 @@ def tune(scene_ref, spec: str, params: list[str], objective: str = "error_rate",
     if time_budget_ms is not None and not time_budget_ms > 0:
         raise RunError(f"--time-budget must be > 0 ms, got {time_budget_ms}")
     size = check_size(size)
-    scene = load_scene(scene_ref)
+    scene = load_measured_scene(scene_ref)
     plan = plan_tune(spec, params, objective)
     if not 0 <= light < len(scene.lights):
         raise RunError(f"--light {light}: scene {scene.name} has {len(scene.lights)} light(s)")
@@ -65,7 +68,7 @@ def tune(scene_ref, spec: str, params: list[str], objective: str = "error_rate",
     started = time.perf_counter()
     cache = scene_hash = None
     if cache_dir is not None:
-        from ..study.cache import Cache, scene_content_hash
+        from ..output.cache import Cache, scene_content_hash
 
         cache, scene_hash = Cache(Path(cache_dir)), scene_content_hash(scene.path)
     with RunDirectory(out) as rd:

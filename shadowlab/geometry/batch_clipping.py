@@ -9,7 +9,7 @@ arithmetic result is formed by the same operation on the same operands as in the
 clipper (:func:`~shadowlab.geometry.vectors.dot3` for every plane distance,
 :func:`~shadowlab.geometry.vectors.dot4` for the light's side,
 :func:`~shadowlab.geometry.frusta.side_planes` for the frusta), so the two give the same
-fragments, and ``tests/test_batch_clipping.py`` holds them to it.
+fragments, and ``tests/geometry/test_batch_clipping.py`` holds them to it.
 
 Polygons are padded: ``verts`` (P, K, 3) float64 with ``count`` (P,) int, the vertices of
 polygon p in ``verts[p, :count[p]]``, in order; the padding slots hold no meaning.

@@ -1,5 +1,5 @@
 """Exact shadow polygons, culled and clipped in compiled code (numba): the culling of
-:func:`shadowlab.techniques.shadow_polygons.candidate_pairs` and the clipping of
+:func:`shadowlab.techniques.geometric.shadow_polygons.candidate_pairs` and the clipping of
 :func:`shadowlab.geometry.polygon_clipping.shadow_fragment`, for a run of casters against every
 receiver, in one pass that never holds the pairs.
 
@@ -18,7 +18,7 @@ same order, as in the one-pair reference — :func:`~shadowlab.geometry.vectors.
 centre summed in vertex order, the frustum planes as
 :func:`~shadowlab.geometry.frusta.side_planes` builds them. numba does not contract ``a*b + c``
 into fused multiply-adds unless asked (``fastmath`` is off), so the fragments equal the scalar
-clipper's bit for bit; ``tests/test_batch_clipping.py`` holds the three back-ends to it.
+clipper's bit for bit; ``tests/geometry/test_batch_clipping.py`` holds the three back-ends to it.
 
 Polygons live in fixed buffers of :data:`MAX_VERTS` vertices (see there why that is enough).
 """

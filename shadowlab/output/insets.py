@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import metrics
+from ..evaluation import metrics
 
 #: Insets per scene.
 INSET_COUNT = 2
@@ -73,7 +73,7 @@ def inset_window(width: int, height: int) -> int:
 def wrong_pixels(mask: np.ndarray, truth: np.ndarray) -> np.ndarray:
     """Bool (H, W): pixels where a configuration's visibility ``mask`` and the truth's (float
     (H, W), NaN off the evaluated pixels, as in masks.npz) disagree after thresholding
-    (:func:`shadowlab.metrics.error_classes`: false shadow or false lit)."""
+    (:func:`shadowlab.evaluation.metrics.error_classes`: false shadow or false lit)."""
     evaluated = ~np.isnan(truth)
     classes = metrics.error_classes(np.nan_to_num(mask, nan=1.0), np.nan_to_num(truth, nan=1.0), evaluated)
     return (classes == 3) | (classes == 4)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import jinja2
 
-from ..study.aggregate import is_missing
+from ..analysis.aggregate import is_missing
 
 TEMPLATES = Path(__file__).parent / "templates"
 
@@ -52,7 +52,7 @@ def environment() -> jinja2.Environment:
 
 def timing_banner(renderer: str | None) -> str | None:
     """:data:`SOFTWARE_BANNER` for a CPU rasteriser's GL_RENDERER string, else None."""
-    from ..gl import is_software_name
+    from ..gpu.gl import is_software_name
 
     if renderer and is_software_name(renderer):
         return SOFTWARE_BANNER.format(renderer=renderer.split("(")[0].strip())

@@ -9,9 +9,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..study.aggregate import (FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, as_text, fail_threshold, failed_runs,
-                               family_order, judged_metric, normalised, pareto_front, per_configuration,
-                               scenes_in_order, truthy)
+from ..analysis.aggregate import (
+    FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, as_text, fail_threshold, failed_runs, family_order, judged_metric,
+    normalised, pareto_front, per_configuration, scenes_in_order, truthy,
+)
 
 #: Zero error has no place on a log axis: it is drawn at this many wrong pixels (half a pixel of
 #: the configuration's evaluated pixels, below any real error, which is at least one pixel).

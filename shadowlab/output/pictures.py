@@ -50,7 +50,7 @@ def visibility_picture(vis: np.ndarray, evaluated: np.ndarray, covered: np.ndarr
 
 
 def error_picture(classes: np.ndarray, shaded_display: np.ndarray) -> np.ndarray:
-    """The error map: one colour per class of :func:`shadowlab.metrics.error_classes`."""
+    """The error map: one colour per class of :func:`shadowlab.evaluation.metrics.error_classes`."""
     rgb = shaded_display * 0.35
     for cls, (_, color) in ERROR_COLORS.items():
         rgb[classes == cls] = color
@@ -130,7 +130,7 @@ def signed_legend(path: Path, limit: float) -> None:
     fig.savefig(path)
 
 
-#: The texel-footprint image (Lloyd et al.'s m, :mod:`shadowlab.texel_footprint`): colour map and
+#: The texel-footprint image (Lloyd et al.'s m, :mod:`shadowlab.evaluation.texel_footprint`): colour map and
 #: the ends of its logarithmic scale, in pixels per texel — a tenth of a pixel (a map ten times
 #: finer than the screen) to a hundred pixels (severe aliasing); values beyond are clipped.
 FOOTPRINT_COLORMAP = "magma"
@@ -267,7 +267,7 @@ def config_pictures(shaded: np.ndarray, vis0: np.ndarray, truth0: np.ndarray | N
     What ``compare`` and a study's workers both draw, so their run directories are alike."""
     out = {"shaded": encode_png(shaded), "visibility": encode_png(visibility_picture(vis0, evaluated, covered))}
     if truth0 is not None:
-        from ..metrics import error_classes
+        from ..evaluation.metrics import error_classes
 
         out["error"] = encode_png(error_picture(error_classes(vis0, truth0, evaluated), shaded))
     if signed is not None:

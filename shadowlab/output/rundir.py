@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .. import provenance
-from ..study.aggregate import DEGENERATE_MARK, is_true
-from ..validation import RunError
+from . import provenance
+from ..analysis.aggregate import DEGENERATE_MARK, is_true
+from ..util.validation import RunError
 from . import pictures
 from .insets import common_insets, wrong_pixels
 from .pages import fmt_ms, fmt_pct, provenance_items, render_page
@@ -214,9 +214,9 @@ def error_legend() -> list[tuple[str, str]]:
 
 def compare_table(rows: pd.DataFrame) -> dict:
     """The run page's metrics table as {"columns": [...], "rows": [[...]]} of display strings
-    (:func:`shadowlab.metrics.format_table` in its "report" form), a degenerate row's
-    configuration marked :data:`~shadowlab.study.aggregate.DEGENERATE_MARK`."""
-    from ..metrics import format_table
+    (:func:`shadowlab.evaluation.metrics.format_table` in its "report" form), a degenerate row's
+    configuration marked :data:`~shadowlab.analysis.aggregate.DEGENERATE_MARK`."""
+    from ..evaluation.metrics import format_table
 
     if "degenerate" in rows.columns and "short_label" in rows.columns:
         rows = rows.copy()

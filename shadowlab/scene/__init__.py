@@ -7,8 +7,10 @@ objects, the scene), :mod:`.lights` (point, directional, spot, target-direct),
 Import order is one-way: lights ← area_lights ← model ← animation ← reading.
 """
 from .model import Camera, Material, Scene, SceneObject, Shading, default_of
-from .reading import (PRIMITIVES, builtin_scene_dir, builtin_scenes, load_scene, parse_light, parse_scene,
-                      resolve_scene_path, scene_purpose, scene_summary)
+from .reading import (
+    PRIMITIVES, builtin_scene_dir, builtin_scenes, load_scene, parse_light, parse_scene, resolve_scene_path,
+    scene_purpose, scene_summary,
+)
 
 __all__ = ["Camera", "Material", "Scene", "SceneObject", "Shading", "default_of", "PRIMITIVES", "builtin_scene_dir",
            "builtin_scenes", "load_scene", "parse_light", "parse_scene", "resolve_scene_path", "scene_purpose",

@@ -24,7 +24,7 @@ unit vectors), so a rotating sun turns at a constant angular speed and stays uni
 An object path moves the object rigidly by a linearly interpolated offset (translation only);
 a frame's scene shares every object that does not move with the still scene.
 
-Parsing is as strict as the rest of the scene format (:mod:`shadowlab.validation`): unknown
+Parsing is as strict as the rest of the scene format (:mod:`shadowlab.util.validation`): unknown
 keys, missing keys, bad t sequences, light indices out of range, a key the light type does not
 have (``direction`` on a point light, ``position`` on a directional one) and opposite
 consecutive directions (slerp is undefined there) are errors naming the file and the key.
@@ -37,7 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..validation import SceneError, TableReader
+from ..util.validation import SceneError, TableReader
 
 #: Two consecutive direction keyframes whose unit vectors' dot product is below this are
 #: (nearly) opposite: the great circle between them is undefined, so slerp is refused.
@@ -172,7 +172,7 @@ def _parse_object_key(table, i: int, file: str, names) -> ObjectKey:
         raise rd.error("object", "object keyframes need the scene's objects to resolve names (parse_animation's "
                                  "object_names)")
     if name not in names:
-        from ..validation import did_you_mean
+        from ..util.validation import did_you_mean
 
         raise rd.error("object", f"no object named {name!r}{did_you_mean(name, names)}")
     if names.count(name) > 1:

@@ -7,7 +7,7 @@ light is its surface, sampled two ways:
 
 - :meth:`AreaLight.pattern`: N fixed points (and their emitting normals) shared by every pixel —
   the light-sampling average of the hard techniques renders once from each
-  (:mod:`shadowlab.light_sampling`). The points are the centres of N equal-area strata of the
+  (:mod:`shadowlab.measurement.light_sampling`). The points are the centres of N equal-area strata of the
   unit square (:func:`strata`), mapped onto the surface by area-preserving maps, so one sample
   is the centre (a sphere: the point of it nearest the receivers) and a regular pattern shows
   its banding on purpose.
@@ -29,7 +29,7 @@ import numpy as np
 
 from ..geometry import transforms as tf
 from .lights import PointLight
-from ..validation import TableReader
+from ..util.validation import TableReader
 
 
 def strata(n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -108,7 +108,7 @@ class AreaLight(PointLight):
     """Base of the area lights: ``position`` is the centre (DESIGN §4)."""
 
     type_name = "area"
-    type_id = 4  # LIGHT_AREA in shaders/lights.glsl: lit as a point light at the centre
+    type_id = 4  # LIGHT_AREA in shadowlab/gpu/lights.glsl: lit as a point light at the centre
     shape = "area"
     #: True for a light that emits towards its normal only (rect, disc).
     one_sided = True
@@ -174,9 +174,9 @@ class RectLight(AreaLight):
     def sample_for(self, points, n, rng):
         """:meth:`AreaLight.sample_for` (the same jitter from ``rng``, the same bits), with the
         strata's jitter mapped onto the rectangle in one compiled pass
-        (:func:`shadowlab.compiled_truth.rect_samples`) instead of numpy's (M, n, 3) temporaries:
+        (:func:`shadowlab.geometry.rows.rect_samples`) instead of numpy's (M, n, 3) temporaries:
         the sampled truth's largest cost besides Embree (issue 27)."""
-        from ..compiled_truth import rect_samples
+        from ..geometry.rows import rect_samples
 
         lo, size = strata(n)
         jitter = np.ascontiguousarray(rng.random((len(points), n, 2)), np.float64)

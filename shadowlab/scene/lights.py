@@ -9,11 +9,11 @@ Each light owns its geometry, so techniques never ask which type a light is:
 - :meth:`Light.shadow_rays`: the ground truth's shadow rays from given points;
 - :meth:`Light.shadow_views`: the views a shadow map of this light is rendered through, fitted
   to the points it must cover;
-- :meth:`Light.uniforms`: the ``light_*`` uniforms of ``shaders/lights.glsl``;
+- :meth:`Light.uniforms`: the ``light_*`` uniforms of ``shadowlab/gpu/lights.glsl``;
 - :meth:`Light.homogeneous`: the light as a homogeneous point (planar projection, clipping).
 
 Each light has one definition in two languages that must agree: the numpy methods here and
-``shaders/lights.glsl``; ``tests/test_lights.py`` checks the two on random points. Adding a
+``shadowlab/gpu/lights.glsl``; ``tests/scene/test_lights.py`` checks the two on random points. Adding a
 light type is one class here, its entry in :data:`LIGHT_TYPES` and its branch in lights.glsl.
 
 Footprint λ (DESIGN §8): spot — 1 inside the hotspot half-angle β/2, falling linearly in cos φ
@@ -28,7 +28,7 @@ import numpy as np
 
 from ..geometry import frusta
 from ..geometry import transforms as tf
-from ..validation import SceneError, TableReader
+from ..util.validation import SceneError, TableReader
 
 #: Where a shadow ray towards a light at a finite position stops, as a fraction of the way: the
 #: rays are unnormalised (light − origin), so no normalisation is spent per ray, and they stop
@@ -63,7 +63,7 @@ def _constant_rows(vec: np.ndarray, origins) -> np.ndarray:
     float32 origins (K, 3)."""
     if not _plain_f32_rows(origins):
         return np.broadcast_to(vec, origins.shape).copy()
-    from ..compiled_truth import fill_rows
+    from ..geometry.rows import fill_rows
 
     out = np.empty((len(origins), 3), vec.dtype)
     fill_rows(vec, out)
@@ -78,7 +78,7 @@ class Light:
     ambient: float = 0.15
 
     type_name = "light"
-    #: The integer id of ``LIGHT_*`` in shaders/lights.glsl (a test checks both agree).
+    #: The integer id of ``LIGHT_*`` in shadowlab/gpu/lights.glsl (a test checks both agree).
     type_id = -1
     #: True when the light is at infinity (rays are parallel): orthographic shadow maps, w = 0.
     at_infinity = False
@@ -119,7 +119,7 @@ class Light:
         return {}
 
     def uniforms(self) -> dict:
-        """Values for the ``light_*`` uniforms of ``shaders/lights.glsl``."""
+        """Values for the ``light_*`` uniforms of ``shadowlab/gpu/lights.glsl``."""
         return {"light_type": self.type_id, "light_color": _vec(self.color), "light_ambient": float(self.ambient),
                 **_UNUSED_UNIFORMS, **self._shape_uniforms()}
 
@@ -154,7 +154,7 @@ class PointLight(Light):
         tfar = np.full(len(origins), T_LIGHT, np.float32)
         if not _plain_f32_rows(origins):
             return pos - origins, tfar
-        from ..compiled_truth import vector_minus_rows
+        from ..geometry.rows import vector_minus_rows
 
         dirs = np.empty((len(origins), 3), np.float32)
         vector_minus_rows(pos, origins, dirs)
@@ -243,7 +243,7 @@ class SpotLight(PointLight):
             cos_phi = (v @ self.direction) / np.linalg.norm(v, axis=-1)
         cos_phi = np.nan_to_num(cos_phi, nan=-1.0)
         cos_o, cos_i = np.cos(np.radians(self.alpha / 2)), np.cos(np.radians(self.beta / 2))
-        # Must match light_footprint() in shaders/lights.glsl operation for operation.
+        # Must match light_footprint() in shadowlab/gpu/lights.glsl operation for operation.
         width = cos_i - cos_o
         if width > 0:
             return np.clip((cos_phi - cos_o) / width, 0.0, 1.0)
@@ -334,7 +334,7 @@ class TargetDirectLight(Light):
 #: The light types a scene file may name (``type = "..."``).
 LIGHT_TYPES: dict[str, type[Light]] = {cls.type_name: cls for cls in
                                        (PointLight, DirectionalLight, SpotLight, TargetDirectLight)}
-#: Integer ids shared with ``shaders/lights.glsl`` (``LIGHT_POINT`` ...); a test checks both agree.
+#: Integer ids shared with ``shadowlab/gpu/lights.glsl`` (``LIGHT_POINT`` ...); a test checks both agree.
 LIGHT_TYPE_IDS = {**{name: cls.type_id for name, cls in LIGHT_TYPES.items()}, "area": 4}
 
 

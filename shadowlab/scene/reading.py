@@ -3,7 +3,7 @@
 A loaded :class:`~shadowlab.scene.model.Scene` is plain data: every object's triangles are
 already in world space (float64), welded (vertices merged, so seams do not break edge
 adjacency) and validated. A shipped scene is named by its file stem (``box_on_plane``); any
-other argument is a path. Bad input raises :class:`shadowlab.validation.SceneError` naming the
+other argument is a path. Bad input raises :class:`shadowlab.util.validation.SceneError` naming the
 file and the key. Defaults come from the model's dataclasses (:func:`default_of`), so a key
 left out of a file and a field left out in Python get the same value.
 """
@@ -19,7 +19,8 @@ import numpy as np
 import trimesh
 
 from ..geometry import transforms as tf
-from ..validation import SceneError, TableReader, did_you_mean
+from ..util.text import first_sentence
+from ..util.validation import SceneError, TableReader, did_you_mean
 from .animation import parse_animation
 from .area_lights import AREA_SHAPES
 from .lights import LIGHT_TYPES, Light
@@ -224,17 +225,12 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
 
 
 def _scene_metric(rd: TableReader) -> str | None:
-    """The optional ``metric`` key: the name of a metrics column (DESIGN §7), checked here so a
-    misspelt one stops the run with a suggestion."""
-    from ..metrics import COLUMN_BY_NAME, METRIC_COLUMNS
-    from ..texel_footprint import COLUMNS as FOOTPRINT_COLUMNS
-
-    metric = rd.string("metric", default=None) if "metric" in rd.table else None
-    names = [c.name for c in METRIC_COLUMNS] + [c for c in FOOTPRINT_COLUMNS if c in COLUMN_BY_NAME]
-    if metric is not None and metric not in names:
-        hint = did_you_mean(metric, names) or f" (one of {', '.join(names)})"
-        raise rd.error("metric", f"{metric!r} is not a metric column{hint}")
-    return metric
+    """The optional ``metric`` key: the name of a metrics column (docs/contracts.md#scene-files).
+    Read here as a string; that it names a metric column is checked by the layer that owns the
+    columns (:func:`shadowlab.evaluation.scene_metric.check_scene_metric`, called by
+    :func:`shadowlab.measurement.scenes.load_measured_scene`), so reading a scene needs no
+    metrics."""
+    return rd.string("metric", default=None) if "metric" in rd.table else None
 
 
 def builtin_scene_dir() -> Path:
@@ -287,11 +283,9 @@ PURPOSE_LENGTH = 100
 def scene_purpose(path: Path) -> str:
     """What a scene file is for, in one line: the first sentence of the ``#`` comment that opens
     it (every shipped scene has one), shortened to about :data:`PURPOSE_LENGTH` characters the
-    way the README's summaries are (:func:`shadowlab.docs_tables.first_sentence`: parentheses
+    way the README's summaries are (:func:`shadowlab.util.text.first_sentence`: parentheses
     dropped first, then cut at a dash or colon or at a word boundary with "…"); "" when the
     file opens with no comment. Reads only the comment: the scene is not loaded."""
-    from ..docs_tables import first_sentence
-
     lines = []
     for line in Path(path).read_text(encoding="utf-8").splitlines():
         if not line.strip() and not lines:

@@ -1,4 +1,4 @@
-"""The rank agreement (Kendall τ) between each perceptual metric (:mod:`shadowlab.perceptual`:
+"""The rank agreement (Kendall τ) between each perceptual metric (:mod:`shadowlab.evaluation.perceptual`:
 mean FLIP, SSIM) and the exact metrics, per scene family of a study: when does pixel error
 predict what people see (issue 28)?
 
@@ -22,8 +22,8 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from .. import perceptual
-from .aggregate import normalised, per_configuration
+from ..evaluation import perceptual
+from ..analysis.aggregate import normalised, per_configuration
 
 #: The exact metrics the perceptual ones are ranked against: the thresholded rate (hard scenes'
 #: judged metric) and the mean visibility error (soft scenes').
@@ -132,7 +132,7 @@ def agreement_word(tau: float) -> str:
 def agreement_sentences(table: pd.DataFrame) -> list[str]:
     """One sentence per scene family: whether its judged pixel metric ranks configurations as
     the perceptual metrics do, with τ, and the family's most discordant pair where they differ."""
-    from .aggregate import judged_metric
+    from ..analysis.aggregate import judged_metric
 
     out = []
     for family, g in table.groupby("scene_family", sort=False):

@@ -2,8 +2,8 @@
 copy of the scene files. A study's tasks carry their scene's bundle to Dask workers, which may
 share no disk with the machine that planned the study.
 
-A bundle is content-addressed by the scene's content hash (:func:`shadowlab.study.cache.scene_content_hash`,
-which covers the same files, listed by :func:`shadowlab.study.cache.scene_mesh_files`). A worker
+A bundle is content-addressed by the scene's content hash (:func:`shadowlab.output.cache.scene_content_hash`,
+which covers the same files, listed by :func:`shadowlab.output.cache.scene_mesh_files`). A worker
 writes it once under ``<root>/<hash>/`` (:func:`materialize`), keeping the files' relative layout
 so the scene's mesh references resolve as they did where it was planned, and reuses that copy
 for every later task of the same scene. The root is ``$SHADOWLAB_BUNDLE_DIR``, or
@@ -18,7 +18,7 @@ import shutil
 import tempfile
 from pathlib import Path, PurePosixPath
 
-from .cache import scene_content_hash, scene_mesh_files
+from ..output.cache import scene_content_hash, scene_mesh_files
 
 #: Environment variable naming the folder where workers keep materialized bundles.
 BUNDLE_DIR_ENV = "SHADOWLAB_BUNDLE_DIR"

@@ -4,7 +4,7 @@ A baseline is a CSV with one row per (scene, light, config) — ``config`` is th
 the suite writes it (``shadow_map:variant=slope``), so a changed default is seen as changed
 metrics of the same configuration, not as a run gone missing — the full spec it resolved to
 (``label``, for information: a spec that resolves differently is reported) and one column per
-held metric (:data:`shadowlab.metrics.HELD_COLUMNS`: error and false rates, boundary distances,
+held metric (:data:`shadowlab.evaluation.metrics.HELD_COLUMNS`: error and false rates, boundary distances,
 contact gap, umbra spread, visibility MAE). A metric regresses when the study's value exceeds the baseline's
 by more than its tolerance (``max(abs, rel × baseline)``; larger is worse for every held
 metric); a configuration of the baseline that is missing from the study, or failed there,
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..metrics import HELD_COLUMNS
+from ..evaluation.metrics import HELD_COLUMNS
 
 KEY = ["scene", "light", "config"]
 #: Kept beside the key for information: the full spec the configuration resolved to.

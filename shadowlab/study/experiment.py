@@ -12,7 +12,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from .. import provenance
+from ..output import provenance
 from .runner import StudyOutcome, run_study
 
 

@@ -1,7 +1,7 @@
 """The study report (DESIGN §12): the comparison drawn across every scene of a suite.
 
 Four files in the study directory, all made from ``results.csv`` and the tables of
-:mod:`shadowlab.study.aggregate` (plain pandas; nothing there draws):
+:mod:`shadowlab.analysis.aggregate` (plain pandas; nothing there draws):
 
 - ``pareto.png`` — speed against error, one panel per scene, the Pareto front marked
   (:func:`shadowlab.output.pareto.pareto_plot`);
@@ -23,15 +23,17 @@ from urllib.parse import quote
 
 import pandas as pd
 
-from .. import perceptual
-from ..metrics import COLUMN_BY_NAME
+from ..evaluation import perceptual
+from ..evaluation.metrics import COLUMN_BY_NAME
 from ..output.pages import fmt_ms as fmt_ms_short
 from ..output.pages import fmt_num
 from ..output.pareto import pareto_plot
-from .aggregate import (DEGENERATE_MARK, FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, TIME_TIE, as_text, failed_runs, family_order,
-                        family_table, fmt_limit, fmt_ms, fmt_pct, is_missing, judged_metric, names_text, normalised,
-                        per_configuration, scenes_in_order, summary_table, verdict_sentences, verdict_table,
-                        write_text_atomic)
+from ..analysis.aggregate import (
+    DEGENERATE_MARK, FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, TIME_TIE, as_text, failed_runs,
+    family_order, family_table, fmt_limit, fmt_ms, fmt_pct, is_missing, judged_metric, names_text,
+    normalised, per_configuration, scenes_in_order, summary_table, verdict_sentences, verdict_table,
+    write_text_atomic,
+)
 from .agreement import MIN_CONFIGURATIONS, agreement_sentences, rank_agreement
 
 
@@ -77,7 +79,7 @@ def _meta_lines(meta: dict) -> list[tuple[str, str]]:
 def verdict_markdown(results: pd.DataFrame, meta: dict | None = None) -> list[str]:
     """The verdicts as markdown lines: a table of scenes × technique families (each cell the
     family's best configuration's error and time, the best per row in bold, ✗ where it fails;
-    :func:`~shadowlab.study.aggregate.verdict_table`) and one sentence per scene family. The
+    :func:`~shadowlab.analysis.aggregate.verdict_table`) and one sentence per scene family. The
     README's headline is made of these lines."""
     meta = meta or {}
     scenes_meta = meta.get("scenes") or {}
@@ -269,7 +271,7 @@ def _metric_text(metric: str, value) -> str:
 
 
 def _error_text(metric: str, value) -> str:
-    """A judged error (:func:`~shadowlab.study.aggregate.judged_metric`) as the verdicts show it."""
+    """A judged error (:func:`~shadowlab.analysis.aggregate.judged_metric`) as the verdicts show it."""
     if is_missing(value):
         return ""
     return _metric_text("error_rate", value) if metric == "error_rate" else f"{float(value):.4f}"
@@ -447,7 +449,7 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
 
     The page opens with the verdicts — scenes × technique families, each cell the family's best
     configuration on the scene with its error and time (best per row in bold, failures marked;
-    :func:`~shadowlab.study.aggregate.verdict_table`) and one generated sentence per scene
+    :func:`~shadowlab.analysis.aggregate.verdict_table`) and one generated sentence per scene
     family — then the Pareto panels, the configurations across the suite (median and worst
     error), the failed runs, and per scene its purpose, its table (with the metric the scene
     exists for) and every configuration in a wrapping grid with the run directory's zoom insets.

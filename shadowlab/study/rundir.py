@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pandas as pd
 
-from .. import metrics
+from ..evaluation import metrics
 from ..output.rundir import ConfigImages, RunDirectory, safe_name, write_comparison
-from ..pipeline import pass_order
+from ..measurement.pipeline import pass_order
 
 MANIFEST = ".study-inputs.json"
 

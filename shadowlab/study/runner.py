@@ -9,7 +9,7 @@ Two phases, so that timings stay honest:
    rendered ``warmup`` + ``repeat`` times alone, in one worker process with every core's
    llvmpipe threads, so no other work of the study overlaps a timed section on this host.
 
-Every finished task is stored in the study's cache (:mod:`shadowlab.study.cache`) as soon as it
+Every finished task is stored in the study's cache (:mod:`shadowlab.output.cache`) as soon as it
 returns, so Ctrl-C loses only the tasks in flight and the next run resumes. Then, without GL,
 the results are assembled: per scene a run directory, ``results.csv``, ``study.json`` and the
 study report (``pareto.png``, ``study.html``, ``summary.md``).
@@ -28,13 +28,15 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from .. import perceptual, provenance, timing
+from ..evaluation import perceptual
+from ..output import provenance
+from ..gpu import timing
 from ..output.rundir import safe_name
-from ..validation import RunError
+from ..util.validation import RunError
 from ..techniques import from_spec
 from . import rundir
 from .bundle import scene_bundle
-from .cache import Cache, run_key, scene_content_hash
+from ..output.cache import Cache, run_key, scene_content_hash
 from .executors import DaskExecutor, LocalExecutor, cores
 from ..scene import scene_purpose
 from .suite import Suite, load_suite

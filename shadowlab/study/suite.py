@@ -32,11 +32,12 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
+from ..evaluation.scene_metric import judged_columns
 from ..techniques import TechniqueError, from_spec
 from ..techniques.base import format_value
-from ..techniques.raytrace import RayTraced
-from ..validation import SceneError, TableReader, did_you_mean
-from .aggregate import TUNED_MARK
+from ..techniques.rays.raytrace import RayTraced
+from ..util.validation import SceneError, TableReader, did_you_mean
+from ..analysis.aggregate import TUNED_MARK
 
 #: Scene-name prefixes → hard-case family (HARD_CASES.md), for the study's summary.
 FAMILIES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps", "pa_": "perspective aliasing",
@@ -192,6 +193,9 @@ def _scene(ref: str, where: str, file: str, base: Path) -> SceneEntry:
     lights = data.get("lights", [])
     types = tuple(t.get("type", "?") for t in lights if isinstance(t, dict)) if isinstance(lights, list) else ()
     metric = data.get("metric") if isinstance(data.get("metric"), str) else None
+    if metric is not None and metric not in judged_columns():
+        hint = did_you_mean(metric, judged_columns()) or f" (one of {', '.join(judged_columns())})"
+        raise SuiteError(f"{path}: metric: {metric!r} is not a metric column{hint} (scene {ref!r} of {file}: {where})")
     return SceneEntry(name, path.resolve(), scene_family(name), types, metric)
 
 
@@ -285,7 +289,7 @@ def _check_lights(scenes: list[SceneEntry], configurations: dict[str, list[str]]
 
 def parse_suite(data: dict, file: str = "<suite>", base: Path | None = None) -> Suite:
     """Build a :class:`Suite` from a parsed TOML dict (``base``: folder scene paths are relative to)."""
-    from ..commands.compare import RunError, check_size
+    from ..util.validation import RunError, check_size
 
     base = base or Path.cwd()
     rd = TableReader(data, "", file)

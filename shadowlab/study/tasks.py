@@ -3,7 +3,7 @@ visibility and metrics, or one configuration's timing — each a picklable task 
 picklable result dict out, so the same functions run in a local process pool and on a Dask
 cluster.
 
-Each worker process makes one GL context (on first use, through :func:`shadowlab.gl.context`)
+Each worker process makes one GL context (on first use, through :func:`shadowlab.gpu.gl.context`)
 and reuses it, with the frames (G-buffers) of the scenes it last worked on. GL contexts belong
 to a thread, and a Dask worker may run tasks on several threads, so every task runs on one
 dedicated GL thread of the process.
@@ -13,7 +13,7 @@ A task names its scene by ``scene_path`` and, on Dask, also carries it as bytes
 each result's meta records the ``scene_file`` the worker read.
 
 Results: ``{"ok": bool, "error": str, "seconds": float, "meta": dict, "arrays": {name: ndarray},
-"files": {name: PNG bytes}}`` (the layout :class:`shadowlab.study.cache.Cache` stores).
+"files": {name: PNG bytes}}`` (the layout :class:`shadowlab.output.cache.Cache` stores).
 """
 from __future__ import annotations
 
@@ -27,7 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..timing import is_time_column
+from ..measurement.scenes import load_measured_scene
+from ..gpu.timing import is_time_column
 
 #: Frames kept per worker (each holds a G-buffer and the scene's geometry).
 FRAMES_KEPT = 2
@@ -95,9 +96,8 @@ def scene_file(task: dict) -> Path:
 def _frame(task: dict):
     """The worker's frame of the task's scene at its size (built on first use, kept for the next
     tasks of the same scene)."""
-    from ..frame import Frame
-    from ..scene import load_scene
-    from .cache import scene_content_hash
+    from ..gpu.frame import Frame
+    from ..output.cache import scene_content_hash
 
     key = (task["scene_hash"], tuple(task["size"]))
     if key in _frames:
@@ -107,7 +107,7 @@ def _frame(task: dict):
         _, old = _frames.popitem(last=False)
         old.release()
     path = scene_file(task)
-    scene = load_scene(path)
+    scene = load_measured_scene(path)
     # the run is cached under the hash the study planned with: the files must still be those
     if scene_content_hash(path) != task["scene_hash"]:
         raise RuntimeError(f"{task['scene_path']} (or a mesh it names) changed after the study was planned; "
@@ -136,10 +136,10 @@ def _images(frame, visibilities, truth=None, footprint=None) -> tuple[dict, dict
     the shaded image, the first light's visibility and, given the truth (one visibility per
     light), the error map, the signed map of a soft configuration (on :data:`STUDY_SIGNED_LIMIT`)
     and the texel-footprint map; and, given the truth, the perceptual metrics of the shaded
-    image against the truth's (:func:`shadowlab.perceptual.compare_pictures`; {} without it)."""
-    from .. import perceptual
+    image against the truth's (:func:`shadowlab.evaluation.perceptual.compare_pictures`; {} without it)."""
+    from ..evaluation import perceptual
     from ..output import pictures
-    from ..shading import ShadingPass
+    from ..gpu.shading import ShadingPass
 
     shading = ShadingPass(frame)
     try:
@@ -164,7 +164,7 @@ def _same_perceptual(task: dict) -> None:
     """The perceptual columns this worker can compute must be those the study planned with (they
     are part of the cache key, :func:`shadowlab.study.runner._plan`): a Dask worker without the
     packages would otherwise cache rows without the columns under a key that says they are there."""
-    from .. import perceptual
+    from ..evaluation import perceptual
 
     planned = task.get("perceptual")
     if planned is not None and list(planned) != perceptual.available():
@@ -176,8 +176,8 @@ def _same_perceptual(task: dict) -> None:
 def _truth(task: dict) -> dict:
     """The ground truth of every light of a scene, with what the configurations of that scene
     need to be judged: the truth's visibility per light (float32 (H, W), row 0 = top)."""
-    from .. import perceptual
-    from ..pipeline import Evaluator
+    from ..evaluation import perceptual
+    from ..measurement.pipeline import Evaluator
     from ..techniques import from_spec
 
     frame = _frame(task)
@@ -203,7 +203,7 @@ def _truth(task: dict) -> dict:
 def _config(task: dict) -> dict:
     """One configuration on every light of a scene: visibility, metrics rows against the given
     truth (``task["truth"]``: one float32 (H, W) image per light), cost figures, notes, images."""
-    from ..pipeline import Evaluator, measure
+    from ..measurement.pipeline import Evaluator, measure
     from ..techniques import from_spec
 
     frame = _frame(task)
@@ -231,8 +231,8 @@ def _config(task: dict) -> dict:
 
 def _timing(task: dict) -> dict:
     """Times one configuration (or the truth) on every light of a scene: ``repeat`` timed renders
-    after ``warmup`` untimed ones (:func:`shadowlab.pipeline.measure`), per light."""
-    from ..pipeline import measure
+    after ``warmup`` untimed ones (:func:`shadowlab.measurement.pipeline.measure`), per light."""
+    from ..measurement.pipeline import measure
     from ..techniques import from_spec
 
     frame = _frame(task)
@@ -253,7 +253,7 @@ def _tune(task: dict) -> dict:
     point's exact curve of the objective (``k_breaks``, ``k_values``), for the global-setting
     analysis (:mod:`shadowlab.tuning.global_setting`). Renders untimed (repeat 1, no warm-up):
     the timing phase times the tuned configuration like any other."""
-    from ..pipeline import Evaluator
+    from ..measurement.pipeline import Evaluator
     from ..techniques import from_spec
     from ..tuning.tuner import find_best, plan_tune
 
@@ -281,7 +281,7 @@ def _tune(task: dict) -> dict:
 def probe_here() -> dict:
     """The GL device of this process's lab context, on the calling thread (the thread that made
     the context, or will: a GL context is current on one thread only)."""
-    from .. import gl
+    from ..gpu import gl
 
     return {"renderer": gl.renderer(), "device": gl.device(), "gl": gl.gl_info(),
             "lp_num_threads": os.environ.get("LP_NUM_THREADS"), "pid": os.getpid()}

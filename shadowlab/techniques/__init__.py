@@ -11,11 +11,11 @@ from __future__ import annotations
 import importlib
 import pkgutil
 
-from ..validation import did_you_mean
+from ..util.validation import did_you_mean
 from .base import REGISTRY, Param, PlotStyle, Technique, TechniqueError, TuneRange, parse_spec
 
-for _module in sorted(m.name for m in pkgutil.iter_modules(__path__)):
-    importlib.import_module(f"{__name__}.{_module}")
+for _module in sorted(m.name for m in pkgutil.walk_packages(__path__, prefix=f"{__name__}.")):
+    importlib.import_module(_module)
 # A stable order whatever imports what: the ground truth first, then by name.
 _ordered = sorted(REGISTRY.items(), key=lambda item: (item[0] != "raytrace", item[0]))
 REGISTRY.clear()

@@ -4,7 +4,7 @@ visibility image per light slot.
 A technique is built from a spec string ``name`` or ``name:key=value,...``. Its parameters are
 declared (:class:`Param`) with defaults; an unknown or ill-typed parameter is an error (pbrt's
 unused-parameter report), and :meth:`Technique.spec` round-trips: ``from_spec(t.spec())``
-rebuilds ``t``. The pipeline (:mod:`shadowlab.pipeline`) calls, per (frame, light slot):
+rebuilds ``t``. The pipeline (:mod:`shadowlab.measurement.pipeline`) calls, per (frame, light slot):
 :meth:`Technique.prepare` (which calls the technique's :meth:`setup`: untimed allocation and
 fitting), :meth:`render` repeatedly (the timed passes), then :meth:`visibility`, :meth:`stats`
 and :meth:`release` — the last also when setup or a render failed.
@@ -13,7 +13,7 @@ What a technique declares instead of the core guessing (class attributes):
 
 - ``name``, ``summary``, ``PARAMS``, ``PASSES`` (the passes :meth:`render` names, in order);
 - ``LIGHTS``: the light types it renders for (:data:`ALL_LIGHTS` by default); checked once, when
-  a compare, study or animation is planned (:func:`shadowlab.pipeline.check_lights`), before any
+  a compare, study or animation is planned (:func:`shadowlab.measurement.pipeline.check_lights`), before any
   rendering;
 - ``LIGHT_SAMPLED``: a hard technique the pipeline may average over points of an area light
   (Heckbert & Herf 1997); it then gets the shared parameter ``light_samples``
@@ -30,13 +30,13 @@ core names it (docs/adding-a-technique.md says what else a new one brings: its s
 test file, a line in a suite).
 
 Inputs and outputs (the stage contract of DESIGN §2): a technique reads the frame (G-buffer
-textures, vertex buffers, exact points) and its :class:`~shadowlab.frame.LightSlot` (the light,
+textures, vertex buffers, exact points) and its :class:`~shadowlab.gpu.frame.LightSlot` (the light,
 its index, its evaluated mask) and never ``frame.scene.lights``; it writes only its own GL
 objects, registered with :meth:`Technique.own` (released by :meth:`release`), and its
 visibility image. Its programs come from :meth:`Technique.program`: compiled once per process
 and shared, so it sets their uniforms in :meth:`setup` and holds them until released. The one shared resource it may overwrite is the G-buffer's depth-stencil
 attachment, and only if it says so in ``MODIFIES_FRAME`` (see
-:meth:`shadowlab.frame.Frame.depth_stencil_for`). Its notes (fallbacks, skipped objects) go to
+:meth:`shadowlab.gpu.frame.Frame.depth_stencil_for`). Its notes (fallbacks, skipped objects) go to
 :attr:`Technique.notes`, which the run reports.
 """
 from __future__ import annotations
@@ -47,8 +47,8 @@ from typing import Any
 
 import numpy as np
 
-from .. import gl
-from ..validation import did_you_mean
+from ..gpu import gl
+from ..util.validation import did_you_mean
 
 
 class TechniqueError(ValueError):
@@ -156,14 +156,14 @@ def format_value(value: Any) -> str:
 
 #: The shared parameter of light-sampled techniques (:attr:`Technique.LIGHT_SAMPLED`): how many
 #: points of an area light the hard technique renders from and averages
-#: (:mod:`shadowlab.light_sampling`).
+#: (:mod:`shadowlab.measurement.light_sampling`).
 LIGHT_SAMPLES = Param(1, "area lights: hard renders averaged, one from each of N stratified points of the "
                          "light (1 = its centre); ignored, with a note, on other lights", min=1, max=4096)
 
 
 #: Every light type a scene file can hold (``Light.type_name``).
 ALL_LIGHTS = frozenset({"point", "directional", "spot", "target_direct", "area"})
-#: How a stat combines over the light samples of one frame (:mod:`shadowlab.light_sampling`):
+#: How a stat combines over the light samples of one frame (:mod:`shadowlab.measurement.light_sampling`):
 #: summed (work done per render: passes, rays, preprocessing time) ...
 SUM = "sum"
 #: ... the maximum (a size or a peak held while one sample is set up: memory, stencil peak) ...
@@ -181,7 +181,7 @@ class PlotStyle:
     marker: str
 
 
-#: A program's cache key (:func:`shadowlab.gl.program_key`) → the technique that holds it
+#: A program's cache key (:func:`shadowlab.gpu.gl.program_key`) → the technique that holds it
 #: (:meth:`Technique.program`).
 _HOLDERS: dict = {}
 
@@ -223,9 +223,9 @@ class Technique:
     MODIFIES_FRAME: frozenset[str] = frozenset()
     #: The passes :meth:`render` names with :meth:`timed_pass`, in drawing order.
     PASSES: tuple[str, ...] = ()
-    #: Set by the pipeline while it times passes (a :class:`shadowlab.timing.PassTimer`).
+    #: Set by the pipeline while it times passes (a :class:`shadowlab.gpu.timing.PassTimer`).
     pass_timer = None
-    #: Set by the pipeline during its counting render (a :class:`shadowlab.work.WorkCounter`).
+    #: Set by the pipeline during its counting render (a :class:`shadowlab.gpu.work.WorkCounter`).
     work_counter = None
 
     def __init_subclass__(cls, **kwargs):
@@ -263,7 +263,7 @@ class Technique:
         #: what :meth:`keep` holds then survives :meth:`release` until :meth:`forget`.
         self.keep_across_frames = False
         #: What ``shadowlab animate`` said about the frame being measured (:meth:`begin_frame`):
-        #: a :class:`shadowlab.temporal.FrameStep`, or None outside an animation.
+        #: a :class:`shadowlab.geometry.reprojection.FrameStep`, or None outside an animation.
         self.animation_step = None
         self._programs: list = []  # cache keys of the programs held
         self._visibility_texture = None
@@ -304,7 +304,7 @@ class Technique:
     @classmethod
     def supports_type(cls, type_name: str) -> bool:
         """True when the technique renders for lights of ``type_name`` (in ``LIGHTS``): what
-        compare, animate (:func:`shadowlab.pipeline.check_lights`) and suite planning (from
+        compare, animate (:func:`shadowlab.measurement.pipeline.check_lights`) and suite planning (from
         the scene files' light types) ask before anything renders."""
         return type_name in cls.LIGHTS
 
@@ -319,7 +319,7 @@ class Technique:
 
     # -- the per-light protocol -------------------------------------------------
     def prepare(self, frame, slot) -> None:
-        """Bind the technique to ``frame`` and ``slot`` (a :class:`~shadowlab.frame.LightSlot`,
+        """Bind the technique to ``frame`` and ``slot`` (a :class:`~shadowlab.gpu.frame.LightSlot`,
         or a scene light's index) as ``self.frame``, ``self.slot`` and ``self.light``, then
         :meth:`setup`. What the pipeline calls; a failure leaves whatever was made registered,
         for :meth:`release`."""
@@ -349,7 +349,7 @@ class Technique:
     def timed_pass(self, name: str, cpu: bool = False):
         """Context manager around one pass of :meth:`render` (``name`` from :attr:`PASSES`;
         ``cpu`` for work on the CPU): timed only while the pipeline asks for per-pass times, and
-        its work booked to ``name`` during the pipeline's counting render (:mod:`shadowlab.work`)."""
+        its work booked to ``name`` during the pipeline's counting render (:mod:`shadowlab.gpu.work`)."""
         if self.work_counter is not None:
             return self.work_counter.measure(name, cpu)
         if self.pass_timer is None:
@@ -367,7 +367,7 @@ class Technique:
 
     def work(self, counted: dict, stats: dict) -> dict:
         """The work only the technique knows, per pass, for one render: {pass: {counter: value}}
-        with counters of :data:`shadowlab.work.COUNTERS` whose source is "technique" (rays,
+        with counters of :data:`shadowlab.gpu.work.COUNTERS` whose source is "technique" (rays,
         CPU triangles, texture taps, stencil updates). ``counted`` is what the counting render
         measured per pass (empty for a CPU technique, which the pipeline does not render again),
         ``stats`` what :meth:`stats` reported. Added to ``counted`` by the pipeline."""
@@ -380,8 +380,8 @@ class Technique:
 
     def degenerate_causes(self, stats: dict) -> list[str]:
         """The likely causes, as short phrases, of a result that draws almost no shadow where the
-        truth has one (a *degenerate* result, :func:`shadowlab.metrics.is_degenerate`) or whose bias
-        exceeds the casters' heights, for the run's note (:meth:`shadowlab.pipeline.Evaluator.judge`).
+        truth has one (a *degenerate* result, :func:`shadowlab.evaluation.metrics.is_degenerate`) or whose bias
+        exceeds the casters' heights, for the run's note (:meth:`shadowlab.measurement.pipeline.Evaluator.judge`).
         Why here: only the technique knows what its figures mean (a near plane, a bias in window
         depth), so the core names no cause itself. ``stats``: the measurement's :meth:`stats` (the
         light's, combined over light samples) plus the evaluator's ``occluder_height_median``
@@ -393,7 +393,7 @@ class Technique:
 
     # -- resources ---------------------------------------------------------------
     def program(self, name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()):
-        """The cached program of ``shaders/<name>`` (:func:`shadowlab.gl.program`), held by this
+        """The cached program of ``shaders/<name>`` (:func:`shadowlab.gpu.gl.program`), held by this
         technique until :meth:`release`. Programs are shared within a process, and a technique
         sets their uniforms in :meth:`setup`: a program another live technique holds is an error
         (RuntimeError), never a render with someone else's uniforms."""
@@ -428,7 +428,7 @@ class Technique:
 
     def begin_frame(self, step) -> None:
         """Called by ``shadowlab animate`` before it measures one light of one frame, with a
-        :class:`shadowlab.temporal.FrameStep` (the frame's index and the light's), and with None
+        :class:`shadowlab.geometry.reprojection.FrameStep` (the frame's index and the light's), and with None
         once the animation is over. The default keeps it as :attr:`animation_step`, where :meth:`setup`
         can read it; a technique that keeps state across frames (temporal accumulation,
         ``rt_soft``) overrides this to roll that state forward — it gets what it needs from the
@@ -469,8 +469,8 @@ class Technique:
         """The technique's visibility image: an owned R32F texture of ``size`` (width, height)
         and a framebuffer drawing into it, as (texture, framebuffer); :meth:`visibility` reads
         the texture. With ``share_depth_stencil`` (the frame's, lent by
-        :meth:`~shadowlab.frame.Frame.depth_stencil_for`) the framebuffer is a
-        :class:`~shadowlab.gl.ScreenTarget` drawing with that depth-stencil attachment."""
+        :meth:`~shadowlab.gpu.frame.Frame.depth_stencil_for`) the framebuffer is a
+        :class:`~shadowlab.gpu.gl.ScreenTarget` drawing with that depth-stencil attachment."""
         if share_depth_stencil is None:
             tex, fbo = gl.visibility_target(size)
             self.own(tex)
@@ -482,7 +482,7 @@ class Technique:
         return tex, fbo
 
     def fullscreen_quad(self, prog):
-        """An owned full-screen quad VertexArray for ``prog`` (:func:`shadowlab.gl.fullscreen_quad`)."""
+        """An owned full-screen quad VertexArray for ``prog`` (:func:`shadowlab.gpu.gl.fullscreen_quad`)."""
         return self.own(gl.fullscreen_quad(prog))
 
     def release(self) -> None:

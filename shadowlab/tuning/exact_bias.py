@@ -1,13 +1,13 @@
 """The shadow-map bias family optimised exactly from one render (DESIGN §15, issue 24).
 
 A nearest-sample depth comparison lights pixel i when ``receiver_i − (b + extra_i) <= stored_i``
-(``shaders/shadow_lookup.glsl``: ``extra`` is the slope-scaled term, the adaptive bias of
+(``shadowlab/techniques/maps/shadow_lookup.glsl``: ``extra`` is the slope-scaled term, the adaptive bias of
 variant ``adaptive``, 0 for the constant variant; ``receiver`` is the point's window depth, or for
 variant ``receiver_plane`` its depth extrapolated along its plane to the tap's texel centre —
 both per tap). The comparison is monotone in the constant bias b, so each tap of each pixel has one
 *threshold* T: the smallest bias that lights it. The truth says whether the pixel is lit, so a
 truly lit pixel is right for b >= T and a truly shadowed one for b < T. One render gives every
-T (:meth:`~shadowlab.techniques.maps.DepthMapTechnique.comparison_terms` writes each tap's
+T (:meth:`~shadowlab.techniques.maps.toolkit.DepthMapTechnique.comparison_terms` writes each tap's
 terms with the lookup's own arithmetic); sorting them gives the error of **every** constant
 bias at once — the exact optimum and the whole acne-versus-leak curve (:class:`BiasCurve`).
 
@@ -47,11 +47,11 @@ from typing import Callable
 
 import numpy as np
 
-from .. import metrics
-from ..pipeline import Evaluator, Measurement, measure
+from ..evaluation import metrics
+from ..measurement.pipeline import Evaluator, Measurement, measure
 from ..techniques import Technique, from_spec
 from ..geometry.transforms import BIAS
-from ..techniques.maps import FILTERS, DepthMapTechnique, window_to_world
+from ..techniques.maps.toolkit import FILTERS, DepthMapTechnique, window_to_world
 
 #: The objectives :class:`BiasCurve` computes for every bias (sums over the evaluated pixels).
 EXACT_OBJECTIVES = ("error_rate", "false_shadow_rate", "false_lit_rate", "visibility_mae")
@@ -126,7 +126,7 @@ def world_thresholds(tech: DepthMapTechnique, thresholds: np.ndarray, normal_off
     thresholds of ``bias`` with ``bias_space=world`` on a perspective map (the lookup converts it
     there: ``converts_world_bias``) — the distance towards the light, as a
     fraction of the scene's extent, that lowers each pixel's window depth by its threshold
-    (:func:`shadowlab.techniques.maps.window_to_world` at the lookup point, the G-buffer point
+    (:func:`shadowlab.techniques.maps.toolkit.window_to_world` at the lookup point, the G-buffer point
     moved ``normal_offset`` texels along its normal as the lookup moves it). Thresholds ≤ 0 (lit
     without a bias) and ±inf stay as they are.
 

@@ -18,7 +18,7 @@ a grid that is refined around the best value round after round:
   window is below 1e-3 of its range.
 
 **What the budget counts**: evaluations, i.e. candidate configurations rendered and judged
-(with :class:`RenderedCandidates`: one :func:`shadowlab.pipeline.measure` each, or a cache hit
+(with :class:`RenderedCandidates`: one :func:`shadowlab.measurement.pipeline.measure` each, or a cache hit
 standing in for one). A candidate already evaluated is never evaluated again (it costs
 nothing), and one the technique refuses to build or set up (:class:`Rejected`: an even blur
 kernel, an exponent that overflows the storage) costs nothing either. The ground truth, measured
@@ -33,8 +33,8 @@ the best constant bias from one render.
 
 :class:`RenderedCandidates` turns a candidate (parameter → value) into its objective value by
 rendering it: the tune's spec with those values, measured on one light of a frame and judged
-against the truth by an :class:`~shadowlab.pipeline.Evaluator`; with a study cache
-(:class:`shadowlab.study.cache.Cache`) a second tune of the same scene, spec and code renders
+against the truth by an :class:`~shadowlab.measurement.pipeline.Evaluator`; with a study cache
+(:class:`shadowlab.output.cache.Cache`) a second tune of the same scene, spec and code renders
 nothing.
 """
 from __future__ import annotations
@@ -44,16 +44,18 @@ import math
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
-from .. import gl, metrics, provenance
-from ..pipeline import Evaluator, measure
-from ..study.cache import Cache, run_key, scene_content_hash
+from ..gpu import gl
+from ..evaluation import metrics
+from ..output import provenance
+from ..measurement.pipeline import Evaluator, measure
+from ..output.cache import Cache, run_key, scene_content_hash
 from ..techniques import TechniqueError, from_spec
-from ..timing import is_time_column
-from ..validation import did_you_mean
+from ..gpu.timing import is_time_column
+from ..util.validation import did_you_mean
 from .space import FLOAT_DIGITS, Dimension, TuneError, with_params
 
 #: The columns a tune may minimise (``--objective``): every metric computed against the truth
-#: (:data:`shadowlab.metrics.METRIC_COLUMNS`: error rates, distances, visibility errors ...) and
+#: (:data:`shadowlab.evaluation.metrics.METRIC_COLUMNS`: error rates, distances, visibility errors ...) and
 #: the frame time. Lower is better for each.
 OBJECTIVES: tuple[str, ...] = tuple(c.name for c in metrics.METRIC_COLUMNS) + ("time_ms_median",)
 #: A window narrower than this share of its dimension's range counts as converged.
@@ -295,18 +297,18 @@ def _plain(row: dict) -> dict:
 class RenderedCandidates:
     """The evaluation function of a tune (for :func:`coordinate_search`): a candidate's values
     put into ``base_spec`` (:func:`~shadowlab.tuning.space.with_params`), the configuration
-    measured on light ``light`` of ``evaluator``'s frame (:func:`shadowlab.pipeline.measure`,
+    measured on light ``light`` of ``evaluator``'s frame (:func:`shadowlab.measurement.pipeline.measure`,
     ``warmup`` + ``repeat`` renders) and judged against the truth (:meth:`Evaluator.row`); the
     value is the row's ``objective`` column. With ``time_budget_ms``, a candidate whose
     ``time_ms_median`` exceeds it is infeasible (infinite value, a note saying so) — the row
     is still returned. A configuration the technique refuses (TechniqueError while building or
     setting it up) raises :class:`Rejected`.
 
-    ``cache`` (a :class:`~shadowlab.study.cache.Cache`): each measured candidate is stored,
-    keyed as a study keys its runs (:func:`~shadowlab.study.cache.run_key` of the scene content
-    hash — ``scene_hash``, default :func:`~shadowlab.study.cache.scene_content_hash` of the
-    scene's file —, the spec, the size, :func:`shadowlab.provenance.code_fingerprint` and the
-    GL device :func:`shadowlab.gl.device`), plus the light and the truth's spec, so that its
+    ``cache`` (a :class:`~shadowlab.output.cache.Cache`): each measured candidate is stored,
+    keyed as a study keys its runs (:func:`~shadowlab.output.cache.run_key` of the scene content
+    hash — ``scene_hash``, default :func:`~shadowlab.output.cache.scene_content_hash` of the
+    scene's file —, the spec, the size, :func:`shadowlab.output.provenance.code_fingerprint` and the
+    GL device :func:`shadowlab.gpu.gl.device`), plus the light and the truth's spec, so that its
     entries never collide with a study's (which hold every light); the timing entry adds the
     repeat and warm-up, as a study's does. The accuracy entry holds the row without its time
     columns (``meta["rows"]``, one row, as a study's holds one per light), the timing entry its

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from typing import Any, Sequence
 
 from ..techniques.base import Param, Technique, TechniqueError, format_value
-from ..validation import did_you_mean
+from ..util.validation import did_you_mean
 
 KINDS = ("float", "int", "choice")
 #: Significant digits of the float grid points (so that candidate specs read ``bias=0.00111803``,

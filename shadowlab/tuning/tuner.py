@@ -20,9 +20,9 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from ..pipeline import Evaluator
+from ..measurement.pipeline import Evaluator
 from ..techniques import from_spec
-from ..validation import RunError, did_you_mean
+from ..util.validation import RunError, did_you_mean
 from . import exact_bias
 from .search import OBJECTIVES, RenderedCandidates, coordinate_search
 from .space import Dimension, TuneError, parse_params, with_params

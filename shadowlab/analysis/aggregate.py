@@ -1,0 +1,535 @@
+"""Study aggregation (DESIGN §12): plain pandas over ``results.csv`` rows — configurations
+pooled over a scene's lights, failed runs, Pareto fronts, per-configuration and per-family
+summaries and the verdicts that open the study page.
+
+``results.csv`` has one row per scene × light × configuration, the ground truth's rows
+included with ``reference`` True, plus the study columns ``scene_family, status, error,
+run_dir, revision, renderer`` and the image columns. Nothing here draws or writes HTML: the
+page (:mod:`shadowlab.study.report`) and the Pareto figure (:mod:`shadowlab.output.pareto`)
+read these tables.
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..evaluation.metrics import COLUMN_BY_NAME
+
+#: A configuration *fails* a scene when its run failed or its error rate (pooled over the scene's
+#: lights) exceeds this fraction of the evaluated pixels: 1 %.
+FAIL_ERROR_RATE = 0.01
+
+
+#: Soft scenes (an area light: visibility is fractional) are judged on the visibility error
+#: mean |V − G| (``visibility_mae``); a configuration fails one when it exceeds this: 0.02.
+FAIL_VISIBILITY_MAE = 0.02
+#: Errors this close to a row's best count as tied with it (a few pixels of difference say nothing
+#: about a technique): 0.01 % of the evaluated pixels for error_rate, 0.001 for visibility_mae.
+TIE_TOLERANCE = {"error_rate": 1e-4, "visibility_mae": 1e-3}
+#: Times within this fraction of a row's fastest tie with it: a software rasteriser's timings move
+#: by several percent from one run to the next, and a verdict must not flip with them.
+TIME_TIE = 0.10
+#: The scene family whose scenes are judged on visibility error (:func:`judged_metric`).
+SOFT_FAMILY = "soft shadows"
+
+#: Columns of :func:`per_configuration`, in order.
+CONFIG_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "reference", "lights",
+                  "evaluated_pixels", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
+                  "visibility_mae", "time_ms", "time_iqr_ms", "setup_ms", "preprocess_ms", "moving_ms",
+                  "scene_metric", "scene_metric_value", "wrong_pixels", "degenerate", "run_dir", "shaded_image",
+                  "error_image", "signed_image", "footprint_image"]
+#: How the pages mark a degenerate configuration (:func:`shadowlab.evaluation.metrics.is_degenerate`: it draws
+#: almost no shadow where the truth has one), beside its name or error, as ✗ marks a failure.
+DEGENERATE_MARK = "✗ degenerate"
+#: Why a degenerate configuration fails a scene, as the verdict table says it.
+DEGENERATE_WHY = "degenerate: draws almost no shadow where the truth has one"
+
+
+#: (rate, its pixel-count denominator column) — the rates pooled over lights by their denominators.
+_RATE_WEIGHTS = {"error_rate": "evaluated_pixels", "false_shadow_rate": "truth_lit_pixels",
+                 "false_lit_rate": "truth_shadowed_pixels"}
+
+
+#: How results.csv's ``config`` names a tuned configuration: ``<spec as written> [tuned <params>]``
+#: (:attr:`shadowlab.study.suite.TunedEntry.name`). Its spec differs from scene to scene (each
+#: scene's own optimum), so the study's tables and plots group its rows by this name instead.
+TUNED_MARK = " [tuned "
+
+
+def is_tuned_name(config: str) -> bool:
+    """Whether a ``config`` name is a tuned configuration's (:data:`TUNED_MARK`)."""
+    return TUNED_MARK in config and config.endswith("]")
+
+
+_IMAGE_COLUMNS = ["run_dir", "shaded_image", "error_image", "signed_image", "footprint_image"]
+
+
+def is_missing(value) -> bool:
+    """Whether a table cell holds nothing: None or NaN (other values, lists included, do not)."""
+    if value is None:
+        return True
+    try:
+        return bool(pd.isna(value))
+    except (TypeError, ValueError):
+        return False
+
+
+def as_text(value) -> str:
+    """A cell as text: '' for None / NaN."""
+    return "" if is_missing(value) else str(value)
+
+
+def is_true(value) -> bool:
+    """A bool cell that may have been read back from CSV as text ('True'/'False') or as NaN."""
+    return (not is_missing(value)) and str(value).strip().lower() in ("true", "1", "1.0", "yes")
+
+
+def truthy(series: pd.Series) -> pd.Series:
+    """A bool column that may have been read back from CSV as text ('True'/'False') or with NaN."""
+    if series.dtype == bool:
+        return series
+    return series.map(is_true)
+
+
+def normalised(results: pd.DataFrame) -> pd.DataFrame:
+    """``results`` with ``reference`` as bool and ``status`` filled ('ok' where the column is
+    absent or empty), ``scene_family`` and ``short_label`` present, and a tuned configuration's
+    rows labelled by its ``config`` name (:func:`is_tuned_name`)."""
+    df = results.copy()
+    df["reference"] = truthy(df["reference"]) if "reference" in df.columns else False
+    if "status" not in df.columns:
+        df["status"] = "ok"
+    df["status"] = df["status"].map(lambda v: as_text(v) or "ok")
+    if "scene_family" not in df.columns:
+        df["scene_family"] = ""
+    if "short_label" not in df.columns:
+        df["short_label"] = df["label"]
+    if "error" not in df.columns:
+        df["error"] = ""
+    if "config" in df.columns:
+        # a tuned configuration runs a different spec on each scene: one name across the study
+        tuned = df["config"].map(lambda c: is_tuned_name(as_text(c)))
+        df.loc[tuned, "label"] = df.loc[tuned, "config"]
+        df.loc[tuned, "short_label"] = df.loc[tuned, "config"]
+    return df
+
+
+def numeric(df: pd.DataFrame, col: str) -> np.ndarray:
+    if col not in df.columns:
+        return np.full(len(df), np.nan)
+    return pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float)
+
+
+def pooled(rates: np.ndarray, weights: np.ndarray) -> float:
+    """The weighted mean of per-light ``rates`` by their denominators ``weights`` (= the rate of
+    the pooled counts); 0 for an empty pooled denominator (DESIGN §7); the plain mean when a
+    weight is unknown."""
+    if np.isnan(rates).all():
+        return math.nan
+    if np.isnan(weights).any():
+        return float(np.nanmean(rates))
+    total = weights.sum()
+    return float((rates * weights).sum() / total) if total > 0 else 0.0
+
+
+def scenes_in_order(df: pd.DataFrame) -> list[str]:
+    """Scene names in order of first appearance (the suite's order)."""
+    return list(dict.fromkeys(df["scene"].astype(str)))
+
+
+def family_order(names) -> list[str]:
+    """Technique families in the registry's order (unknown names, e.g. failed specs, last, sorted)."""
+    from ..techniques import REGISTRY
+
+    names = set(names)
+    return [n for n in REGISTRY if n in names] + sorted(names - set(REGISTRY))
+
+
+def fmt_pct(rate) -> str:
+    return COLUMN_BY_NAME["error_rate"].format(None if is_missing(rate) else float(rate))
+
+
+def fmt_ms(value) -> str:
+    return COLUMN_BY_NAME["time_ms_median"].format(None if is_missing(value) else float(value))
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to a temporary name beside ``path`` and rename it into place."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) -> pd.DataFrame:
+    """One row per (scene, configuration) that ran: the ``status == "ok"`` rows of
+    ``results`` (results.csv) pooled over the scene's lights, in the order of ``results``.
+
+    Why: a frame renders every light, so a configuration's cost on a scene is the sum of its
+    per-light times, and its error is the share of wrong pixels among all the lights' evaluated
+    pixels — the two numbers the study compares configurations by.
+
+    Columns (:data:`CONFIG_COLUMNS`): ``scene, scene_family, technique, label, short_label,
+    reference`` (bool: the ground truth) copied; ``lights`` (rows pooled); ``evaluated_pixels``
+    (sum over lights); ``error_rate`` = the evaluated-pixel-weighted mean of the lights'
+    error rates (= pooled wrong / pooled evaluated); ``false_shadow_rate`` and
+    ``false_lit_rate`` weighted likewise by their own denominators, ``truth_lit_pixels`` and
+    ``truth_shadowed_pixels``, where those count columns exist (else by evaluated pixels);
+    a pooled denominator of 0 gives 0 (DESIGN §7); ``boundary_error_px`` = the mean over lights;
+    ``time_ms`` = sum of ``time_ms_median`` over lights (NaN if any light has no time);
+    ``time_iqr_ms`` = sum of ``time_ms_iqr`` (the lights were timed separately, so this is the
+    spread of a frame if their fluctuations go together — a conservative bar); ``setup_ms`` =
+    sum of the lights' set-up times (NaN where not measured);
+    ``visibility_mae`` weighted like ``error_rate``; ``preprocess_ms`` = the lights' summed
+    light-dependent preprocessing (0 where a technique has none); ``moving_ms`` = ``time_ms`` +
+    ``preprocess_ms``, a frame's cost when the light moves (the preprocessing is redone every
+    frame; GL set-up — textures, programs — is not, so ``setup_ms`` is not in it);
+    ``scene_metric`` = the column ``scene_metrics[scene]`` names (the metric the scene exists for;
+    '' when none) and ``scene_metric_value`` its mean over lights;
+    ``wrong_pixels`` = error_rate × evaluated_pixels (rounded); ``degenerate`` (bool: degenerate on
+    any of the lights, :func:`shadowlab.evaluation.metrics.is_degenerate`; False where results.csv has no such
+    column, a study older than issue 35); and from the first light's row
+    (the one with images): ``run_dir, shaded_image, error_image, signed_image, footprint_image``
+    ('' where absent; ``signed_image``: the signed difference
+    map V − G of a soft configuration, :func:`shadowlab.report.signed_picture`).
+    """
+    if results is None or len(results) == 0:
+        return pd.DataFrame(columns=CONFIG_COLUMNS)
+    df = normalised(results)
+    df = df[df["status"] == "ok"]
+    rows = []
+    for (scene, label), g in df.groupby(["scene", "label"], sort=False):
+        g = g.sort_values("light", kind="stable") if "light" in g.columns else g
+        first = g.iloc[0]
+        ev = numeric(g, "evaluated_pixels")
+        row = {"scene": scene, "scene_family": as_text(first["scene_family"]), "technique": first["technique"],
+               "label": label, "short_label": as_text(first["short_label"]) or label,
+               "reference": bool(g["reference"].any()), "lights": len(g),
+               "evaluated_pixels": float(np.nansum(ev)) if not np.isnan(ev).all() else math.nan}
+        for rate, weight in _RATE_WEIGHTS.items():
+            w = numeric(g, weight) if weight in g.columns else ev
+            row[rate] = pooled(numeric(g, rate), w)
+        be = numeric(g, "boundary_error_px")
+        row["boundary_error_px"] = float(np.nanmean(be)) if not np.isnan(be).all() else math.nan
+        t, iqr = numeric(g, "time_ms_median"), numeric(g, "time_ms_iqr")
+        row["time_ms"] = float(t.sum())  # NaN when any light has no time
+        row["time_iqr_ms"] = float(np.nansum(iqr)) if not np.isnan(iqr).all() else math.nan
+        row["setup_ms"] = float(numeric(g, "setup_ms").sum()) if "setup_ms" in g.columns else math.nan
+        vm = numeric(g, "visibility_mae")
+        row["visibility_mae"] = pooled(vm, ev) if not np.isnan(vm).all() else math.nan
+        pre = numeric(g, "preprocess_ms")
+        row["preprocess_ms"] = float(np.nansum(pre)) if not np.isnan(pre).all() else 0.0
+        row["moving_ms"] = row["time_ms"] + row["preprocess_ms"]
+        metric = (scene_metrics or {}).get(scene)
+        row["scene_metric"] = metric or ""
+        mv = numeric(g, metric) if metric else np.array([math.nan])
+        row["scene_metric_value"] = float(np.nanmean(mv)) if not np.isnan(mv).all() else math.nan
+        n = row["evaluated_pixels"]
+        row["wrong_pixels"] = (float(round(row["error_rate"] * n)) if not (is_missing(n) or
+                                                                            is_missing(row["error_rate"]))
+                               else math.nan)
+        row["degenerate"] = bool(truthy(g["degenerate"]).any()) if "degenerate" in g.columns else False
+        for col in _IMAGE_COLUMNS:
+            row[col] = first[col] if col in g.columns else ""
+        rows.append(row)
+    return pd.DataFrame(rows, columns=CONFIG_COLUMNS)
+
+
+def failed_runs(results: pd.DataFrame) -> pd.DataFrame:
+    """One row per (scene, configuration) whose run failed (``status == "failed"``): columns
+    ``scene, scene_family, technique, label, short_label, reference, error`` (the first light's
+    message), in the order of ``results``."""
+    cols = ["scene", "scene_family", "technique", "label", "short_label", "reference", "error"]
+    if results is None or len(results) == 0:
+        return pd.DataFrame(columns=cols)
+    df = normalised(results)
+    df = df[df["status"] != "ok"]
+    out = df.drop_duplicates(["scene", "label"])[cols].copy()
+    out["error"] = out["error"].map(as_text)
+    return out.reset_index(drop=True)
+
+
+def pareto_front(time, error) -> np.ndarray:
+    """Bool mask of the points on the Pareto front of (``time``, ``error``) — both to be
+    minimised, same-length 1-D arrays: a point is on the front when no other point is at least
+    as good in both and strictly better in one. Points with exactly equal (time, error) do not
+    dominate each other, so ties are all kept. Points with a NaN coordinate are never on the
+    front and dominate nothing."""
+    t = np.asarray(time, dtype=float).ravel()
+    e = np.asarray(error, dtype=float).ravel()
+    if t.shape != e.shape:
+        raise ValueError(f"time and error differ in length: {t.shape} vs {e.shape}")
+    ok = ~(np.isnan(t) | np.isnan(e))
+    tv, evv = t[ok], e[ok]
+    # dominated[i] = any j: t_j <= t_i and e_j <= e_i and (t_j < t_i or e_j < e_i)
+    le = (tv[None, :] <= tv[:, None]) & (evv[None, :] <= evv[:, None])
+    lt = (tv[None, :] < tv[:, None]) | (evv[None, :] < evv[:, None])
+    front = np.zeros(t.shape, bool)
+    front[ok] = ~(le & lt).any(axis=1)
+    return front
+
+
+def summary_table(results: pd.DataFrame) -> pd.DataFrame:
+    """One row per non-reference configuration (``label``) across the suite, sorted by technique
+    family, then median error, then median time: ``technique, label, short_label,
+    median_error_rate, median_time_ms, median_setup_ms`` (medians over the scenes it ran on, from
+    :func:`per_configuration`), ``worst_error_rate`` (its largest: the median hides a
+    configuration that fails a few scenes), ``scenes`` (ran, ok), ``failed`` (scenes whose run failed),
+    ``wins`` (list of (scene_family, scene) where its error rate is the lowest among the
+    scene's non-reference configurations that are not degenerate; ties count for each), ``fails``
+    (list of (scene, reason): its run failed, its error rate exceeds :data:`FAIL_ERROR_RATE`, or
+    it is degenerate there — :data:`DEGENERATE_MARK` in the reason)."""
+    cfg = per_configuration(results)
+    conf = cfg[~cfg["reference"].astype(bool)]
+    fails = failed_runs(results)
+    fails = fails[~fails["reference"].astype(bool)]
+    wins: dict[str, list] = {}
+    for scene, g in conf.groupby("scene", sort=False):
+        sound = g[~g["degenerate"].astype(bool)]  # a configuration that draws no shadow wins nothing
+        best = sound["error_rate"].min()
+        if pd.isna(best):
+            continue
+        for _, r in sound[sound["error_rate"] == best].iterrows():
+            wins.setdefault(r["label"], []).append((r["scene_family"], scene))
+    labels: dict[str, dict] = {}
+    for _, r in pd.concat([conf[["technique", "label", "short_label"]],
+                           fails[["technique", "label", "short_label"]]]).iterrows():
+        labels.setdefault(r["label"], {"technique": r["technique"], "short_label": r["short_label"]})
+    rows = []
+    for label, info in labels.items():
+        g = conf[conf["label"] == label]
+        f = fails[fails["label"] == label]
+        bad = [(s, f"failed: {e}" if e else "failed") for s, e in zip(f["scene"], f["error"])]
+        bad += [(s, fmt_pct(e) + (f" {DEGENERATE_MARK}" if d else "")) for s, e, d in
+                zip(g["scene"], g["error_rate"], g["degenerate"].astype(bool)) if e > FAIL_ERROR_RATE or d]
+        rows.append({"technique": info["technique"], "label": label, "short_label": info["short_label"],
+                     "median_error_rate": g["error_rate"].median() if len(g) else math.nan,
+                     "median_time_ms": g["time_ms"].median() if len(g) else math.nan,
+                     "median_setup_ms": g["setup_ms"].median() if len(g) else math.nan,
+                     "worst_error_rate": g["error_rate"].max() if len(g) else math.nan,
+                     "scenes": len(g), "failed": len(f), "wins": wins.get(label, []), "fails": bad})
+    out = pd.DataFrame(rows, columns=["technique", "label", "short_label", "median_error_rate", "median_time_ms",
+                                      "median_setup_ms", "worst_error_rate", "scenes", "failed", "wins", "fails"])
+    if len(out):
+        rank = {fam: i for i, fam in enumerate(family_order(out["technique"]))}
+        out["_fam"] = out["technique"].map(rank)
+        out = out.sort_values(["_fam", "median_error_rate", "median_time_ms", "short_label"], kind="stable",
+                              na_position="last").drop(columns="_fam").reset_index(drop=True)
+    return out
+
+
+def family_table(results: pd.DataFrame) -> pd.DataFrame:
+    """Per scene family (in suite order): ``scene_family, scenes`` (count), ``best`` (the
+    configurations with the lowest median error rate over the family's scenes; ties all listed),
+    ``best_error_rate``, ``fastest`` (lowest median time), ``fastest_time_ms``, ``fastest_ok``
+    (fastest with median error ≤ :data:`FAIL_ERROR_RATE`; '' if none) and ``fastest_ok_time_ms``.
+    Candidates: the non-reference configurations that ran on the most of the family's scenes
+    (all of them when any did), so that one lucky scene cannot win a family; ``coverage`` =
+    "ran / scenes". Names are short labels."""
+    cfg = per_configuration(results)
+    conf = cfg[~cfg["reference"].astype(bool)]
+    df = normalised(results) if len(results) else results
+    rows = []
+    if not len(df):
+        return pd.DataFrame(columns=["scene_family", "scenes", "coverage", "best", "best_error_rate", "fastest",
+                                     "fastest_time_ms", "fastest_ok", "fastest_ok_time_ms"])
+    fam_of = df.drop_duplicates("scene").set_index("scene")["scene_family"].map(as_text)
+    for fam in dict.fromkeys(fam_of):
+        scenes = list(fam_of.index[fam_of == fam])
+        g = conf[conf["scene"].isin(scenes)]
+        med = g.groupby("label", sort=False).agg(short_label=("short_label", "first"), n=("scene", "nunique"),
+                                                 err=("error_rate", "median"), time=("time_ms", "median"))
+        row = {"scene_family": fam or "(none)", "scenes": len(scenes), "coverage": "", "best": "",
+               "best_error_rate": math.nan, "fastest": "", "fastest_time_ms": math.nan, "fastest_ok": "",
+               "fastest_ok_time_ms": math.nan}
+        if len(med):
+            med = med[med["n"] == med["n"].max()]
+            row["coverage"] = f"{int(med['n'].max())}/{len(scenes)}"
+            if med["err"].notna().any():
+                best = med["err"].min()
+                row["best"] = names_text(med.loc[med["err"] == best, "short_label"])
+                row["best_error_rate"] = best
+            timed = med[med["time"].notna()]
+            if len(timed):
+                fast = timed.sort_values(["time", "err"], kind="stable").iloc[0]
+                row["fastest"], row["fastest_time_ms"] = fast["short_label"], fast["time"]
+                good = timed[timed["err"] <= FAIL_ERROR_RATE].sort_values(["time", "err"], kind="stable")
+                if len(good):
+                    row["fastest_ok"], row["fastest_ok_time_ms"] = good.iloc[0]["short_label"], good.iloc[0]["time"]
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def names_text(names, keep: int = 2) -> str:
+    """Up to ``keep`` names, then "(+N tied)"."""
+    names = list(dict.fromkeys(names))
+    more = len(names) - keep
+    return ", ".join(names[:keep]) + (f" (+{more} tied)" if more > 0 else "")
+
+
+# --------------------------------------------------------------------------- verdicts
+
+def judged_metric(scene_family: str) -> str:
+    """The error a scene is judged on: ``visibility_mae`` for a soft scene (:data:`SOFT_FAMILY`:
+    fractional visibility is the answer there, a threshold at 0.5 would hide it), else the
+    thresholded ``error_rate``."""
+    return "visibility_mae" if scene_family == SOFT_FAMILY else "error_rate"
+
+
+def fail_threshold(metric: str) -> float:
+    """The value of ``metric`` (:func:`judged_metric`) above which a configuration fails."""
+    return FAIL_VISIBILITY_MAE if metric == "visibility_mae" else FAIL_ERROR_RATE
+
+
+#: Columns of :func:`verdict_table`.
+VERDICT_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "metric", "error", "time_ms",
+                   "moving_ms", "setup_ms", "scene_metric", "scene_metric_value", "configurations", "failed", "why",
+                   "degenerate", "best_error", "best_time", "best_moving"]
+
+
+def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None) -> pd.DataFrame:
+    """The study's headline, long form: one row per (scene, technique family) that was asked to
+    run there — the family's *best configuration* on the scene, i.e. the lowest judged error
+    (:func:`judged_metric`), ties broken by time, among its configurations that are not
+    degenerate (:func:`shadowlab.evaluation.metrics.is_degenerate`: they draw almost no shadow where the
+    truth has one, and their error understates what is lost). Only when every configuration of
+    the family is degenerate is one chosen, and then it is marked (``degenerate``) and fails.
+
+    Columns (:data:`VERDICT_COLUMNS`): ``metric`` (the judged column) and ``error`` (its value),
+    ``time_ms`` (static light: per-frame time), ``moving_ms`` (moving light: per-frame time plus
+    light-dependent preprocessing), ``setup_ms``; the scene's own metric and its value;
+    ``configurations`` (how many of the family's configurations ran); ``failed`` (bool: the best
+    configuration's error is above :func:`fail_threshold`, it is degenerate, or every
+    configuration's run failed) and ``why``; ``degenerate`` (bool: the chosen configuration is
+    degenerate); ``best_error`` / ``best_time`` / ``best_moving`` (bool: the lowest error in the
+    scene's row among the families whose choice is not degenerate, within
+    :data:`TIE_TOLERANCE`; the lowest static / moving time among the row's families that do not
+    fail, within :data:`TIME_TIE`)."""
+    cfg = per_configuration(results, scene_metrics)
+    conf = cfg[~cfg["reference"].astype(bool)] if len(cfg) else cfg
+    fails = failed_runs(results)
+    fails = fails[~fails["reference"].astype(bool)] if len(fails) else fails
+    rows = []
+    if results is None or not len(results):
+        return pd.DataFrame(columns=VERDICT_COLUMNS)
+    fam_of = normalised(results).drop_duplicates("scene").set_index("scene")["scene_family"].map(as_text)
+    for scene in scenes_in_order(normalised(results)):
+        metric = judged_metric(fam_of.get(scene, ""))
+        limit = fail_threshold(metric)
+        g = conf[conf["scene"] == scene]
+        f = fails[fails["scene"] == scene] if len(fails) else fails
+        techs = family_order(list(g["technique"]) + list(f["technique"] if len(f) else []))
+        for tech in techs:
+            gt = g[g["technique"] == tech].assign(_err=lambda d: d[metric])
+            ft = f[f["technique"] == tech] if len(f) else f
+            row = dict.fromkeys(VERDICT_COLUMNS, math.nan)
+            row.update(scene=scene, scene_family=fam_of.get(scene, ""), technique=tech, metric=metric,
+                       configurations=len(gt), degenerate=False, best_error=False, best_time=False,
+                       best_moving=False)
+            # a degenerate configuration is never the family's best while a sound one ran
+            scored = gt[gt["_err"].notna()].assign(_deg=lambda d: d["degenerate"].astype(bool)).sort_values(
+                ["_deg", "_err", "time_ms"], kind="stable", na_position="last")
+            if len(scored):
+                best = scored.iloc[0]
+                row.update(label=best["label"], short_label=best["short_label"], error=float(best["_err"]),
+                           time_ms=best["time_ms"], moving_ms=best["moving_ms"], setup_ms=best["setup_ms"],
+                           scene_metric=best["scene_metric"], scene_metric_value=best["scene_metric_value"])
+                row["degenerate"] = bool(best["_deg"])
+                over = bool(best["_err"] > limit)
+                row["failed"] = over or row["degenerate"]
+                row["why"] = "; ".join(([f"{metric} above {fmt_limit(metric, limit)}"] if over else [])
+                                       + ([DEGENERATE_WHY] if row["degenerate"] else []))
+            else:
+                first = ft.iloc[0] if len(ft) else None
+                row.update(label=first["label"] if first is not None else "", short_label=first["short_label"]
+                           if first is not None else "", failed=True,
+                           why=f"run failed: {first['error']}" if first is not None else "no result")
+            rows.append(row)
+    out = pd.DataFrame(rows, columns=VERDICT_COLUMNS)
+    for scene, idx in out.groupby("scene", sort=False).groups.items():
+        part = out.loc[idx]
+        sound = part[~part["degenerate"].astype(bool)]  # a lost shadow's small error is no row's best
+        if sound["error"].notna().any():
+            tol = TIE_TOLERANCE[part["metric"].iloc[0]]
+            out.loc[sound.index, "best_error"] = sound["error"] <= sound["error"].min() + tol
+        ok = part[~part["failed"].astype(bool)]
+        for col, flag in (("time_ms", "best_time"), ("moving_ms", "best_moving")):
+            if ok[col].notna().any():
+                out.loc[ok.index, flag] = ok[col] <= ok[col].min() * (1 + TIME_TIE)
+    return out
+
+
+def fmt_limit(metric: str, limit: float) -> str:
+    """A fail threshold as the page states it ("1 %", "0.02")."""
+    return f"{100 * limit:g} %" if metric == "error_rate" else f"{limit:g}"
+
+
+def _fastest_names(times: pd.Series) -> list[str]:
+    """The index labels of ``times`` within :data:`TIME_TIE` of the least, fastest first."""
+    best = times.min()
+    return list(times[times <= best * (1 + TIME_TIE)].sort_values(kind="stable").index)
+
+
+def _fastest(times: pd.Series) -> str:
+    """"A (1.20 ms)" or, with ties, "A (1.20 ms), B (1.25 ms), tied within 10 %"."""
+    names = _fastest_names(times)
+    text = ", ".join(f"{n} ({fmt_ms(times[n])} ms)" for n in names)
+    return text + (f", tied within {100 * TIME_TIE:g} %" if len(names) > 1 else "")
+
+
+def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
+    """One sentence per scene family, from :func:`verdict_table`: (family, sentence) saying who
+    is most accurate (lowest median best-configuration error over the family's scenes, among the
+    techniques that ran on most of them and fail none — the median would hide a failure; every
+    technique within :data:`TIE_TOLERANCE` of it is named), who is fastest for a static and for a moving light
+    among the techniques that fail none of those scenes (times within :data:`TIME_TIE` tie), and
+    who fails where."""
+    out = []
+    if not len(verdicts):
+        return out
+    for fam, g in verdicts.groupby("scene_family", sort=False):
+        scenes = list(dict.fromkeys(g["scene"]))
+        n = len(scenes)
+        per = g.groupby("technique", sort=False).agg(
+            scenes=("scene", "nunique"), err=("error", "median"), time=("time_ms", "median"),
+            moving=("moving_ms", "median"), fails=("failed", "sum"))
+        per = per.loc[[t for t in family_order(per.index) if t in per.index]]
+        full = per[per["scenes"] == per["scenes"].max()]
+        metric = g["metric"].iloc[0]
+        show = fmt_pct if metric == "error_rate" else (lambda v: f"{v:.4f}")
+        where = f"{n} scene{'s' if n != 1 else ''}: {', '.join(scenes)}"
+        parts = []
+        scored = full[full["err"].notna()]
+        if (scored["fails"] == 0).any():  # a technique that fails a scene of the family is not its most accurate
+            scored = scored[scored["fails"] == 0]
+        if len(scored):
+            best = scored["err"].min()
+            winners = list(scored.index[scored["err"] <= best + TIE_TOLERANCE[metric]])
+            tied = f", tied within {fmt_limit(metric, TIE_TOLERANCE[metric])}" if len(winners) > 1 else ""
+            parts.append(f"most accurate: {', '.join(winners)} (median {metric} {show(best)}{tied})")
+        sound = full[(full["fails"] == 0) & full["time"].notna()]
+        if len(sound):
+            parts.append("fastest per frame for a static light: " + _fastest(sound["time"]))
+            static, moving = _fastest_names(sound["time"]), _fastest_names(sound["moving"])
+            if moving != static:
+                slow = [n for n in static if n not in moving]
+                extra = (f"; {', '.join(slow)} {'needs' if len(slow) == 1 else 'need'} "
+                         f"{', '.join(fmt_ms(sound.loc[n, 'moving']) + ' ms' for n in slow)} with per-light "
+                         f"preprocessing" if slow else "")
+                parts.append(f"for a moving light: {_fastest(sound['moving'])}{extra}")
+            else:
+                parts.append("the same for a moving light")
+        else:
+            parts.append("no technique passes every scene")
+        failing = per[per["fails"] > 0]
+        if len(failing):
+            parts.append("fails: " + ", ".join(f"{t} on {int(r['fails'])} of {int(r['scenes'])}"
+                                               for t, r in failing.iterrows()))
+        else:
+            parts.append("no technique fails")
+        out.append((fam or "(none)", f"{(fam or 'Other scenes').capitalize()} ({where}) — " + "; ".join(parts) + "."))
+    return out

@@ -1,0 +1,85 @@
+"""Temporal metrics between consecutive frames of an animation: flicker and temporal error.
+
+Players notice shadows that shimmer more than any still-frame error, so the lab measures how a
+technique's visibility *changes* from frame to frame against how the truth's changes. Pixels
+of frame k are matched to frame k−1 by exact reprojection (the reverse reprojection of Nehab
+et al. 2007, "Accelerating real-time shading with reverse reprojection caching", §3, here
+with the frames' exact float64 surface points, DESIGN §9):
+
+- each evaluated pixel p of frame k has its exact point P_k; P_k is projected through frame
+  k−1's camera to the *nearest* pixel q (the pixel whose area holds the projection);
+- the match is **valid** when q lies inside the image, is evaluated in frame k−1, and frame
+  k−1's exact point at q lies within :data:`SAME_SURFACE_FOOTPRINTS` (a quarter) pixel footprints
+  of P_k (nearly the same world point: same surface, not something that hid or uncovered it);
+- with a still camera (same view-projection and size) q = p.
+
+Over the valid pixels, with V thresholded at 0.5 (:data:`shadowlab.evaluation.metrics.THRESHOLD`):
+
+- ``flip_rate`` = #(V's class changes while G's does not) / #valid — flicker the truth does
+  not have (a pixel that flips with the truth does not count);
+- ``temporal_error`` = mean |ΔV − ΔG|, ΔV = V_k(p) − V_{k−1}(q) — change that is not the
+  truth's, without thresholding;
+- ``valid_pixels`` = #valid.
+
+Images are (height, width) with row 0 = top (DESIGN §5); all of this is numpy, no GL.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry.reprojection import (  # noqa: F401  (part of the temporal metrics' vocabulary)
+    SAME_SURFACE_FOOTPRINTS, FrameGeometry, FrameStep, Reprojection, project_to_pixels, reproject,
+)
+from .metrics import THRESHOLD
+
+#: The temporal columns each frame row gets from frame 1 on (NaN on frame 0).
+TEMPORAL_COLUMNS = ("flip_rate", "temporal_error", "valid_pixels")
+
+
+@dataclass
+class PairMetrics:
+    """Temporal metrics of one configuration between frames k−1 and k: the columns and the
+    per-pixel flips ``flips`` bool (H, W) in frame k's pixels (flips the truth does not make)."""
+
+    flip_rate: float
+    temporal_error: float
+    valid_pixels: int
+    flips: np.ndarray
+
+    def columns(self) -> dict:
+        """The frame row's temporal columns (:data:`TEMPORAL_COLUMNS`)."""
+        return {"flip_rate": self.flip_rate, "temporal_error": self.temporal_error, "valid_pixels": self.valid_pixels}
+
+
+def pair_metrics(vis_prev: np.ndarray, vis_curr: np.ndarray, truth_prev: np.ndarray, truth_curr: np.ndarray,
+                 reproj: Reprojection) -> PairMetrics:
+    """``flip_rate``, ``temporal_error`` and ``valid_pixels`` (module docstring) of visibility
+    images float (H, W) in [0, 1] of frames k−1 and k, against the truth's, over the valid
+    matches of ``reproj``. With no valid pixel both rates are 0 (the count says so)."""
+    valid = reproj.valid
+    q = reproj.source[valid]
+    v1, g1 = vis_curr[valid].astype(np.float64), truth_curr[valid].astype(np.float64)
+    v0, g0 = vis_prev.reshape(-1)[q].astype(np.float64), truth_prev.reshape(-1)[q].astype(np.float64)
+    flip = ((v1 < THRESHOLD) != (v0 < THRESHOLD)) & ((g1 < THRESHOLD) == (g0 < THRESHOLD))
+    n = int(valid.sum())
+    flips = np.zeros(valid.shape, bool)
+    flips[valid] = flip
+    if n == 0:
+        return PairMetrics(0.0, 0.0, 0, flips)
+    return PairMetrics(float(flip.sum()) / n, float(np.mean(np.abs((v1 - v0) - (g1 - g0)))), n, flips)
+
+
+#: The percentile of the ``p95`` summaries.
+SUMMARY_PERCENTILE = 95.0
+
+
+def summarise(values) -> dict:
+    """``mean``, ``p95`` and ``max`` of per-frame-pair values (NaN, e.g. frame 0's, ignored);
+    NaN each when there is none."""
+    v = np.asarray(values, np.float64)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return {"mean": float("nan"), "p95": float("nan"), "max": float("nan")}
+    return {"mean": float(v.mean()), "p95": float(np.percentile(v, SUMMARY_PERCENTILE)), "max": float(v.max())}

@@ -1,0 +1,8 @@
+"""The one headless GL context and everything that draws with it, shared by every technique: the
+context, the GLSL loader and program cache (:mod:`.gl`), full pass state (:mod:`.glstate`), the
+frame — a scene uploaded, its G-buffer and exact surface points (:mod:`.frame`) — the shading pass
+(:mod:`.shading`), wall-clock timing (:mod:`.timing`), work counters (:mod:`.work`), GPU memory
+accounting (:mod:`.memory`) and the allocator setting that keeps per-pixel arrays cheap
+(:mod:`.heap`). The shared GLSL programs (G-buffer, shading, lights, full-screen triangle) sit here,
+first on the loader's search path.
+"""

@@ -1,0 +1,129 @@
+"""The documentation cannot go stale unnoticed: the README's generated tables match the code,
+every relative link in README.md and docs/ resolves, every shipped scene has its entry in the
+hard-case catalogue and every metrics column its definition. No GL."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from shadowlab.docgen import tables as docs_tables
+from shadowlab.evaluation import metrics
+from shadowlab.evaluation.temporal import TEMPORAL_COLUMNS
+
+ROOT = Path(__file__).resolve().parents[2]
+README = ROOT / "README.md"
+DOCS = ROOT / "docs"
+PAGES = [README, *sorted(DOCS.glob("*.md"))]
+
+
+@pytest.mark.parametrize("table", docs_tables.TABLES)
+def test_readme_tables_are_generated_from_the_code(table):
+    diffs = docs_tables.differences()
+    assert table not in diffs, (
+        f"{docs_tables.HOMES[table].name}'s {table} differs from the code:\n{diffs[table]}\n\n"
+        f"fix: {docs_tables.FIX_COMMAND}   (e.g. .venv/bin/python -m shadowlab.docgen.tables --write)")
+
+
+def test_tables_round_trip_through_the_markers():
+    text = "intro\n<!-- layout-table:begin -->\nold\n<!-- layout-table:end -->\nrest\n"
+    table = "| module | holds |\n|---|---|\n| `a.py` | A. |"
+    new = docs_tables.replace(text, "layout-table", table)
+    assert docs_tables.extract(new, "layout-table") == table
+    assert new.startswith("intro\n") and new.endswith("\nrest\n")
+    with pytest.raises(ValueError):
+        docs_tables.replace("no markers", "technique-table", table)
+
+
+def test_summaries_are_one_sentence_without_private_references():
+    doc = ("Shared shading: the extended Blinn model of DESIGN §8 over the G-buffer.\n\n"
+           "More text.")
+    assert docs_tables.first_sentence(doc) == "Shared shading: the extended Blinn model over the G-buffer."
+    assert docs_tables.first_sentence("Suites (DESIGN §12): which scenes. And more.") == "Suites: which scenes."
+    assert docs_tables.first_sentence(None) == ""
+    assert docs_tables.first_sentence("Blob shadows: an ellipse under each caster (Akenine-M\u00f6ller et al. " + "x " * 150 + ").") == "Blob shadows: an ellipse under each caster."
+
+
+def _links(page: Path):
+    text = re.sub(r"```.*?```", "", page.read_text(encoding="utf-8"), flags=re.S)  # not inside code blocks
+    for target in re.findall(r"\]\(([^)\s]+)\)", text):
+        if not re.match(r"[a-z]+:", target):
+            yield target
+
+
+def _anchors(page: Path) -> set[str]:
+    """GitHub's anchors of a markdown page's headings."""
+    text = re.sub(r"```.*?```", "", page.read_text(encoding="utf-8"), flags=re.S)
+    return {re.sub(r"[^\w\- ]", "", h.strip().lower()).replace(" ", "-")
+            for h in re.findall(r"^#+ (.*)$", text, re.M)}
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_relative_links_resolve(page):
+    broken = []
+    for target in _links(page):
+        path, _, anchor = target.partition("#")
+        file = page.parent / path if path else page
+        if not file.exists() or (anchor and file.suffix == ".md" and anchor not in _anchors(file)):
+            broken.append(target)
+    assert not broken, f"{page.relative_to(ROOT)} has links to files or headings that do not exist: {broken}"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_references_outside_the_repository(page):
+    text = page.read_text(encoding="utf-8")
+    assert "DESIGN.md" not in text and "DESIGN §" not in text and "shared folder" not in text, (
+        f"{page.relative_to(ROOT)} refers to the project's shared design, which a clone does not have: link docs/")
+
+
+def test_every_shipped_scene_is_in_the_hard_case_catalogue():
+    text = (DOCS / "hard-cases.md").read_text(encoding="utf-8")
+    headings = set(re.findall(r"^### `([a-z0-9_]+)`", text, re.M))
+    shipped = {p.stem for p in (ROOT / "shadowlab" / "scenes").glob("*.toml")}
+    assert shipped <= headings, f"docs/hard-cases.md has no entry for {sorted(shipped - headings)}"
+    assert headings <= shipped, f"docs/hard-cases.md describes scenes that are not shipped: {sorted(headings - shipped)}"
+
+
+def test_the_catalogue_names_the_suites_each_scene_is_in():
+    """Each entry's "Suites:" line names exactly the shipped suites that run the scene."""
+    from shadowlab.study.suite import builtin_suites, load_suite
+
+    text = (DOCS / "hard-cases.md").read_text(encoding="utf-8")
+    suites = builtin_suites()
+    runs: dict[str, set] = {}
+    for name, path in suites.items():
+        for scene in load_suite(path).scenes:
+            runs.setdefault(scene.name, set()).add(name)
+    wrong = []
+    for scene, line in re.findall(r"^### `([a-z0-9_]+)`.*?^- \*\*Suites:\*\* ([^\n]*)", text, re.M | re.S):
+        listed = {s for s in re.findall(r"`(\w+)`", line) if s in suites}
+        if listed != runs.get(scene, set()):
+            wrong.append(f"{scene}: lists {sorted(listed)}, runs in {sorted(runs.get(scene, set()))}")
+    assert not wrong, "docs/hard-cases.md: " + "; ".join(wrong)
+
+
+def test_every_metric_column_is_defined_in_the_metrics_page():
+    text = (DOCS / "metrics.md").read_text(encoding="utf-8")
+    names = [c.name for c in metrics.COLUMNS] + list(TEMPORAL_COLUMNS)
+    missing = [n for n in names if f"`{n}`" not in text]
+    assert not missing, f"docs/metrics.md does not define {missing}"
+
+
+def test_readme_scene_example_runs_as_copied(tmp_path, monkeypatch):
+    """The README's scene file and its compare command run exactly as a reader copies them
+    (at a smaller size, to keep the test fast)."""
+    import re
+    import shlex
+
+    from shadowlab import cli
+
+    text = README.read_text(encoding="utf-8")
+    toml = re.search(r"```toml\n(.*?)```", text, re.S).group(1)
+    (tmp_path / "my_scene.toml").write_text(toml)
+    command = next(line for line in text.splitlines() if "shadowlab compare my_scene.toml" in line)
+    args = shlex.split(command)[1:]
+    args[args.index("--size") + 1] = "96x72"
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(args + ["--repeat", "1", "--out", str(tmp_path / "run")]) == 0
+    assert (tmp_path / "run" / "report.html").is_file()

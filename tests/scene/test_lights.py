@@ -1,0 +1,197 @@
+"""Lights: the numpy and GLSL definitions agree; footprints follow DESIGN §8."""
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pytest
+import trimesh
+
+from shadowlab.gpu import gl
+from shadowlab.geometry.frusta import Casters
+from shadowlab.scene.area_lights import AREA_SHAPES, DiscLight, RectLight, SphereLight
+from shadowlab.scene import parse_light
+from shadowlab.scene.lights import LIGHT_TYPE_IDS, DirectionalLight, PointLight, SpotLight, TargetDirectLight
+from shadowlab.util.validation import SceneError
+
+LIGHTS = [
+    PointLight(position=np.array([0.5, 4.0, -1.0])),
+    DirectionalLight(direction=np.array([-0.3, -1.0, 0.2]) / np.linalg.norm([-0.3, -1.0, 0.2])),
+    SpotLight(position=np.array([0.0, 3.0, 0.0]), direction=np.array([0.0, -1.0, 0.0]), alpha=70.0, beta=40.0),
+    SpotLight(position=np.array([1.0, 3.0, 0.0]), direction=np.array([0.0, -1.0, 0.0]), alpha=50.0, beta=50.0),
+    TargetDirectLight(position=np.array([0.0, 3.0, 0.0]), direction=np.array([0.0, -1.0, 0.0]), R=2.0, r=1.0),
+    # area lights: lit (footprint, direction) as a point light at the centre (DESIGN §7)
+    RectLight(position=np.array([0.3, 3.5, -0.2]), u=np.array([1.5, 0.0, 0.0]), v=np.array([0.0, 0.0, 1.0])),
+    DiscLight(position=np.array([-0.5, 3.2, 0.4]), direction=np.array([0.0, -1.0, 0.0]), radius=0.6),
+    SphereLight(position=np.array([0.2, 3.4, 0.1]), radius=0.3),
+]
+
+
+def glsl_eval(ctx, light, points):
+    prog = gl.program("light_probe.glsl", varyings=("out_footprint", "out_dir"))
+    gl.set_uniforms(prog, light.uniforms())
+    vbo = ctx.buffer(points.astype("f4").tobytes())
+    out = ctx.buffer(reserve=len(points) * 16)
+    vao = ctx.vertex_array(prog, [(vbo, "3f", "in_pos")])
+    gl.park()  # EGL standalone contexts have no default framebuffer
+    vao.transform(out, vertices=len(points))
+    res = np.frombuffer(out.read(), "f4").reshape(-1, 4)
+    for obj in (vao, vbo, out):  # prog: gl.program's cache keeps it
+        obj.release()
+    return res[:, 0], res[:, 1:]
+
+
+@pytest.mark.parametrize("light", LIGHTS, ids=lambda l: getattr(l, "shape", l.type_name))
+def test_glsl_and_numpy_agree(ctx, light, rng):
+    pts = rng.uniform([-4, -1, -4], [4, 2.9, 4], size=(20000, 3))
+    lam_gl, dir_gl = glsl_eval(ctx, light, pts)
+    lam_np = light.footprint(pts)
+    dir_np, _ = light.to_light(pts)
+    # float32 GLSL vs float64 numpy: the ramp agrees to float32 precision; a point exactly on a
+    # step edge may differ, so allow a handful of pixels of disagreement there only.
+    close = np.abs(lam_gl - lam_np) < 1e-4
+    assert close.mean() > 0.9995, np.abs(lam_gl - lam_np).max()
+    assert np.allclose(dir_gl, dir_np, atol=1e-5)
+
+
+def test_type_ids_match_glsl():
+    src = gl.shader_source("lights.glsl")
+    assert set(LIGHT_TYPE_IDS) == {"point", "directional", "spot", "target_direct", "area"}
+    for name, idx in LIGHT_TYPE_IDS.items():
+        assert re.search(rf"#define LIGHT_{name.upper()} {idx}\b", src), name
+    # every area shape sends the area id, which the shaders light as a point at the centre
+    for cls in AREA_SHAPES.values():
+        assert cls.type_name == "area" and cls.type_id == LIGHT_TYPE_IDS["area"]
+    assert {l.uniforms()["light_type"] for l in LIGHTS if l.type_name == "area"} == {LIGHT_TYPE_IDS["area"]}
+
+
+def test_spot_footprint_values():
+    spot = SpotLight(position=np.zeros(3), direction=np.array([0.0, -1.0, 0.0]), alpha=60.0, beta=40.0)
+    def at(deg):
+        return spot.footprint(np.array([[np.sin(np.radians(deg)), -np.cos(np.radians(deg)), 0.0]]))[0]
+    assert at(0) == 1.0 and at(19.9) == 1.0
+    assert at(30.1) == 0.0
+    c_o, c_i = np.cos(np.radians(30)), np.cos(np.radians(20))
+    assert at(25) == pytest.approx((np.cos(np.radians(25)) - c_o) / (c_i - c_o))
+
+
+def test_target_direct_footprint_values():
+    td = TargetDirectLight(position=np.zeros(3), direction=np.array([0.0, -1.0, 0.0]), R=2.0, r=1.0)
+    pts = np.array([[0.5, -1, 0], [1.5, -1, 0], [2.5, -1, 0], [0.0, 1.0, 0.0]])
+    assert td.footprint(pts).tolist() == [1.0, 0.5, 0.0, 0.0]  # last: behind the light
+
+
+@pytest.mark.parametrize("light", LIGHTS, ids=lambda l: getattr(l, "shape", l.type_name))
+def test_shadow_rays_end_at_the_light(light, rng):
+    """origin + tfar · direction is the light (point, spot), a point of the light's plane
+    (target-direct), or unbounded (directional)."""
+    pts = rng.uniform([-2, -0.5, -2], [2, 0.5, 2], size=(500, 3))
+    origins = pts.astype(np.float32)
+    dirs, tfar = light.shadow_rays(origins, pts)
+    assert dirs.dtype == np.float32 and tfar.dtype == np.float32 and dirs.shape == origins.shape
+    end = origins.astype(np.float64) + tfar[:, None].astype(np.float64) * dirs
+    if light.type_name in ("point", "spot", "area"):  # an area light's hard shadow rays end at its centre
+        assert np.allclose(end, light.position, atol=1e-5 * np.linalg.norm(light.position - pts, axis=1).max())
+    elif light.type_name == "target_direct":
+        assert np.allclose((end - light.position) @ light.direction, 0, atol=1e-5)
+    else:
+        assert (tfar > 1e20).all()
+    to_light, _ = light.to_light(pts)
+    assert (np.einsum("ij,ij->i", dirs, to_light) > 0).all()
+
+
+def near_plane(proj: np.ndarray) -> float:
+    """The near distance of an OpenGL perspective or orthographic projection matrix."""
+    if proj[3, 3] == 1.0:  # orthographic: m22 = -2/(f-n), m23 = -(f+n)/(f-n)
+        return (proj[2, 3] + 1.0) / proj[2, 2]
+    return proj[2, 3] / (proj[2, 2] - 1.0)  # perspective: m22 = (f+n)/(n-f), m23 = 2fn/(n-f)
+
+
+@pytest.mark.parametrize("light", LIGHTS, ids=lambda l: getattr(l, "shape", l.type_name))
+@pytest.mark.parametrize("projection", ["auto", "cube"])
+def test_shadow_views_cover_the_points_and_keep_casters_past_near(light, projection, rng):
+    """Every point to cover inside the light's footprint lands in the clip volume of one of the
+    light's views, and no caster point a view can see lies in front of its near plane (it would
+    be clipped and lose its shadow)."""
+    pts = rng.uniform([-2, -0.3, -2], [2, 0.0, 2], size=(2000, 3))
+    casters = np.array([[[-0.5, 0.2, -0.5], [0.5, 1.0, 0.5]], [[1.0, 0.1, 1.0], [1.4, 0.6, 1.6]]])
+    tris = np.concatenate([trimesh.creation.box(bounds=b).triangles for b in casters])
+    views, _ = light.shadow_views(pts, Casters(casters, tris), 512, projection=projection)
+    lit = light.footprint(pts) > 0
+    assert lit.sum() > 100
+    inside = np.zeros(len(pts), bool)
+    for v in views:
+        c = np.c_[pts, np.ones(len(pts))] @ v.view_proj.T
+        inside |= (c[:, 3] > 0) & np.all(np.abs(c[:, :3]) <= c[:, 3:], axis=1)
+    assert inside[lit].all()
+    g = np.linspace(0, 1, 9)
+    box_pts = np.concatenate([lo + (hi - lo) * np.stack(np.meshgrid(g, g, g), -1).reshape(-1, 3) for lo, hi in casters])
+    for v in views:
+        c = np.c_[box_pts, np.ones(len(box_pts))] @ v.view_proj.T
+        sideways = (c[:, 3] > 0) & np.all(np.abs(c[:, :2]) <= c[:, 3:], axis=1)  # within the view's sides
+        depth = -(np.c_[box_pts, np.ones(len(box_pts))] @ v.view.T)[:, 2]
+        assert (depth[sideways] >= near_plane(v.proj) * (1 - 1e-12)).all()
+
+
+RECT = {"type": "area", "shape": "rect", "position": [0.0, 3.0, 0.0], "u": [1.0, 0.0, 0.0], "v": [0.0, 0.0, 1.0]}
+DISC = {"type": "area", "shape": "disc", "position": [0.0, 3.0, 0.0], "direction": [0.0, -2.0, 0.0], "radius": 0.5}
+SPHERE = {"type": "area", "shape": "sphere", "position": [0.0, 3.0, 0.0], "radius": 0.25}
+
+
+def test_area_lights_parse():
+    rect, disc, sphere = (parse_light(t, "lights[0]", "s.toml") for t in (RECT, DISC, SPHERE))
+    assert isinstance(rect, RectLight) and rect.area == pytest.approx(1.0)
+    assert rect.normal.tolist() == pytest.approx([0.0, -1.0, 0.0])  # u × v
+    assert isinstance(disc, DiscLight) and disc.direction.tolist() == pytest.approx([0.0, -1.0, 0.0])  # unit
+    assert disc.area == pytest.approx(np.pi * 0.25)
+    assert isinstance(sphere, SphereLight) and sphere.area == pytest.approx(4 * np.pi * 0.0625)
+    assert {rect.type_name, disc.type_name, sphere.type_name} == {"area"}
+
+
+@pytest.mark.parametrize("base,change,key,reason", [
+    (RECT, {"v": [2.0, 0.0, 0.0]}, "lights[0].v", "zero area"),               # u ∥ v
+    (RECT, {"u": [0.0, 0.0, 0.0]}, "lights[0].u", "zero vector"),
+    (RECT, {"position": [0.0, float("nan"), 0.0]}, "lights[0].position", "finite"),
+    (RECT, {"u": [1.0, float("inf"), 0.0]}, "lights[0].u", "finite"),
+    (RECT, {"radius": 1.0}, "lights[0].radius", "unknown key"),               # a disc's key on a rect
+    (RECT, {"v": None}, "lights[0].v", "missing"),
+    (DISC, {"direction": [0.0, 0.0, 0.0]}, "lights[0].direction", "zero vector"),
+    (DISC, {"radius": 0.0}, "lights[0].radius", "> 0"),
+    (DISC, {"u": [1.0, 0.0, 0.0]}, "lights[0].u", "unknown key"),
+    (SPHERE, {"radius": float("nan")}, "lights[0].radius", "finite"),
+    (SPHERE, {"radius": -1.0}, "lights[0].radius", "> 0"),
+    (SPHERE, {"direction": [0.0, -1.0, 0.0]}, "lights[0].direction", "unknown key"),
+    (SPHERE, {"shape": "triangle"}, "lights[0].shape", "must be one of rect, disc, sphere"),
+    (SPHERE, {"shape": None}, "lights[0].shape", "missing"),
+    # finite parameters whose area overflows to ∞ or underflows to 0 (radius 1e300 used to parse
+    # and then raise OverflowError in describe(); perpendicular edges of 1e200 used to overflow
+    # the cross product and be called parallel)
+    (SPHERE, {"radius": 1e300}, "lights[0].radius", "must be finite and > 0"),
+    (DISC, {"radius": 1e300}, "lights[0].radius", "must be finite and > 0"),
+    (DISC, {"radius": 1e-200}, "lights[0].radius", "must be finite and > 0"),  # π r² underflows to 0
+    (RECT, {"u": [1e200, 0.0, 0.0], "v": [0.0, 0.0, 1e200]}, "lights[0].u", "must be finite and > 0"),
+    (RECT, {"u": [1e-160, 0.0, 0.0], "v": [0.0, 0.0, 1e-160]}, "lights[0].u", "must be finite and > 0"),
+    (RECT, {"u": [1e200, 0.0, 0.0], "v": [-3e200, 0.0, 0.0]}, "lights[0].v", "parallel"),  # still parallel
+])
+def test_bad_area_lights_name_the_key(base, change, key, reason):
+    table = {**base, **change}
+    table = {k: v for k, v in table.items() if v is not None}
+    with pytest.raises(SceneError) as exc:
+        parse_light(table, "lights[0]", "s.toml")
+    assert exc.value.key == key and reason in exc.value.reason, str(exc.value)
+    assert str(exc.value).startswith(f"s.toml: {key}: ")
+
+
+def test_extreme_but_finite_area_lights_parse():
+    """Edges of very different magnitudes with a finite area parse (the parallel test works on
+    unit vectors: |u| = 1e200 overflowed |u|·|v| to ∞ and was called parallel), and describe()
+    gives finite JSON numbers."""
+    rect = parse_light({**RECT, "u": [1e200, 0.0, 0.0], "v": [0.0, 0.0, 1e-140]}, "lights[0]", "s.toml")
+    assert rect.area == pytest.approx(1e60, rel=1e-12)
+    assert rect.normal.tolist() == pytest.approx([0.0, -1.0, 0.0])
+    disc = parse_light({**DISC, "direction": [0.0, -1e300, 1e300], "radius": 1e150}, "lights[0]", "s.toml")
+    assert disc.direction.tolist() == pytest.approx([0.0, -np.sqrt(0.5), np.sqrt(0.5)])
+    sphere = parse_light({**SPHERE, "radius": 1e150}, "lights[0]", "s.toml")
+    for light in (rect, disc, sphere):
+        assert np.isfinite(json.loads(json.dumps(light.describe(), allow_nan=False))["area"])

@@ -1,6 +1,6 @@
 """A cost model of the H100 from the shared GPU evidence (issue 27).
 
-``../shared/gpu/h100_matrix_1280x720.csv`` holds GL_TIME_ELAPSED times of 11 shipped scenes × 10
+``results/gpu/h100/h100_matrix_1280x720.csv`` (a copy of the GPU run the project was given) holds GL_TIME_ELAPSED times of 11 shipped scenes × 10
 configurations at 1280x720 on an NVIDIA H100 (commit d63d2dd, 2026-11-22), but no work
 counters: that commit had none. This experiment recomputes the counters *here*, for the same
 scenes, size, lights and specifications (one counting render each, :mod:`shadowlab.gpu.work`: the
@@ -14,7 +14,7 @@ exact counts the H100 run also reported — shadow volumes' ``volume_fragments``
 ``stencil_updates``, ``volume_triangles`` — against the same counts on this machine's driver; a
 spec that no longer parses, or a scene that no longer loads, is listed and left out.
 
-    python experiments/h100_cost_model.py [--evidence ../shared/gpu/h100_matrix_1280x720.csv]
+    python experiments/h100_cost_model.py [--evidence results/gpu/h100/h100_matrix_1280x720.csv]
         [--out results/cost/h100]
 
 Writes ``<out>/results.csv`` (the H100 rows with the counters recomputed here; a study-like
@@ -50,7 +50,7 @@ EXACT_STATS = ("volume_fragments", "stencil_updates", "volume_triangles")
 def main(argv=None) -> int:
     """Recompute the counters for every evidence row, write the table and fit the model."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--evidence", default=str(ROOT.parent / "shared" / "gpu" / "h100_matrix_1280x720.csv"))
+    ap.add_argument("--evidence", default=str(ROOT / "results" / "gpu" / "h100" / "h100_matrix_1280x720.csv"))
     ap.add_argument("--out", default=str(ROOT / "results" / "cost" / "h100"))
     args = ap.parse_args(argv)
     evidence = pd.read_csv(args.evidence)

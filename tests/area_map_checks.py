@@ -29,7 +29,7 @@ def assert_fully_lit(lab, shape: str, spec: str) -> None:
 
 def assert_behind_one_sided_sees_none(lab, spec: str) -> None:
     """A disc tilted 60° from straight down over a floor: ``spec`` gives V = 0 behind its
-    emitting plane (DESIGN §7) and V = 1 on the rest of the (unblocked) floor."""
+    emitting plane (docs/metrics.md) and V = 1 on the rest of the (unblocked) floor."""
     tilt = np.radians(60.0)
     light = {"type": "area", "shape": "disc", "position": [0.0, 2.0, 0.0],
              "direction": [float(np.sin(tilt)), float(-np.cos(tilt)), 0.0], "radius": 0.3}

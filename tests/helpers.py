@@ -87,7 +87,7 @@ def make_scene(objects, lights, eye=(4.0, 6.0, 7.0), target=(0.0, 0.0, 0.0), fov
 
 def pixel_centre_rays(eye, target, up, fov_y, width, height) -> np.ndarray:
     """Unit world directions through every pixel centre, (height, width, 3), row 0 = top —
-    written from DESIGN §5 for the tests, independently of shadowlab's camera code."""
+    written from docs/architecture.md#conventions for the tests, independently of shadowlab's camera code."""
     eye, target, up = (np.asarray(v, np.float64) for v in (eye, target, up))
     forward = (target - eye) / np.linalg.norm(target - eye)
     right = np.cross(forward, up)

@@ -1,6 +1,6 @@
 """The exact visible fraction of a planar area light (rect, or disc as a polygon) from a point,
 behind polygonal occluders — the oracle the sampled ground truth is tested against
-(tests/truth/test_soft_truth.py), written from the definition (DESIGN §7), independently of
+(tests/truth/test_soft_truth.py), written from the definition (docs/metrics.md), independently of
 shadowlab's sampling code.
 
 From P, each occluding triangle is centrally projected onto the light's plane; the union of
@@ -200,7 +200,7 @@ def exact_visibility(light, triangles: np.ndarray, p: np.ndarray, normal: np.nda
 def sphere_cap_visibility(r: float, d: float, alpha: float) -> float:
     """Exact V from a point P at distance ``d`` from the centre C of a sphere light of radius
     ``r`` (d > r) when every ray within angle ``alpha`` (radians) of the axis P→C is blocked
-    and nothing else is (DESIGN §7: fraction by area of the cap P sees).
+    and nothing else is (docs/metrics.md: fraction by area of the cap P sees).
 
     A cap point at polar angle θ from the axis (at C, towards P) is seen from P at angle β with
     tan β = r sin θ / (d − r cos θ), i.e. r sin(θ + β) = d sin β; β rises monotonically from 0

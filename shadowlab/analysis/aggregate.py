@@ -1,4 +1,4 @@
-"""Study aggregation (DESIGN §12): plain pandas over ``results.csv`` rows — configurations
+"""Study aggregation (docs/contracts.md#study-directory): plain pandas over ``results.csv`` rows — configurations
 pooled over a scene's lights, failed runs, Pareto fronts, per-configuration and per-family
 summaries and the verdicts that open the study page.
 
@@ -126,7 +126,7 @@ def numeric(df: pd.DataFrame, col: str) -> np.ndarray:
 
 def pooled(rates: np.ndarray, weights: np.ndarray) -> float:
     """The weighted mean of per-light ``rates`` by their denominators ``weights`` (= the rate of
-    the pooled counts); 0 for an empty pooled denominator (DESIGN §7); the plain mean when a
+    the pooled counts); 0 for an empty pooled denominator (docs/metrics.md); the plain mean when a
     weight is unknown."""
     if np.isnan(rates).all():
         return math.nan
@@ -179,7 +179,7 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
     error rates (= pooled wrong / pooled evaluated); ``false_shadow_rate`` and
     ``false_lit_rate`` weighted likewise by their own denominators, ``truth_lit_pixels`` and
     ``truth_shadowed_pixels``, where those count columns exist (else by evaluated pixels);
-    a pooled denominator of 0 gives 0 (DESIGN §7); ``boundary_error_px`` = the mean over lights;
+    a pooled denominator of 0 gives 0 (docs/metrics.md); ``boundary_error_px`` = the mean over lights;
     ``time_ms`` = sum of ``time_ms_median`` over lights (NaN if any light has no time);
     ``time_iqr_ms`` = sum of ``time_ms_iqr`` (the lights were timed separately, so this is the
     spread of a frame if their fluctuations go together — a conservative bar); ``setup_ms`` =

@@ -1,4 +1,4 @@
-"""Cost models: a device's time per unit of work, fitted from a study's own rows (DESIGN §16).
+"""Cost models: a device's time per unit of work, fitted from a study's own rows (docs/cost.md).
 
 A row's work counters (:mod:`shadowlab.gpu.work`) are the same on every device; its time is not. A
 cost model for one device is the non-negative linear map

@@ -1,7 +1,7 @@
 """A comparison run: one scene, the ground truth and N technique configurations → a run directory.
 
 The measuring is :func:`shadowlab.measurement.pipeline.compare_frame`; this module checks the arguments
-and writes what DESIGN §6 promises: ``metrics.csv``, ``masks.npz``, ``run.json``, the images and
+and writes what docs/contracts.md#run-directory promises: ``metrics.csv``, ``masks.npz``, ``run.json``, the images and
 ``pictures.html``. Everything is written into a temporary sibling directory and moved into place
 at the very end, so a run that fails leaves earlier results untouched.
 """
@@ -26,7 +26,7 @@ from ..measurement.pipeline import (
 )
 from ..scene import Scene
 from ..gpu.shading import ShadingPass
-#: Re-exported for scripts that read metrics.csv (DESIGN §6 column order).
+#: Re-exported for scripts that read metrics.csv (docs/contracts.md#run-directory column order).
 CONTRACT_COLUMNS = metrics.CONTRACT_COLUMNS
 
 
@@ -61,7 +61,7 @@ def compare(scene_ref, specs: list[str], size: tuple[int, int] = (800, 600), out
 
 
 def write_run(rd: RunDirectory, result: Comparison, repeat: int, warmup: int, pass_timing: bool = False) -> None:
-    """Write a comparison's run directory (DESIGN §6) through the one writer
+    """Write a comparison's run directory (docs/contracts.md#run-directory) through the one writer
     (:func:`shadowlab.output.rundir.write_comparison`)."""
     frame, df = result.frame, result.rows
     ev0 = frame.evaluated(0)
@@ -108,7 +108,7 @@ def write_run(rd: RunDirectory, result: Comparison, repeat: int, warmup: int, pa
         "pass_timing": timing.pass_timing_method() if pass_timing else None,
         "repeat": repeat,
         "warmup": warmup,
-        # per light: the sampled truth's per-pixel standard error bound (DESIGN §9; 0 for a point-like light)
+        # per light: the sampled truth's per-pixel standard error bound (docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy; 0 for a point-like light)
         "truth_stderr_max": [float(m.stats.get("truth_stderr_max", 0.0)) for m in result.truth],
         "notes": result.notes + [n for n in [perceptual.missing_note()] if n],
         # the notes on degenerate results (also in notes): the page shows them at the top

@@ -1,5 +1,5 @@
 """``shadowlab cost fit`` and ``shadowlab cost predict``: a device's cost model from a study's
-rows, and predicted times from it (DESIGN §16; the model is :mod:`shadowlab.analysis.cost`).
+rows, and predicted times from it (docs/cost.md; the model is :mod:`shadowlab.analysis.cost`).
 
 ``cost fit STUDY_DIR`` reads ``results.csv`` (or a CSV given directly) and writes the model as
 JSON (default ``STUDY_DIR/cost_model.json``) and ``cost_fit.png`` beside it: predicted against

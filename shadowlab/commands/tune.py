@@ -1,5 +1,5 @@
 """``shadowlab tune``: one technique configuration at its best settings on one scene, written
-as a run directory (DESIGN §15).
+as a run directory (docs/tuning.md).
 
 The tuning itself is :func:`shadowlab.tuning.tuner.find_best` (the exact bias route or the
 search route). Then the best configuration and the spec as given are run as a ``compare`` run

@@ -1,4 +1,4 @@
-"""Per-pixel and boundary metrics of a visibility image against the ground truth (DESIGN §7),
+"""Per-pixel and boundary metrics of a visibility image against the ground truth (docs/metrics.md),
 and the one table of metrics.csv columns (:data:`COLUMNS`) that drives the CSV, the HTML report
 and the CLI summary: adding a metric is one entry there.
 
@@ -19,7 +19,7 @@ THRESHOLD = 0.5
 
 
 def _ratio(num: int, den: int) -> float:
-    """num / den, or 0 when the denominator is empty (DESIGN §7)."""
+    """num / den, or 0 when the denominator is empty (docs/metrics.md)."""
     return float(num) / float(den) if den else 0.0
 
 
@@ -113,7 +113,7 @@ def _contact_gap_px(e: Evaluation) -> float:
     return contact_gap(e.vis, e.truth, e.ev, e.contact)
 
 
-# Soft-shadow metrics (DESIGN §7). Visibility of an area light from a point P is the fraction,
+# Soft-shadow metrics (docs/metrics.md). Visibility of an area light from a point P is the fraction,
 # by area, of the emitting surface facing P that P sees unoccluded; light samples below P's
 # tangent plane count as occluded, and a point behind a one-sided light sees none of it (V = 0).
 # The truth's visibility splits the evaluated pixels in three: umbra (G <= PENUMBRA_LOW), fully
@@ -189,7 +189,7 @@ def contact_pixels(object_id: np.ndarray, position: np.ndarray, footprint: np.nd
 
 def contact_gap(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray,
                 band: int = 8) -> float:
-    """Peter-panning (HARD_CASES 'contact gap'): false-lit pixels within ``band`` pixels of the
+    """Peter-panning (docs/hard-cases.md 'contact gap'): false-lit pixels within ``band`` pixels of the
     shadowed part of the contact lines (where the truth is in shadow beside the contact: only
     there can a lit gap open), divided by that part's length in pixels — the mean width, in
     pixels, of the lit gap between a caster and its shadow where they touch. 0 when no contact
@@ -211,7 +211,7 @@ def bleeding_region(truth: np.ndarray, evaluated: np.ndarray, overlap: np.ndarra
 
 
 def light_bleeding(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, overlap: np.ndarray) -> float:
-    """Light bleeding (HARD_CASES; issue 13): the mean wrongly passed light max(0, V − G) over
+    """Light bleeding (docs/hard-cases.md; issue 13): the mean wrongly passed light max(0, V − G) over
     :func:`bleeding_region` — the share of that region a technique lights, weighted by how much
     (for a binary V exactly the false-lit share). 0 when the region is empty."""
     region = bleeding_region(truth, evaluated, overlap)
@@ -283,7 +283,7 @@ class Column:
     computed from an :class:`Evaluation`.
 
     ``fmt``: 'percent' (a rate), 'px', 'ms', 'count', 'value' or 'text'; ``contract``: required
-    by DESIGN §6 (these come first in the CSV, in table order); ``summary``: shown in the CLI's
+    by docs/contracts.md#run-directory (these come first in the CSV, in table order); ``summary``: shown in the CLI's
     summary; ``report``: shown in the HTML metrics table; ``needs``: inputs of the evaluation the
     metric cannot do without (a metric whose input is missing is left out).
     """
@@ -323,7 +323,7 @@ class Column:
 
 #: Baseline tolerances (absolute, relative). Rates: 0.02 % of the pixels (61 pixels at 640x480)
 #: or 5 % of the value — wide enough for the few pixels of rasterisation ties that differ
-#: between drivers (DESIGN §14), below what a tenfold too small bias does to the grazing
+#: between drivers (docs/architecture.md#full-pass-state-shadowlabgpuglstatepy), below what a tenfold too small bias does to the grazing
 #: receivers of sm_grazing (+0.07 %). Distances: a quarter of a pixel or 10 %.
 RATE_TOLERANCE = (2e-4, 0.05)
 DISTANCE_TOLERANCE = (0.25, 0.1)
@@ -338,7 +338,7 @@ def _metric(name, doc, compute, fmt="value", **kw) -> Column:
 
 #: The columns every metrics.csv has, in CSV order (then ``param_<name>`` per parameter,
 #: ``pass_<name>_ms`` per timed pass, and the techniques' own cost columns: see
-#: :func:`order_columns`). The contract columns of DESIGN §6 are marked.
+#: :func:`order_columns`). The contract columns of docs/contracts.md#run-directory are marked.
 COLUMNS: tuple[Column, ...] = (
     Column("scene", "scene name", "text", contract=True),
     Column("light", "index of the light in the scene file", "count", contract=True, summary=True, report=True),
@@ -434,7 +434,7 @@ COLUMNS: tuple[Column, ...] = (
     Column("gpu_time_ms_median", "median GL_TIME_ELAPSED of the timed passes, ms (real GPUs only)", "ms"),
 )
 COLUMN_BY_NAME = {c.name: c for c in COLUMNS}
-#: The DESIGN §6 columns every metrics.csv starts with, in order.
+#: The docs/contracts.md#run-directory columns every metrics.csv starts with, in order.
 CONTRACT_COLUMNS = [c.name for c in COLUMNS if c.contract]
 METRIC_COLUMNS = [c for c in COLUMNS if c.compute is not None]
 #: The artefact metrics a baseline holds (``shadowlab check``), with their tolerances.

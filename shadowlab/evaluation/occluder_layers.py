@@ -1,5 +1,5 @@
 """How many distinct casters lie between each evaluated point and a light: the region where
-casters overlap in depth, which the light-bleeding metric judges (HARD_CASES, issue 13).
+casters overlap in depth, which the light-bleeding metric judges (docs/hard-cases.md, issue 13).
 
 Filtered shadow maps summarise the depths under a filter by a few moments; where two casters at
 different depths from the light fall under one filter footprint, the moments describe a

@@ -4,7 +4,7 @@ Players notice shadows that shimmer more than any still-frame error, so the lab 
 technique's visibility *changes* from frame to frame against how the truth's changes. Pixels
 of frame k are matched to frame k−1 by exact reprojection (the reverse reprojection of Nehab
 et al. 2007, "Accelerating real-time shading with reverse reprojection caching", §3, here
-with the frames' exact float64 surface points, DESIGN §9):
+with the frames' exact float64 surface points, docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy):
 
 - each evaluated pixel p of frame k has its exact point P_k; P_k is projected through frame
   k−1's camera to the *nearest* pixel q (the pixel whose area holds the projection);
@@ -21,7 +21,7 @@ Over the valid pixels, with V thresholded at 0.5 (:data:`shadowlab.evaluation.me
   truth's, without thresholding;
 - ``valid_pixels`` = #valid.
 
-Images are (height, width) with row 0 = top (DESIGN §5); all of this is numpy, no GL.
+Images are (height, width) with row 0 = top (docs/architecture.md#conventions); all of this is numpy, no GL.
 """
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ C. Quammen, S. E. Molnar, D. Manocha, "Logarithmic perspective shadow maps", ACM
 2008, §3 "Aliasing error"; first in Lloyd, Govindaraju, Molnar & Manocha, "Practical
 logarithmic rasterization for low-error shadow maps", Graphics Hardware 2007 / UNC TR 2006).
 
-For a pixel with exact surface point P (the float64 hit of its centre ray, DESIGN §9) and
+For a pixel with exact surface point P (the float64 hit of its centre ray, docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy) and
 geometric normal N, let Px, Py be where the centre rays of the pixel one to the right and one
 below meet P's tangent plane {X : (X − P)·N = 0}. With T the technique's texel coordinates
 (``technique.texel_coordinates``, every point projected through the face P itself looks up),
@@ -111,7 +111,7 @@ def footprint_image(frame, slot, technique) -> np.ndarray:
     """Lloyd et al.'s m per pixel (see the module's docstring): float32 (height, width), row 0 =
     top, in image pixels per texel (the texel's longest axis); NaN where the pixel is not
     evaluated for ``slot`` (a :class:`~shadowlab.gpu.frame.LightSlot` or a scene light's index;
-    DESIGN §7) or m is undefined there. ``technique`` is set up for that slot and has a texel
+    docs/metrics.md) or m is undefined there. ``technique`` is set up for that slot and has a texel
     mapping (:func:`has_texel_mapping`): a shadow-map technique between ``setup`` and
     ``release``; TechniqueError for one without."""
     if not has_texel_mapping(technique):

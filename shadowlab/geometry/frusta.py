@@ -1,5 +1,5 @@
 """Light-space frusta: the side planes of a polygon's shadow frustum, and the views a shadow
-map is rendered through, fitted to the points it must cover (DESIGN §11: model only what the
+map is rendered through, fitted to the points it must cover (docs/architecture.md: model only what the
 scene needs). The light classes (:mod:`shadowlab.scene.lights`) choose which fit applies to them.
 
 Every fit keeps the points it covers strictly inside the clip volume (relative padding

@@ -1,4 +1,4 @@
-"""Exact camera-ray hits in float64 (DESIGN §9): where a pixel-centre ray meets a known plane."""
+"""Exact camera-ray hits in float64 (docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy): where a pixel-centre ray meets a known plane."""
 from __future__ import annotations
 
 import numpy as np
@@ -9,7 +9,7 @@ def ray_plane_hits(origin: np.ndarray, dirs: np.ndarray, plane_points: np.ndarra
     through ``plane_points[i]`` with unit ``normals[i]`` (both (M, 3)).
 
     Returns ``(points, facing, valid)``: hit points (M, 3) float64; the normals turned towards
-    the ray's origin (surfaces are two-sided, DESIGN §7); and a bool (M,) that is False where
+    the ray's origin (surfaces are two-sided, docs/metrics.md); and a bool (M,) that is False where
     there is no hit in front of the origin (ray parallel to the plane, degenerate normal, t ≤ 0).
     """
     denom = np.einsum("ij,ij->i", dirs, normals)

@@ -1,13 +1,13 @@
 """A Frame: one scene uploaded to GL, seen by its camera, with the shared primary visibility.
 
-Every technique and the ground truth read the same G-buffer (DESIGN §2.1), so differences
+Every technique and the ground truth read the same G-buffer (docs/architecture.md), so differences
 between their images are differences in shadows only. Besides the GL textures, the frame
 holds the exact surface point of every covered pixel: the pixel-centre camera ray intersected
-in float64 with the triangle the G-buffer saw there (DESIGN §9). Arrays are (height, width, ...)
+in float64 with the triangle the G-buffer saw there (docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy). Arrays are (height, width, ...)
 with row 0 at the top of the image; "compact" arrays hold only covered pixels, in the order of
 ``np.flatnonzero(covered)``.
 
-What techniques may do with a frame (the stage contract, DESIGN §2): read everything — the
+What techniques may do with a frame (the stage contract, docs/architecture.md): read everything — the
 G-buffer textures, the vertex buffers (through :meth:`Frame.draw`), the exact points and the
 :class:`LightSlot` they render for (the light, its index, its evaluated mask) — and modify
 nothing, with one declared exception: the G-buffer's depth-stencil
@@ -41,7 +41,7 @@ class LightSlot:
     render for — the scene's own, or a point light standing in for it while the pipeline
     averages a hard technique over points of an area light (``stands_in_for`` is then that
     area light); ``evaluated`` the compact bool (M,) mask of the pixels evaluated for ``light``
-    (DESIGN §7; :meth:`Frame.evaluated_mask`); ``scene_lights`` every light of the scene as this
+    (docs/metrics.md; :meth:`Frame.evaluated_mask`); ``scene_lights`` every light of the scene as this
     render sees them (``light`` at ``index``), for the techniques that rank lights against each
     other. Techniques get a slot and never read ``frame.scene.lights``."""
 
@@ -219,7 +219,7 @@ class Frame:
             compiled_truth.split(h, m))
         self.pixel_index = idx  # row-major covered pixels, as np.flatnonzero(covered)
         self.compact_position = points  # (M, 3) float64
-        self.compact_normal = normals  # (M, 3) float64, unit, facing the camera (two-sided surfaces, DESIGN §7)
+        self.compact_normal = normals  # (M, 3) float64, unit, facing the camera (two-sided surfaces, docs/metrics.md)
         self.compact_object = objects
         self.compact_valid = valid
         # The truth's default ray origins came out of the same pass (a NaN among them: the numpy
@@ -260,7 +260,7 @@ class Frame:
     # ------------------------------------------------------------------ light slots
     def evaluated_mask(self, light: Light) -> np.ndarray:
         """Compact bool (M,): receiving surface, facing ``light`` (N·L > 0) and lit by its
-        footprint (λ > 0) — the evaluated pixels of DESIGN §7 — computed once per light object."""
+        footprint (λ > 0) — the evaluated pixels of docs/metrics.md — computed once per light object."""
         key = id(light)
         if key not in self._evaluated:
             self._evaluated[key] = (light, self._mask_for(light))

@@ -1,4 +1,4 @@
-// Primary visibility (DESIGN §2.1): one pass, pixel-centre samples, no MSAA.
+// Primary visibility (docs/architecture.md): one pass, pixel-centre samples, no MSAA.
 // Outputs world position, geometric normal (as stored, not yet turned to the camera) and
 // (object id, triangle id); triangle ids are global because the scene is one draw call.
 uniform mat4 u_view_proj;

@@ -6,7 +6,7 @@ a chosen precision (16-bit, 24-bit fixed point, 32-bit float). Framebuffers are 
 PyOpenGL and wrapped by ``ctx.detect_framebuffer`` so that both libraries can use them.
 
 GL's window origin is the bottom-left pixel; every array this module returns is flipped so
-that row 0 is the *top* of the image (DESIGN §5).
+that row 0 is the *top* of the image (docs/architecture.md#conventions).
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Fixed-function GL state, set in full by every pass, and the checks that hold it (DESIGN §14).
+"""Fixed-function GL state, set in full by every pass, and the checks that hold it (docs/architecture.md#full-pass-state-shadowlabgpuglstatepy).
 
 GL 4.5 core gives some shader outputs and some settings no effect unless a capability is
 enabled (``gl_ClipDistance[i]`` is ignored unless ``GL_CLIP_DISTANCEi`` is on; depth clamp

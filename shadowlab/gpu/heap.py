@@ -13,7 +13,7 @@ freed, where the next allocation of the same size takes them back.
 
 What it costs: freed memory below :data:`RETAINED_LIMIT` stays resident in the process, and a
 heap can hold more than separate mappings would (a freed 40 MB block does not serve a 41 MB
-request). ``peak_rss_mib`` (DESIGN §16) is the process's resident peak during a measurement, so
+request). ``peak_rss_mib`` (docs/cost.md) is the process's resident peak during a measurement, so
 it counts that memory as it counts everything else resident (the GL driver, the frame, caches).
 Giving it back before each measurement (``malloc_trim``) was tried and dropped: every small
 render then faulted its memory in again (the inner test loop 81 → 99 s, system time 4 → 17 s).

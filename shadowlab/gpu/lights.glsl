@@ -1,10 +1,10 @@
 // Light model shared by every GL program. Numpy twin: shadowlab/lights.py (a test checks that
-// both give the same footprint and light direction). Footprint λ as in DESIGN §8.
+// both give the same footprint and light direction). Footprint λ as in docs/architecture.md#the-shading-pass-shadowlabgpushadingpy.
 #define LIGHT_POINT 0
 #define LIGHT_DIRECTIONAL 1
 #define LIGHT_SPOT 2
 #define LIGHT_TARGET_DIRECT 3
-#define LIGHT_AREA 4          // rect, disc, sphere: shaded as a point light at the centre (DESIGN §7)
+#define LIGHT_AREA 4          // rect, disc, sphere: shaded as a point light at the centre (docs/metrics.md)
 
 uniform int light_type;
 uniform vec3 light_position;      // point, spot, target-direct, area (the centre)

@@ -1,4 +1,4 @@
-// Shared shading (DESIGN §8), one pass per light, summed with additive blending:
+// Shared shading (docs/architecture.md#the-shading-pass-shadowlabgpushadingpy), one pass per light, summed with additive blending:
 //   I = λ · ( A + (1 − sh)·D + sh·sc + (1 − shade)·S ),  sh = density·(1 − v), shade = 1 − v.
 // Every technique is shaded by this same program; only the visibility image v differs.
 #include "fullscreen.glsl"

@@ -1,4 +1,4 @@
-"""Shared shading: the extended Blinn model of DESIGN §8 over the G-buffer.
+"""Shared shading: the extended Blinn model of docs/architecture.md#the-shading-pass-shadowlabgpushadingpy over the G-buffer.
 
 Every technique's image comes from this one pass with its own visibility images, so the
 pictures differ only where the shadows differ.

@@ -1,4 +1,4 @@
-"""Repeatable timings of a technique's own passes (DESIGN §10).
+"""Repeatable timings of a technique's own passes (docs/metrics.md#timing-and-cost).
 
 Warm-up runs, then ``repeat`` timed runs; the figure is the median and the interquartile
 range, in milliseconds. GPU work is timed with the wall clock around ``ctx.finish()``: on Mesa's

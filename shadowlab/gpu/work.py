@@ -1,4 +1,4 @@
-"""Device-independent work counters of a technique's passes (DESIGN §16).
+"""Device-independent work counters of a technique's passes (docs/cost.md).
 
 A time is the cost of one render on one device; the work a render asks of the pipeline — draws,
 vertices, samples that pass the depth test, bytes cleared, compute invocations, rays — is the

@@ -17,7 +17,7 @@ points on the light and averaging them. The loop lives in the pipeline
    (:meth:`shadowlab.gpu.frame.Frame.stand_in`; the shared scene is never changed), each one set
    up, rendered and released before the next (one sample's resources at a time);
 3. combines them (:class:`VisibilityAverage`) with the definition the sampled truth uses
-   (DESIGN §7, §9): over the area light's evaluated pixels,
+   (docs/metrics.md, docs/soft-shadows.md): over the area light's evaluated pixels,
 
        V(P) = [P on the emitting side] · (1/N) Σ_i vis_i(P) · [point i above P's tangent plane]
 

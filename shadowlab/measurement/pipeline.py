@@ -1,4 +1,4 @@
-"""The one measurement loop (DESIGN §3): setup → timed render → visibility → metrics row.
+"""The one measurement loop (docs/architecture.md): setup → timed render → visibility → metrics row.
 
 Everything that measures a technique goes through here — the ``shadowlab compare`` run, the
 experiments and the tests — so a figure means the same wherever it was taken:
@@ -378,7 +378,7 @@ class Evaluator:
         truth_m = m if reference else self.truth(slot)
         row.update(metrics.compare(m.visibility, truth_m.visibility, frame.evaluated_image(slot),
                                    self.contact_lines(slot), self.overlap(slot)))
-        # the sampled truth's standard error bound (DESIGN §9) beside every row of the light
+        # the sampled truth's standard error bound (docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy) beside every row of the light
         row["truth_stderr_max"] = float(truth_m.stats.get("truth_stderr_max", 0.0))
         row["degenerate"] = False if reference else metrics.row_is_degenerate(row)
         row["occluder_height_median"] = self.occluder_height(slot, truth_m.visibility)

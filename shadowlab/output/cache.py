@@ -1,4 +1,4 @@
-"""The study's cache of finished runs (DESIGN §12), so that running a study again redoes only
+"""The study's cache of finished runs (docs/contracts.md#study-directory), so that running a study again redoes only
 what changed and an interrupted study resumes.
 
 A run is keyed by a SHA-256 of (scene file content — the TOML and every mesh file it names —,

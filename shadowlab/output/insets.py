@@ -1,4 +1,4 @@
-"""Zoom insets at the same places for every configuration of a scene (DESIGN §17): the regions
+"""Zoom insets at the same places for every configuration of a scene (docs/architecture.md#pages-shadowlaboutput): the regions
 where the configurations are wrong most, over all of them together, so that a reader compares
 techniques on the same pixels instead of each one's own worst corner.
 

@@ -1,4 +1,4 @@
-"""The Jinja2 pages of every run directory (DESIGN §17): one environment with autoescaping,
+"""The Jinja2 pages of every run directory (docs/architecture.md#pages-shadowlaboutput): one environment with autoescaping,
 one base template (``templates/base.html``: style, heading, the timing banner, provenance
 footer) and a child template per page (compare, study, animate).
 

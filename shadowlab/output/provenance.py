@@ -1,7 +1,7 @@
 """Where a figure came from: code revision, package versions, GL device, machine, command.
 
 ``run.json`` and every experiment's JSON record carry :func:`record`, so each figure can be
-traced to the code, the renderer and the machine that made it (DESIGN §6).
+traced to the code, the renderer and the machine that made it (docs/contracts.md#run-directory).
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The one run-directory writer (DESIGN §6, §17) behind ``compare``, every scene of a ``study``
+"""The one run-directory writer (docs/contracts.md#run-directory) behind ``compare``, every scene of a ``study``
 and ``animate``.
 
 :class:`RunDirectory` writes into a staging folder beside the destination and moves it into

@@ -1,4 +1,4 @@
-"""The figures of a tune run (``shadowlab tune``, DESIGN §15).
+"""The figures of a tune run (``shadowlab tune``, docs/tuning.md).
 
 - :func:`frontier_plot` (exact bias route): left, the error rates as the constant bias runs
   (log axis; every step of the exact curve, not samples); right, the acne-versus-leak frontier

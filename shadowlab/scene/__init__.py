@@ -1,4 +1,4 @@
-"""The scene model and its reading (DESIGN §4), no GL: :mod:`.model` (camera, materials,
+"""The scene model and its reading (docs/contracts.md#scene-files), no GL: :mod:`.model` (camera, materials,
 objects, the scene), :mod:`.lights` (point, directional, spot, target-direct),
 :mod:`.area_lights` (rect, disc, sphere), :mod:`.animation` (keyframes, ``scene_at``) and
 :mod:`.reading` (TOML scene files → :class:`Scene`; shipped scenes live in

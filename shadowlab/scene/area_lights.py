@@ -1,4 +1,4 @@
-"""Area lights (DESIGN §4, §7, §9): a rectangle, a disc and a sphere, each a light you can sample.
+"""Area lights (docs/contracts.md#scene-files, docs/soft-shadows.md): a rectangle, a disc and a sphere, each a light you can sample.
 
 An area light is, for everything that needs one position (the Blinn terms of the shading, the
 evaluated-pixel mask, a hard technique run on it without light sampling), a point light at its
@@ -14,7 +14,7 @@ light is its surface, sampled two ways:
 - :meth:`AreaLight.sample_for`: per shaded point, N stratified points jittered independently
   for every point (decorrelated between pixels), for the sampled ground truth.
 
-Visibility of an area light from a point P (DESIGN §7): the fraction, by area, of the emitting
+Visibility of an area light from a point P (docs/metrics.md): the fraction, by area, of the emitting
 surface facing P that P sees unoccluded. A one-sided ``rect`` or ``disc`` emits towards its
 normal only (u × v, or ``direction``): a point behind its plane sees none of it. A ``sphere``
 emits all around; from P it shows the cap bounded by its silhouette, and visibility is the
@@ -105,7 +105,7 @@ def _checked_area(rd: TableReader, key: str, light: "AreaLight", what: str) -> "
 
 @dataclass
 class AreaLight(PointLight):
-    """Base of the area lights: ``position`` is the centre (DESIGN §4)."""
+    """Base of the area lights: ``position`` is the centre (docs/contracts.md#scene-files)."""
 
     type_name = "area"
     type_id = 4  # LIGHT_AREA in shadowlab/gpu/lights.glsl: lit as a point light at the centre

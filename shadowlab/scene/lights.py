@@ -1,4 +1,4 @@
-"""Light sources: point, directional, spot and target-direct (DESIGN §4, §8); the area lights
+"""Light sources: point, directional, spot and target-direct (docs/contracts.md#scene-files); the area lights
 (rect, disc, sphere) are in :mod:`shadowlab.scene.area_lights`; reading them from a scene file
 is :func:`shadowlab.scene.reading.parse_light`.
 
@@ -16,7 +16,7 @@ Each light has one definition in two languages that must agree: the numpy method
 ``shadowlab/gpu/lights.glsl``; ``tests/scene/test_lights.py`` checks the two on random points. Adding a
 light type is one class here, its entry in :data:`LIGHT_TYPES` and its branch in lights.glsl.
 
-Footprint λ (DESIGN §8): spot — 1 inside the hotspot half-angle β/2, falling linearly in cos φ
+Footprint λ (docs/architecture.md#the-shading-pass-shadowlabgpushadingpy): spot — 1 inside the hotspot half-angle β/2, falling linearly in cos φ
 to 0 at the cone half-angle α/2; target-direct (a cylinder of parallel rays of outer radius R,
 inner radius r) — 1 within r of the axis, linear to 0 at R, 0 behind the light's plane.
 """

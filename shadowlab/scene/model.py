@@ -1,4 +1,4 @@
-"""The scene model (DESIGN §4): camera, materials, objects in world space, scene-wide shading.
+"""The scene model (docs/contracts.md#scene-files): camera, materials, objects in world space, scene-wide shading.
 
 Plain data, no GL and no file reading (that is :mod:`shadowlab.scene.reading`). The dataclasses
 here are the single source of every default a scene file may leave out: the reader takes its
@@ -66,7 +66,7 @@ class Camera:
 
 @dataclass
 class Material:
-    """Extended Blinn material (DESIGN §8): diffuse, specular and ambient reflectance, shininess."""
+    """Extended Blinn material (docs/architecture.md#the-shading-pass-shadowlabgpushadingpy): diffuse, specular and ambient reflectance, shininess."""
 
     diffuse: np.ndarray = field(default_factory=lambda: np.array([0.8, 0.8, 0.8]))
     specular: np.ndarray = field(default_factory=lambda: np.array([0.3, 0.3, 0.3]))

@@ -1,4 +1,4 @@
-"""Reading scene files (TOML, the contract of DESIGN §4) into the scene model.
+"""Reading scene files (TOML, the contract of docs/contracts.md#scene-files) into the scene model.
 
 A loaded :class:`~shadowlab.scene.model.Scene` is plain data: every object's triangles are
 already in world space (float64), welded (vertices merged, so seams do not break edge
@@ -137,7 +137,7 @@ def _parse_object(table, i: int, file: str, base: Path) -> SceneObject:
     casts = rd.boolean("casts", default_of(SceneObject, "casts"))
     receives = rd.boolean("receives", default_of(SceneObject, "receives"))
     rd.finish()
-    # Scale, then rotate, then translate (DESIGN §4).
+    # Scale, then rotate, then translate (docs/contracts.md#scene-files).
     verts = (np.asarray(mesh.vertices, np.float64) * scale) @ rot.T + trans
     faces = np.asarray(mesh.faces, np.int64)  # scales are positive: no mirroring, winding kept
     welded = trimesh.Trimesh(verts, faces, process=False)

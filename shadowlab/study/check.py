@@ -1,4 +1,4 @@
-"""Holding artefact metrics (DESIGN §12): a study's results against a committed baseline.
+"""Holding artefact metrics (docs/contracts.md#study-directory): a study's results against a committed baseline.
 
 A baseline is a CSV with one row per (scene, light, config) — ``config`` is the configuration as
 the suite writes it (``shadow_map:variant=slope``), so a changed default is seen as changed

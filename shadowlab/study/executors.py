@@ -1,4 +1,4 @@
-"""Where a study's tasks run (DESIGN §13): local worker processes, or a Dask distributed
+"""Where a study's tasks run (docs/guide.md#studies-the-whole-comparison-in-one-command): local worker processes, or a Dask distributed
 cluster. Both offer the same small interface — ``submit(fn, arg)`` returning a future,
 ``wait_first(futures)``, ``close()`` and ``kill()`` — so the runner does not care which.
 """

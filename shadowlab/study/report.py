@@ -1,4 +1,4 @@
-"""The study report (DESIGN §12): the comparison drawn across every scene of a suite.
+"""The study report (docs/contracts.md#study-directory): the comparison drawn across every scene of a suite.
 
 Four files in the study directory, all made from ``results.csv`` and the tables of
 :mod:`shadowlab.analysis.aggregate` (plain pandas; nothing there draws):

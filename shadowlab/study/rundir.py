@@ -1,4 +1,4 @@
-"""One scene of a study as a run directory (the DESIGN §6 contract, exactly as ``shadowlab
+"""One scene of a study as a run directory (the docs/contracts.md#run-directory contract, exactly as ``shadowlab
 compare`` writes it, through the same writer :func:`shadowlab.output.rundir.write_comparison`),
 assembled from cached results without GL.
 

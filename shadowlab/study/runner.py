@@ -1,4 +1,4 @@
-"""Runs a study (DESIGN §12–13): every scene × configuration of a suite, in parallel, cached,
+"""Runs a study (docs/contracts.md#study-directory): every scene × configuration of a suite, in parallel, cached,
 then the comparison drawn.
 
 Two phases, so that timings stay honest:
@@ -41,7 +41,7 @@ from .executors import DaskExecutor, LocalExecutor, cores
 from ..scene import scene_purpose
 from .suite import Suite, load_suite
 
-#: Columns a study adds to every metrics row in results.csv (DESIGN §12).
+#: Columns a study adds to every metrics row in results.csv (docs/contracts.md#study-directory).
 STUDY_COLUMNS = ("config", "scene_family", "status", "error", "run_dir", "revision", "renderer", "shaded_image",
                  "error_image", "signed_image", "footprint_image")
 

@@ -1,4 +1,4 @@
-"""Suites (DESIGN §12): which scenes, which technique configurations, at what size and how often.
+"""Suites (docs/contracts.md#study-directory): which scenes, which technique configurations, at what size and how often.
 
 A suite is a TOML file — shipped ones live in ``shadowlab/suites/`` and are named by their stem
 (``quick``), any other argument is a path::
@@ -39,7 +39,7 @@ from ..techniques.rays.raytrace import RayTraced
 from ..util.validation import SceneError, TableReader, did_you_mean
 from ..analysis.aggregate import TUNED_MARK
 
-#: Scene-name prefixes → hard-case family (HARD_CASES.md), for the study's summary.
+#: Scene-name prefixes → hard-case family (docs/hard-cases.md), for the study's summary.
 FAMILIES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps", "pa_": "perspective aliasing",
             "pt_": "projective textures", "tm_": "temporal stability", "rm_": "real meshes", "rt_": "ground truth",
             "soft_": "soft shadows", "city_": "city scale"}

@@ -1,4 +1,4 @@
-"""What a study's workers do (DESIGN §13): the ground truth of a scene, one configuration's
+"""What a study's workers do (docs/guide.md#studies-the-whole-comparison-in-one-command): the ground truth of a scene, one configuration's
 visibility and metrics, or one configuration's timing — each a picklable task dict in, a
 picklable result dict out, so the same functions run in a local process pool and on a Dask
 cluster.

@@ -1,1 +1,1 @@
-"""Shipped study suites (TOML, DESIGN §12): ``shadowlab suites`` lists them."""
+"""Shipped study suites (TOML, docs/contracts.md#study-directory): ``shadowlab suites`` lists them."""

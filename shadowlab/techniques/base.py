@@ -29,7 +29,7 @@ module of :mod:`shadowlab.techniques` (modules there are discovered): no list or
 core names it (docs/adding-a-technique.md says what else a new one brings: its shader, its
 test file, a line in a suite).
 
-Inputs and outputs (the stage contract of DESIGN §2): a technique reads the frame (G-buffer
+Inputs and outputs (the stage contract of docs/architecture.md): a technique reads the frame (G-buffer
 textures, vertex buffers, exact points) and its :class:`~shadowlab.gpu.frame.LightSlot` (the light,
 its index, its evaluated mask) and never ``frame.scene.lights``; it writes only its own GL
 objects, registered with :meth:`Technique.own` (released by :meth:`release`), and its

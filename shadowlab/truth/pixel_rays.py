@@ -68,7 +68,7 @@ def plane_numerators(triangles: np.ndarray, unit: np.ndarray, eye: np.ndarray) -
 
 def evaluated_rule(light, points: np.ndarray, normals: np.ndarray, valid: np.ndarray,
                    receives: np.ndarray) -> np.ndarray:
-    """The evaluated points of DESIGN §7 for ``light``: bool (K,) for float64 ``points`` (K, 3)
+    """The evaluated points of docs/metrics.md for ``light``: bool (K,) for float64 ``points`` (K, 3)
     with camera-facing unit ``normals`` (K, 3), ``valid`` (K,) (an exact point exists) and
     ``receives`` (K,) (its object receives shadows) — receiving, valid, facing the light
     (N·L > 0), inside its footprint (λ > 0) and not at the light (distance > 0). The one rule

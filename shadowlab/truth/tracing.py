@@ -7,7 +7,7 @@ first use and kept here, keyed weakly by the frame, so they go with it. Embree r
 (watertight) mode everywhere, so rays through shared edges and vertices do not leak (Woop,
 Benthin & Wald 2013).
 
-Ray origins (the truth's rule, DESIGN §9): the exact float64 surface point moved off its own
+Ray origins (the truth's rule, docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy): the exact float64 surface point moved off its own
 surface before rounding to float32,
 
     origin = float32(P + ε · N),   ε = offset_scale · max(‖P‖∞, scene extent),

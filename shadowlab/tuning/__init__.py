@@ -1,4 +1,4 @@
-"""Tuning: each technique at its best settings, found from the truth (DESIGN §15).
+"""Tuning: each technique at its best settings, found from the truth (docs/tuning.md).
 
 - :mod:`shadowlab.tuning.space`: the parameters a tune searches (``--param NAME[=RANGE]``) and
   the ranges techniques declare for them;

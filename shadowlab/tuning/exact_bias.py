@@ -1,4 +1,4 @@
-"""The shadow-map bias family optimised exactly from one render (DESIGN §15, issue 24).
+"""The shadow-map bias family optimised exactly from one render (docs/tuning.md, issue 24).
 
 A nearest-sample depth comparison lights pixel i when ``receiver_i − (b + extra_i) <= stored_i``
 (``shadowlab/techniques/maps/shadow_lookup.glsl``: ``extra`` is the slope-scaled term, the adaptive bias of

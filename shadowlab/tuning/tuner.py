@@ -1,6 +1,6 @@
 """One configuration tuned on one scene and light: the plan (which route, checked before any
 rendering) and the search itself, without writing anything — what ``shadowlab tune`` and a
-tuned study's tasks share (DESIGN §15).
+tuned study's tasks share (docs/tuning.md).
 
 Two routes, chosen from the spec and the parameters asked for:
 

@@ -20,17 +20,16 @@ def _markdown(text: str) -> str:
     return text.replace("``", "`")
 
 
-def _without_private_references(text: str) -> str:
-    """Drop references to documents a clone of the repository does not have (the project's
-    shared DESIGN.md and HARD_CASES.md): ``(DESIGN §4)``, ``(DESIGN §11: ...)``, ``, DESIGN §12``,
-    ``of DESIGN §8``, ``(HARD_CASES, issue 13)``; any other ``DESIGN §6`` becomes "the design"."""
-    ref = r"(?:DESIGN\s*§[\d§,–\- ]*\d|HARD_CASES(?:\.md)?)"
+def _without_doc_references(text: str) -> str:
+    """Drop references to the documentation pages from a one-line summary, where they read as
+    noise: ``(docs/metrics.md)``, ``(docs/contracts.md#scene-files: ...)``, ``, docs/tuning.md``,
+    ``of docs/architecture.md``; the pages link them where it helps."""
+    ref = r"(?:docs/[\w\-]+\.md(?:#[\w\-]+)?)"
     text = re.sub(rf"\s*\(\s*(?:the contract of\s+)?{ref}(?:\s*[,;]\s*{ref})*(?:\s*:[^()]*)?\s*\)", "", text)
     text = re.sub(rf"\s*[,;]\s*{ref}", "", text)
     text = re.sub(rf"\(\s*{ref}\s*[,;]\s*", "(", text)
     text = re.sub(rf"\s+(?:of|in|from)\s+{ref}", "", text)
-    text = re.sub(rf"the\s+{ref}\s+contract", "the contract", text)
-    return re.sub(ref, "the design", text)
+    return text
 
 
 def _shorten(sentence: str, limit: int = MAX_SUMMARY) -> str:
@@ -54,7 +53,7 @@ def _shorten(sentence: str, limit: int = MAX_SUMMARY) -> str:
 
 def first_sentence(doc: str | None, limit: int = MAX_SUMMARY) -> str:
     """The summary of a docstring: its first sentence (of its first paragraph), as one line of
-    markdown, without references to the project's private documents, shortened to ``limit``
+    markdown, without references to the documentation pages, shortened to ``limit``
     characters (:func:`_shorten`); "" for no docstring."""
     if not doc:
         return ""
@@ -63,4 +62,4 @@ def first_sentence(doc: str | None, limit: int = MAX_SUMMARY) -> str:
     # "et al. ", an initial "D. B. ")
     m = re.search(r"(?<=[a-z0-9)\]`*])[.!?](?=\s+[A-Z`*(])", paragraph)
     sentence = paragraph[: m.end()] if m else paragraph
-    return _shorten(_markdown(_without_private_references(sentence)).strip(), limit)
+    return _shorten(_markdown(_without_doc_references(sentence)).strip(), limit)

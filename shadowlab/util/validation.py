@@ -1,7 +1,7 @@
 """Strict reading of TOML tables: typed keys, required keys, unknown keys, finite numbers.
 
 Every failure raises :class:`SceneError` naming the file, the key and the reason, so a bad
-scene file stops the run with one line before any GL work (DESIGN §4). :func:`did_you_mean` is
+scene file stops the run with one line before any GL work (docs/contracts.md#scene-files). :func:`did_you_mean` is
 the one spelling hint for every name lookup (keys, choices, scenes, suites, techniques,
 parameters, uniforms).
 """

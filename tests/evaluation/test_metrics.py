@@ -1,4 +1,4 @@
-"""Metrics of DESIGN §7 on hand-made masks."""
+"""Metrics of docs/metrics.md on hand-made masks."""
 from __future__ import annotations
 
 import numpy as np
@@ -34,7 +34,7 @@ def test_rates_by_hand():
 
 
 def brute_force_boundary(shadowed):
-    """Boundary pixels by DESIGN §7's words, with plain loops: a pixel with a 4-neighbour on the
+    """Boundary pixels by docs/metrics.md's words, with plain loops: a pixel with a 4-neighbour on the
     other side (every pixel evaluated)."""
     h, w = shadowed.shape
     out = set()

@@ -1,4 +1,4 @@
-"""Soft-shadow metrics of DESIGN §7 on hand-made arrays: visibility_rmse, the truth's penumbra
+"""Soft-shadow metrics of docs/metrics.md on hand-made arrays: visibility_rmse, the truth's penumbra
 (penumbra_mae, penumbra_pixels), umbra_error_rate and lit_error_rate with their counts, the
 report table showing them only for soft runs, and truth_stderr_max on every row (no GL)."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""GL state that a technique relies on is set by the technique (DESIGN §14): its output must not
+"""GL state that a technique relies on is set by the technique (docs/architecture.md#full-pass-state-shadowlabgpuglstatepy): its output must not
 depend on what earlier passes left behind, the draw checker must see what llvmpipe forgives,
 and the per-pass timings name the technique's own passes."""
 from __future__ import annotations

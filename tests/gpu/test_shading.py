@@ -1,4 +1,4 @@
-"""The shared shading pass against DESIGN §8 computed by hand for single pixels: two lights (a
+"""The shared shading pass against docs/architecture.md#the-shading-pass-shadowlabgpushadingpy computed by hand for single pixels: two lights (a
 point light and a spot with its footprint λ), fractional visibility, shadow density and colour."""
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ LIGHTS = [
 
 
 def by_hand(P, eye, light, v):
-    """DESIGN §8 for a floor point P (normal +y, facing the camera above it)."""
+    """docs/architecture.md#the-shading-pass-shadowlabgpushadingpy for a floor point P (normal +y, facing the camera above it)."""
     N = np.array([0.0, 1.0, 0.0])
     Lpos = np.array(light["position"], float)
     L = (Lpos - P) / np.linalg.norm(Lpos - P)

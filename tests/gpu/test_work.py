@@ -1,4 +1,4 @@
-"""Work counters (shadowlab.gpu.work, DESIGN §16): the same numbers on every run, booked to named
+"""Work counters (shadowlab.gpu.work, docs/cost.md): the same numbers on every run, booked to named
 passes, and equal to what the scene and the technique say they must be where that is known
 exactly. Which counters are exact and which approximate is declared in ``work.COUNTERS``;
 the tests below hold the exact ones to known answers."""

@@ -2,7 +2,7 @@
 of an area light, through the shared machinery (Technique.LIGHT_SAMPLED, Frame.stand_in,
 pipeline.measure).
 
-The expected images are built here from the definition (DESIGN §7): over the area light's
+The expected images are built here from the definition (docs/metrics.md): over the area light's
 evaluated pixels V(P) = [P on the emitting side] · mean_i vis_i(P) · [point i above P's tangent
 plane], the indicator terms computed in this file from the rectangle's own numbers, not with
 shadowlab.scene.area_lights' helpers."""

@@ -1,5 +1,5 @@
-"""The stage contract (DESIGN §2–3): techniques read the frame and change nothing of it but what
-they declare; the metric table is the DESIGN §6 contract; the one loop's rows are consistent."""
+"""The stage contract (docs/architecture.md–3): techniques read the frame and change nothing of it but what
+they declare; the metric table is the docs/contracts.md#run-directory contract; the one loop's rows are consistent."""
 from __future__ import annotations
 
 import numpy as np

@@ -1,5 +1,5 @@
 """The soft-shadow hard case "a light sampled with 1 vs 5 vs 64 samples" (scene soft_banding,
-DESIGN §7): averaging N hard shadows from N fixed points of a 2 × 2 rectangle light
+docs/metrics.md): averaging N hard shadows from N fixed points of a 2 × 2 rectangle light
 (shadowlab.measurement.light_sampling, Heckbert & Herf 1997) draws N overlapping hard shadows — bands — and
 the error against the sampled truth falls as the bands get finer.
 

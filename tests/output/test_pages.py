@@ -1,4 +1,4 @@
-"""The HTML pages (DESIGN §17) as a reader's browser gets them: a compare page, a study page and an
+"""The HTML pages (docs/architecture.md#pages-shadowlaboutput) as a reader's browser gets them: a compare page, a study page and an
 animate page, made once per module at PAGE_SIZE with two or three configurations.
 
 * Always (standard-library parser, no browser, a few seconds): one <h1>; every <img src>, every

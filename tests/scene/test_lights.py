@@ -1,4 +1,4 @@
-"""Lights: the numpy and GLSL definitions agree; footprints follow DESIGN §8."""
+"""Lights: the numpy and GLSL definitions agree; footprints follow docs/architecture.md#the-shading-pass-shadowlabgpushadingpy."""
 from __future__ import annotations
 
 import json
@@ -21,7 +21,7 @@ LIGHTS = [
     SpotLight(position=np.array([0.0, 3.0, 0.0]), direction=np.array([0.0, -1.0, 0.0]), alpha=70.0, beta=40.0),
     SpotLight(position=np.array([1.0, 3.0, 0.0]), direction=np.array([0.0, -1.0, 0.0]), alpha=50.0, beta=50.0),
     TargetDirectLight(position=np.array([0.0, 3.0, 0.0]), direction=np.array([0.0, -1.0, 0.0]), R=2.0, r=1.0),
-    # area lights: lit (footprint, direction) as a point light at the centre (DESIGN §7)
+    # area lights: lit (footprint, direction) as a point light at the centre (docs/metrics.md)
     RectLight(position=np.array([0.3, 3.5, -0.2]), u=np.array([1.5, 0.0, 0.0]), v=np.array([0.0, 0.0, 1.0])),
     DiscLight(position=np.array([-0.5, 3.2, 0.4]), direction=np.array([0.0, -1.0, 0.0]), radius=0.6),
     SphereLight(position=np.array([0.2, 3.4, 0.1]), radius=0.3),

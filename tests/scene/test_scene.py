@@ -1,4 +1,4 @@
-"""Scene files: shipped scenes load; malformed input fails with file, key and reason (DESIGN §4)."""
+"""Scene files: shipped scenes load; malformed input fails with file, key and reason (docs/contracts.md#scene-files)."""
 from __future__ import annotations
 
 import textwrap

@@ -1,4 +1,4 @@
-"""The study (DESIGN §12–13): suite validation, parallel and Dask runs that agree with one
+"""The study (docs/contracts.md#study-directory): suite validation, parallel and Dask runs that agree with one
 worker, the cache (repeat, change, force, interruption), failed runs, and the baseline check."""
 from __future__ import annotations
 

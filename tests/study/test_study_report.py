@@ -1,4 +1,4 @@
-"""The study report (DESIGN §12): per-configuration pooling over lights, the Pareto front, the
+"""The study report (docs/contracts.md#study-directory): per-configuration pooling over lights, the Pareto front, the
 Pareto figure, summary.md and study.html — on a synthetic results table (no GL)."""
 from __future__ import annotations
 

@@ -1,14 +1,14 @@
-"""The ray-traced ground truth against closed-form shadows (DESIGN §9), with every expected value
+"""The ray-traced ground truth against closed-form shadows (docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy), with every expected value
 computed here, independently of the code under test.
 
 A convex box's shadow on the plane y = 0 is the convex hull of its vertices projected from the
 light (central projection for point and spot lights, parallel for directional and target-direct
-lights). The floor points are this file's own pixel-centre rays (DESIGN §5) met with y = 0;
+lights). The floor points are this file's own pixel-centre rays (docs/architecture.md#conventions) met with y = 0;
 they must equal the frame's exact points. Every evaluated floor pixel whose centre lies farther
 than 0.01 px from a projected hull edge must agree with the closed form, and the evaluated
 region must be the light's footprint (spot cone, target-direct cylinder) computed here.
 
-The truth's rays start ε = offset_scale · max(‖P‖∞, extent) above the surface (DESIGN §9): a
+The truth's rays start ε = offset_scale · max(‖P‖∞, extent) above the surface (docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy): a
 ray from there passes the blocker ε · tan θ to the side of the one from P itself (θ: the
 light's angle from the receiver's normal), so it may legitimately move a shadow edge by that
 much, plus a few float32 ulps of the coordinates (Embree's vertices and the ray origins are
@@ -91,7 +91,7 @@ def inside(poly, q):
 
 def to_pixels(camera, size, pts):
     """World points (N, 3) → pixel coordinates (N, 2) (x right, y down; pixel centres at +0.5),
-    by the pinhole model of DESIGN §5 written here."""
+    by the pinhole model of docs/architecture.md#conventions written here."""
     w, h = size
     forward = unit(camera.target - camera.eye)
     right = unit(np.cross(forward, camera.up))
@@ -146,7 +146,7 @@ def check_closed_form(scene, light_spec, size, offset=np.zeros(3)):
     floor = frame.covered & (frame.object_id == 0)
     rows, cols = np.nonzero(floor)
     pts = expected_pts[rows, cols]
-    # The frame's exact points are the pixel-centre rays met with the floor (DESIGN §5, §9).
+    # The frame's exact points are the pixel-centre rays met with the floor (docs/architecture.md#conventions).
     assert np.allclose(frame.position[rows, cols] - offset, pts, rtol=0, atol=1e-9 * (1 + np.abs(offset).max()))
     # The evaluated floor pixels are the light's footprint (the floor faces every light here).
     margin = footprint_margin(local_spec, pts)
@@ -228,7 +228,7 @@ def test_ground_truth_sees_thin_sheet_on_floor():
 
 
 def test_image_convention_row_zero_is_the_top(tmp_path):
-    """DESIGN §5 on an asymmetric scene, through to the saved files: a red box seen in the
+    """docs/architecture.md#conventions on an asymmetric scene, through to the saved files: a red box seen in the
     upper-left quadrant and its shadow are where this file's own pinhole model puts them, in
     the frame's arrays, in masks.npz and in the shaded PNG (row 0 = top)."""
     size = (160, 120)
@@ -256,7 +256,7 @@ def test_image_convention_row_zero_is_the_top(tmp_path):
 
 
 def scene_file(folder, objects, lights, camera):
-    """Write a scene file from the plain dicts ``make_scene`` takes (DESIGN §4 keys)."""
+    """Write a scene file from the plain dicts ``make_scene`` takes (docs/contracts.md#scene-files keys)."""
     import json
 
     def table(d):

@@ -1,4 +1,4 @@
-"""The sampled ground truth of area lights (DESIGN §7, §9) against the exact visible fraction
+"""The sampled ground truth of area lights (docs/metrics.md, docs/soft-shadows.md) against the exact visible fraction
 (tests/soft_oracle.py: projected occluders united with shapely), with the surface points
 computed here, independently of the code under test (pixel-centre rays ∩ the floor y = 0).
 

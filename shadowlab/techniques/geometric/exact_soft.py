@@ -1,7 +1,7 @@
 """Exact soft shadows: the visible fraction of a planar area light from every evaluated point, as
 the area of a union of projected polygons — no sampling, no noise (issue 28).
 
-The definition (DESIGN §7) read as geometry, the way Drettakis & Fiume ("A fast shadow
+The definition (docs/metrics.md) read as geometry, the way Drettakis & Fiume ("A fast shadow
 algorithm for area light sources using backprojection", SIGGRAPH 1994) and Laine et al. ("Soft
 shadow volumes for ray tracing", SIGGRAPH 2005, §3) read it: from a point P, each occluding
 triangle is centrally projected onto the light's plane; the union of the projections, together

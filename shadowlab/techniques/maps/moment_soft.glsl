@@ -163,7 +163,7 @@ void main() {
     vec3 P;
     if (!gbuffer_position(P)) return;
     if (u_one_sided == 1 && dot(P - light_position, u_light_normal) <= 0.0) {
-        out_visibility = SHADOWED;       // behind the emitting side (DESIGN §7)
+        out_visibility = SHADOWED;       // behind the emitting side (docs/metrics.md)
         return;
     }
     vec4 s = u_light_matrix * vec4(P, 1.0);

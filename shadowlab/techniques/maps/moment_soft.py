@@ -51,7 +51,7 @@ The moments are biased towards Peters et al. 2017's three-point target
 (:data:`SIGNED_BIAS_TARGET`), not filtered_map's 2015 one, which is singular exactly where a
 caster at the top of the height range lies over the floor at its bottom.
 
-Visibility approximates DESIGN §7's: one average blocker depth for everything in the search
+Visibility approximates docs/metrics.md's: one average blocker depth for everything in the search
 region (two casters at different heights get one penumbra width: hard case SS2, scene
 ``soft_two_heights``), box-shaped regions bounding the light's projection (a disc light's square),
 and the 4MSM reconstruction's own light leaking where three or more depths fall in one region.

@@ -109,7 +109,7 @@ void main() {
     vec3 P;
     if (!gbuffer_position(P)) return;
     if (u_one_sided == 1 && dot(P - light_position, u_light_normal) <= 0.0) {
-        out_visibility = SHADOWED;       // behind the emitting side (DESIGN §7)
+        out_visibility = SHADOWED;       // behind the emitting side (docs/metrics.md)
         return;
     }
     vec3 N = gbuffer_normal_towards(light_dir_to(P));  // two-sided receivers: the side facing the light

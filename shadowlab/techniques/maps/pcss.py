@@ -32,7 +32,7 @@ to the disc by the concentric map for disc and sphere — one fixed pattern for 
 visibility comes in steps of 1 / ``filter_samples``. ``stats()['light_size']`` reports the scalar
 light size of the paper's formula: a rect's longer edge, a disc's or sphere's diameter.
 
-Visibility here approximates DESIGN §7's (the fraction of the light's area seen unoccluded):
+Visibility here approximates docs/metrics.md's (the fraction of the light's area seen unoccluded):
 PCSS assumes blockers and receiver parallel to the light and one average blocker height, so
 overlapping blockers at different depths and the receiver's horizon (samples below its tangent
 plane count as occluded in the truth) are not modelled. Points behind a one-sided light get

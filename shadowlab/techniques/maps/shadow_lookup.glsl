@@ -1,4 +1,4 @@
-// Shadow-map lookup over the G-buffer: one visibility value per screen pixel (DESIGN §2.2).
+// Shadow-map lookup over the G-buffer: one visibility value per screen pixel (docs/architecture.md).
 // The map is an atlas of u_faces faces (1, or 6 for a point light's cube); face f has the light
 // matrix u_light_matrix[f] = bias · projection · view (classic formulation: Everitt, Rege &
 // Cebenoyan 2001) and occupies u_face_rect[f] = (x0, y0, width, height) of the atlas, in texels.

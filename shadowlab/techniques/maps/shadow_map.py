@@ -70,7 +70,7 @@ Filters (``filter=``): ``nearest``; ``hw2x2`` (sampler2DShadow with linear filte
 bilinear PCF); ``pcf3`` / ``pcf5`` (texel-exact percentage-closer filtering, Reeves et al. 1987).
 Filtered visibility is fractional; the metrics report ``visibility_mae`` beside thresholded rates.
 
-Light frusta are fitted to what the scene and camera involve (DESIGN §11), never constants;
+Light frusta are fitted to what the scene and camera involve (docs/architecture.md), never constants;
 each light type fits its own (:meth:`shadowlab.scene.lights.Light.shadow_views`,
 :mod:`shadowlab.geometry.frusta`). The points to cover are (``fit=shadowable``, the default) the evaluated receiver points that can
 be in shadow at all — those whose segment to the light crosses a caster's bounding box

@@ -2,7 +2,7 @@
 shares — shadow_map, lispsm, cascaded_map, pcss, moment_soft, filtered_map and projective are
 built on it, not on each other.
 
-- **Fitting** (DESIGN §11): :func:`fit_light_views` fits a map's views (1, or 6 for a point
+- **Fitting** (docs/architecture.md): :func:`fit_light_views` fits a map's views (1, or 6 for a point
   light's cube) to the receivers the camera sees — those that can be shadowed at all
   (:func:`shadowable`, ``fit=shadowable``) or every evaluated receiver (``fit=receivers``); each
   light type fits its own projection (:meth:`shadowlab.scene.lights.Light.shadow_views`).

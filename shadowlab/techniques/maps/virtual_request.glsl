@@ -19,7 +19,7 @@ uniform vec2 u_atlas_size;
 #include "atlas.glsl"
 #include "virtual_common.glsl"
 uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
-uniform usampler2D u_evaluated;          // 1 where the pixel is evaluated for this light (DESIGN §7)
+uniform usampler2D u_evaluated;          // 1 where the pixel is evaluated for this light (docs/metrics.md)
 uniform int u_mask_offset[MAX_LEVELS];   // first word of level m of face 0 in `request`
 uniform int u_face_words;                // words of one face's levels: face f starts at f × this
 layout(std430, binding = BINDING_REQUESTS) buffer Requests { uint request[]; };

@@ -1,4 +1,4 @@
-"""The ray-traced ground truth (DESIGN §9): one shadow ray per evaluated pixel through Embree
+"""The ray-traced ground truth (docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy): one shadow ray per evaluated pixel through Embree
 for hard lights, N stratified light samples per evaluated pixel for area lights.
 
 The ray starts at the exact float64 point where the pixel-centre camera ray meets the triangle
@@ -31,7 +31,7 @@ evaluated); pixels the frame does not evaluate stay 1. It is what an exact raste
 samples per pixel should produce, and resolves casters thinner than a pixel. N = 1 is the
 pixel-centre path below, unchanged.
 
-Area lights (:class:`shadowlab.scene.area_lights.AreaLight`; DESIGN §7, §9). The visibility of the
+Area lights (:class:`shadowlab.scene.area_lights.AreaLight`; docs/metrics.md, docs/soft-shadows.md). The visibility of the
 light from P is the fraction, by area, of the emitting surface facing P that P sees
 unoccluded; samples below P's tangent plane (camera-facing geometric normal) count as occluded
 (P's own surface hides them), and a point behind a one-sided light (rect, disc) sees none of
@@ -57,7 +57,7 @@ and far smaller wherever V is 0 or 1 or the penumbra is crossed by few strata.
 Decorrelation (``decorrelate``): by default every pixel draws its own jitter (a fresh stream
 per chunk of pixels, seeded by (``seed``, chunk index)), so the estimator's error is noise, not
 a pattern shared by neighbouring pixels. ``decorrelate=false`` uses one jittered pattern (the
-same stratum coordinates) for every pixel — DESIGN §9: only if the run says so — whose error
+same stratum coordinates) for every pixel — docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy: only if the run says so — whose error
 is correlated across the image (visible banding), useful to compare with the light-sampling
 average of the hard techniques. Same seed, same samples → the same bits.
 
@@ -347,7 +347,7 @@ class RayTraced(Technique):
     def stats(self) -> dict:
         """Shadow rays traced per render, samples per pixel (1 for hard lights) and the bound
         on the per-pixel standard error of the truth (0.5/√samples for area lights, 0 for hard
-        lights: DESIGN §9)."""
+        lights: docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy)."""
         if self.subpixel is not None:  # exact per sample: the coverage of the pattern, no estimate
             return {"rays": int(self.rays), "samples": int(self.pixel_samples), "truth_stderr_max": 0.0}
         if not self.is_area:

@@ -19,9 +19,9 @@ L = L_unshadowed · (∫ f V / ∫ f), with f the *unshadowed integrand* (BRDF �
 radiance · geometry): the first factor analytic (LTC), the second, the shadow term, estimated
 as a ratio of two Monte Carlo sums over the *same* samples, Σ f_k V_k / Σ f_k, so the noise is
 only in the shadow term and both sums are denoised before dividing (their §3–4). In this lab the
-shading (``shadowlab/gpu/shade.glsl``, DESIGN §8) lights an area light as a point light at its centre
+shading (``shadowlab/gpu/shade.glsl``, docs/architecture.md#the-shading-pass-shadowlabgpushadingpy) lights an area light as a point light at its centre
 and multiplies its diffuse and specular terms by a *visibility* V that is defined unweighted
-(DESIGN §7; :mod:`shadowlab.scene.area_lights`): the fraction, **by area**, of the light facing
+(docs/metrics.md; :mod:`shadowlab.scene.area_lights`): the fraction, **by area**, of the light facing
 P that P sees unoccluded, samples below P's tangent plane counting as hidden. So the integrand
 of V's unshadowed part is not BRDF · cos / r², it is the clamped indicator
 

@@ -23,7 +23,7 @@ point of the light, V is exact (the signed crossings of a segment from the centr
 point x count [centre in S] − [x in S] for the projected silhouette S; integrated over the
 light it is the formula above). The two known approximations:
 
-- *Occlusion added per edge* (HARD_CASES SS1; Forest, Barthe & Paulin 2006): with two casters
+- *Occlusion added per edge* (docs/hard-cases.md SS1; Forest, Barthe & Paulin 2006): with two casters
   the wedges subtract each caster's covered area separately, so where their projections on the
   light overlap the light is hidden twice — too dark (clamped at 0) — or, inside both hard
   shadows, given back twice — too bright.

@@ -7,7 +7,7 @@
 // in the same additive scheme. Its "edge" is the line where the plane meets the light's; its
 // centre term [centre below the plane] and its edge term ([centre below] − f_below) add up to
 // −f_below, the fraction of the light below P's tangent plane (which the truth counts as
-// occluded, DESIGN §7): V = V_hard + Σ wedges − f_below. Exact alone; where a caster hides part
+// occluded, docs/metrics.md): V = V_hard + Σ wedges − f_below. Exact alone; where a caster hides part
 // of the light that is also below the horizon, it is subtracted twice (the SS1 approximation).
 #include "fullscreen.glsl"
 

@@ -167,7 +167,7 @@ def test_nothing_blocks_fully_lit(lab, shape, spec):
 
 def test_behind_one_sided_light_sees_none(lab):
     """A disc tilted 60° from straight down: floor points behind its emitting plane get V = 0
-    (DESIGN §7), the rest of the (unblocked) floor V = 1."""
+    (docs/metrics.md), the rest of the (unblocked) floor V = 1."""
     assert_behind_one_sided_sees_none(lab, "moment_soft")
 
 

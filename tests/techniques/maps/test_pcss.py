@@ -20,7 +20,7 @@ SCENE, SIZE = "soft_contact_hardening", SMALL
 #: Strips across the bar's shadow on the floor: x = −1.2 (blocker ~0.5 above the floor, near
 #: the contact at x = −2.28) and x = 1.6 (blocker ~1.7 above it); half-width of each strip.
 NEAR_X, FAR_X, HALF = -1.2, 1.6, 0.1
-PENUMBRA = (0.02, 0.98)  # DESIGN §7: the penumbra is 0.02 < V < 0.98
+PENUMBRA = (0.02, 0.98)  # docs/metrics.md: the penumbra is 0.02 < V < 0.98
 
 
 def penumbra_width(frame, vis: np.ndarray, x0: float) -> float:
@@ -166,7 +166,7 @@ def test_nothing_blocks_fully_lit(lab, shape, spec):
 
 def test_behind_one_sided_light_sees_none(lab):
     """A disc tilted 60° from straight down: floor points behind its emitting plane get V = 0
-    (DESIGN §7), the rest of the (unblocked) floor V = 1."""
+    (docs/metrics.md), the rest of the (unblocked) floor V = 1."""
     assert_behind_one_sided_sees_none(lab, "pcss")
 
 

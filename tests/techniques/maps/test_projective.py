@@ -205,7 +205,7 @@ def test_cost_columns(lab):
 
 
 def test_output_does_not_depend_on_inherited_state(lab, ctx):
-    """DESIGN §14 (as tests/gpu/test_gl_state.py for the other techniques): with every fixed-function
+    """docs/architecture.md#full-pass-state-shadowlabgpuglstatepy (as tests/gpu/test_gl_state.py for the other techniques): with every fixed-function
     state polluted before setup and render, pt_limits' visibility is the same bit for bit."""
     from shadowlab.measurement.pipeline import measure
     from gl_pollution import clean_and_polluted

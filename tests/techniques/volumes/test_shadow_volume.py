@@ -132,10 +132,10 @@ def test_peak_stencil_count_is_the_number_of_volumes_around_a_point(lab):
 
 
 # ---------------------------------------------------------------------- mode=auto (issue 11)
-AUTO_HARD_CASES = ["sv_camera_in_shadow", "sv_near_plane_cut", "sv_directional", "sv_light_close", "sv_open_mesh"]
+AUTO_MODE_SCENES = ["sv_camera_in_shadow", "sv_near_plane_cut", "sv_directional", "sv_light_close", "sv_open_mesh"]
 
 
-@pytest.mark.parametrize("scene", AUTO_HARD_CASES)
+@pytest.mark.parametrize("scene", AUTO_MODE_SCENES)
 @pytest.mark.parametrize("variant", ["", ",silhouette=gpu", ",far=clamp"])
 def test_auto_gives_the_zfail_mask(lab, scene, variant):
     """mode=auto (z-pass for casters whose volumes cannot reach the near plane, z-fail for the

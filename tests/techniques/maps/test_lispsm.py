@@ -189,8 +189,6 @@ def test_params_round_trip_and_columns(lab):
 
 
 @pytest.mark.parametrize("spec,match", [
-    ("lispsm:n=-1", "n must be >= 0"),
-    ("lispsm:fit=bogus", "fit must be one of"),
     ("lispsm:projection=cube", "unknown parameter 'projection'"),
     ("lispsm:near=0.5", "unknown parameter 'near'"),
     ("lispsm:light_samples=4", "unknown parameter 'light_samples'"),

@@ -230,10 +230,6 @@ def test_params_round_trip_and_become_columns(lab):
 
 @pytest.mark.parametrize("spec,match", [
     ("projective:bias=0.1", "unknown parameter 'bias'"),
-    ("projective:receivers=all", "receivers must be one of"),
-    ("projective:filter=cubic", "filter must be one of"),
-    ("projective:resolution=8", "resolution must be >= 16"),
-    ("projective:clip=maybe", "clip must be bool"),
 ])
 def test_bad_parameters(spec, match):
     with pytest.raises(TechniqueError, match=match):

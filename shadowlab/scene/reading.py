@@ -50,8 +50,24 @@ def _along_y(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     return mesh
 
 
+#: The most triangles one procedural primitive may make (2²², about 4.2 million: the largest
+#: shipped primitive, the scaling suite's 2000 × 1000 torus, makes 4 million). Sections beyond it
+#: would not show in any image the lab renders and would only exhaust memory, so they are a scene
+#: error naming the key, before anything is built; a finer mesh comes from a mesh file.
+MAX_PRIMITIVE_TRIANGLES = 1 << 22
+
+
+def _bounded(rd: TableReader, kind: str, key: str, triangles: int, how: str) -> None:
+    """SceneError naming ``key`` when the primitive would make more than
+    :data:`MAX_PRIMITIVE_TRIANGLES` triangles (``how``: the count's formula, for the message)."""
+    if triangles > MAX_PRIMITIVE_TRIANGLES:
+        raise rd.error(key, f"a {kind} with {how} would make {triangles:,} triangles; at most "
+                            f"{MAX_PRIMITIVE_TRIANGLES:,} per primitive (use a mesh file for more)")
+
+
 def _build_primitive(kind: str, rd: TableReader) -> trimesh.Trimesh:
-    """Builtin primitive centred at the origin, from its parameters in the object's table."""
+    """Builtin primitive centred at the origin, from its parameters in the object's table; its
+    triangle count is bounded (:data:`MAX_PRIMITIVE_TRIANGLES`) before it is built."""
     if kind == "box":
         return trimesh.creation.box(extents=rd.vector("size", 3, default=[1.0, 1.0, 1.0], positive=True))
     if kind == "sphere":
@@ -59,17 +75,25 @@ def _build_primitive(kind: str, rd: TableReader) -> trimesh.Trimesh:
                                           radius=rd.number("radius", 0.5, min=0, min_open=True))
     if kind == "plane":
         size = rd.vector("size", 2, default=[10.0, 10.0], positive=True)
-        return _plane(size, rd.number("divisions", 1, min=1, max=2048, integer=True))
+        divisions = rd.number("divisions", 1, min=1, max=2048, integer=True)
+        _bounded(rd, kind, "divisions", 2 * divisions * divisions, f"divisions = {divisions} (2 × divisions²)")
+        return _plane(size, divisions)
     if kind == "cylinder":
-        return _along_y(trimesh.creation.cylinder(radius=rd.number("radius", 0.5, min=0, min_open=True),
-                                                  height=rd.number("height", 1.0, min=0, min_open=True),
-                                                  sections=rd.number("sections", 32, min=3, integer=True)))
+        radius = rd.number("radius", 0.5, min=0, min_open=True)
+        height = rd.number("height", 1.0, min=0, min_open=True)
+        sections = rd.number("sections", 32, min=3, integer=True)
+        _bounded(rd, kind, "sections", 4 * sections, f"sections = {sections} (4 × sections)")
+        return _along_y(trimesh.creation.cylinder(radius=radius, height=height, sections=sections))
     if kind == "torus":
-        return _along_y(trimesh.creation.torus(
-            major_radius=rd.number("major_radius", 1.0, min=0, min_open=True),
-            minor_radius=rd.number("minor_radius", 0.25, min=0, min_open=True),
-            major_sections=rd.number("major_sections", 48, min=3, integer=True),
-            minor_sections=rd.number("minor_sections", 24, min=3, integer=True)))
+        major_radius = rd.number("major_radius", 1.0, min=0, min_open=True)
+        minor_radius = rd.number("minor_radius", 0.25, min=0, min_open=True)
+        major = rd.number("major_sections", 48, min=3, integer=True)
+        minor = rd.number("minor_sections", 24, min=3, integer=True)
+        key = "major_sections" if major >= minor else "minor_sections"
+        _bounded(rd, kind, key, 2 * major * minor,
+                 f"major_sections = {major} and minor_sections = {minor} (2 × major × minor)")
+        return _along_y(trimesh.creation.torus(major_radius=major_radius, minor_radius=minor_radius,
+                                               major_sections=major, minor_sections=minor))
     if kind == "capsule":
         return _along_y(trimesh.creation.capsule(height=rd.number("height", 1.0, min=0, min_open=False),
                                                  radius=rd.number("radius", 0.5, min=0, min_open=True),

@@ -116,6 +116,33 @@ def test_bad_scenes_name_file_key_reason(tmp_path, old, new, key):
     assert str(path) in str(info.value) and info.value.reason
 
 
+@pytest.mark.parametrize("primitive,key,triangles", [
+    ('mesh = "torus"\nmajor_sections = 100000', "objects[1].major_sections", "4,800,000"),
+    ('mesh = "torus"\nmajor_sections = 30\nminor_sections = 100000', "objects[1].minor_sections", "6,000,000"),
+    ('mesh = "cylinder"\nsections = 2000000', "objects[1].sections", "8,000,000"),
+    ('mesh = "plane"\ndivisions = 2048', "objects[1].divisions", "8,388,608"),
+])
+def test_primitives_are_bounded_before_they_are_built(tmp_path, primitive, key, triangles):
+    """A procedural primitive with absurd sections is a one-line scene error naming the key and
+    the triangle count it would make — not a MemoryError traceback after minutes of building."""
+    from shadowlab.scene.reading import MAX_PRIMITIVE_TRIANGLES
+
+    path = write(tmp_path, GOOD.replace('mesh = "box"', primitive, 1))
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert info.value.key == key and triangles in str(info.value) and "\n" not in str(info.value)
+    assert f"{MAX_PRIMITIVE_TRIANGLES:,}" in str(info.value)
+
+
+@pytest.mark.slow  # builds a 4.2-million-triangle torus (~20 s)
+def test_a_primitive_at_the_bound_still_builds(tmp_path):
+    """The bound refuses only what is above it: a torus of exactly 2 × 2048 × 1024 triangles."""
+    from shadowlab.scene.reading import MAX_PRIMITIVE_TRIANGLES
+
+    ok = load_scene(write(tmp_path, GOOD.replace('mesh = "box"', 'mesh = "torus"\nmajor_sections = 2048\nminor_sections = 1024', 1)))
+    assert len(ok.objects[1].faces) == MAX_PRIMITIVE_TRIANGLES
+
+
 def test_not_toml_and_unknown_scene(tmp_path):
     with pytest.raises(SceneError, match="not valid TOML"):
         load_scene(write(tmp_path, "name = = 3"))

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The lab as a user installs it (issue 36): a wheel built from a clean copy of the tracked
 # sources, installed (not editable) into a fresh venv outside the source tree, and the commands
-# run from there — compare, tune, one tiny study. An editable install hides packaging mistakes
+# run from there — compare, tune, one tiny study, animate, and a cost model fitted and used. An editable install hides packaging mistakes
 # (a package missing from the wheel broke every command of a plain install).
 # Usage: tests/install_check/run.sh PYTHON   (make test passes the repository's .venv python)
 set -euo pipefail
@@ -23,5 +23,9 @@ lab="$work/venv/bin/shadowlab"
 "$lab" compare box_on_plane -t shadow_map -t shadow_volume --size 160x120 --repeat 1 --out "$work/compare"
 "$lab" tune sm_contact -t shadow_map --size 160x120 --out "$work/tune"
 "$lab" study "$work/tiny.toml" --out "$work/study"
+"$lab" animate tm_moving_caster -t shadow_map --frames 2 --size 96x72 --out "$work/animate"
+"$lab" cost fit "$work/study" --out "$work/cost_model.json"
+"$lab" cost predict "$work/study" "$work/cost_model.json"
 test -f "$work/compare/report.html" && test -f "$work/tune/best.json" && test -f "$work/study/study.html"
-echo "install check: compare, tune and study ran from the installed wheel"
+test -f "$work/animate/report.html" && test -f "$work/cost_model.json"
+echo "install check: compare, tune, study, animate and cost ran from the installed wheel"

@@ -37,7 +37,7 @@ import pandas as pd
 from shadowlab.gpu import gl, memory
 from shadowlab.output import provenance
 from shadowlab.gpu.frame import Frame
-from shadowlab.geometry import compiled_clipping
+from shadowlab.geometry.clipping import compiled as compiled_clipping
 from shadowlab.geometry.rays import ray_plane_hits
 from shadowlab.scene.lights import PointLight
 from shadowlab.measurement.pipeline import measure
@@ -45,7 +45,7 @@ from shadowlab.scene import load_scene
 from shadowlab.techniques import from_spec
 from shadowlab.techniques.rays.raytrace import RayTraced
 from shadowlab.truth.tracing import occluded, offset_origins
-from shadowlab.techniques.geometric.shadow_polygons import fragment_triangles
+from shadowlab.geometry.clipping import fragment_triangles
 from shadowlab.gpu.timing import time_passes
 
 sys.path.insert(0, str(Path(__file__).parent))

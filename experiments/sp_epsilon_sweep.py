@@ -2,7 +2,7 @@
 
 Three families of nearly degenerate configurations, each with a closed-form or independently
 computed answer (central / parallel projection, then GEOS's polygon intersection (shapely) — no code
-shared with shadowlab.geometry.polygon_clipping), each rotated by a random rotation so that nothing lies
+shared with shadowlab.geometry.clipping.scalar), each rotated by a random rotation so that nothing lies
 exactly on an axis:
 
 - **coplanar, above**: a sheet lying δ above the receiver (RT3's 0.1 mm sheet, in general): it
@@ -31,7 +31,7 @@ from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 from shadowlab.output import provenance
-from shadowlab.geometry import polygon_clipping as pc
+from shadowlab.geometry.clipping import scalar as pc
 
 # The independent oracle (shapely/GEOS, no code shared with the clipper) lives with the tests.
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))

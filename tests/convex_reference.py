@@ -1,6 +1,6 @@
 """Reference areas for checking the exact shadow polygons: the intersection of 2D polygons
 computed by GEOS (through shapely), whose predicates are robust to the slivers that clipping
-produces. It shares no code with :mod:`shadowlab.geometry.polygon_clipping`, so tests and
+produces. It shares no code with :mod:`shadowlab.geometry.clipping.scalar`, so tests and
 experiments can judge that module by it.
 
 (An earlier version intersected half-spaces with Qhull after finding an interior point by linear

@@ -10,16 +10,16 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from shadowlab.gpu.frame import Frame
-from shadowlab.geometry import batch_clipping as bc
-from shadowlab.geometry import compiled_clipping as cc
-from shadowlab.geometry import polygon_clipping as pc
+from shadowlab.geometry.clipping import batch as bc
+from shadowlab.geometry.clipping import compiled as cc
+from shadowlab.geometry.clipping import scalar as pc
 from shadowlab.geometry.frusta import side_planes
 from shadowlab.geometry.triangles import triangle_planes
 from shadowlab.geometry.vectors import dot3
 from shadowlab.scene import load_scene
 from shadowlab.techniques import from_spec
 from shadowlab.techniques.base import TechniqueError
-from shadowlab.techniques.geometric.shadow_polygons import candidate_pairs, fragment_triangles
+from shadowlab.geometry.clipping import FragmentMemoryError, candidate_pairs, fragment_triangles
 
 from test_polygon_clipping import configurations
 
@@ -169,11 +169,18 @@ def test_scene_fragments_batch_equal_scalar(name):
         frame.release()
 
 
-def test_fragments_beyond_the_memory_limit_are_a_clear_error():
+def test_fragments_beyond_the_memory_limit_are_a_clear_error(monkeypatch):
     frame = Frame(load_scene("box_on_plane"), 64, 48)
     try:
         rec, _, cas = from_spec("shadow_polygons").polygons(frame, 0)
-        with pytest.raises(TechniqueError, match="outgrew"):
+        with pytest.raises(FragmentMemoryError, match="outgrew"):
             fragment_triangles(rec, cas, frame.scene.lights[0].homogeneous(), 1e-9, memory_limit=1000)
+        # the technique gives it a share of the memory available at its setup, and says so
+        from shadowlab.gpu import memory
+        from shadowlab.measurement.pipeline import measure
+
+        monkeypatch.setattr(memory, "available_bytes", lambda: 2000)
+        with pytest.raises(TechniqueError, match="shadow_polygons: the exact shadow fragments outgrew .* of the memory available"):
+            measure(from_spec("shadow_polygons"), frame, 0, repeat=1, warmup=0)
     finally:
         frame.release()

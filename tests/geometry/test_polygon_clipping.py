@@ -3,7 +3,7 @@
 The independent answer: project the caster polygon onto the receiver's plane from the light
 (central projection for point lights, parallel for directional ones, closed form) and
 intersect it with the receiver with GEOS's polygon intersection (shapely) — no code shared
-with shadowlab.geometry.polygon_clipping. Configurations are built with the receiver on y = 0
+with shadowlab.geometry.clipping.scalar. Configurations are built with the receiver on y = 0
 and then turned to any orientation and moved, so receivers and casters are tilted every way.
 """
 from __future__ import annotations
@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import ConvexHull
 
-from shadowlab.geometry import polygon_clipping as pc
+from shadowlab.geometry.clipping import scalar as pc
 from convex_reference import ccw, overlap_area
 
 EPS = 1e-12

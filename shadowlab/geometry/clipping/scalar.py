@@ -28,14 +28,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .frusta import side_planes
-from .vectors import dot3, dot4
+from ..frusta import side_planes
+from ..vectors import dot3, dot4
 
 
 def plane_of(poly: np.ndarray) -> np.ndarray:
     """The plane (n, d), unit n, of a convex polygon (K, 3) (Newell's method, robust to
     collinear leading vertices); zero for a degenerate polygon."""
-    from .batch_clipping import full, planes_of
+    from .batch import full, planes_of
 
     return planes_of(full(np.asarray(poly, np.float64)[None]))[0]
 

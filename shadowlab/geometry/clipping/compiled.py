@@ -1,6 +1,6 @@
 """Exact shadow polygons, culled and clipped in compiled code (numba): the culling of
-:func:`shadowlab.techniques.geometric.shadow_polygons.candidate_pairs` and the clipping of
-:func:`shadowlab.geometry.polygon_clipping.shadow_fragment`, for a run of casters against every
+:func:`shadowlab.geometry.clipping.candidate_pairs` and the clipping of
+:func:`shadowlab.geometry.clipping.scalar.shadow_fragment`, for a run of casters against every
 receiver, in one pass that never holds the pairs.
 
 Why numba here, after the numpy batch clipper (:mod:`.batch_clipping`): the padded-array
@@ -237,7 +237,7 @@ def _one_fragment(receiver, caster, light_h, eps):
 def shadow_fragment(receiver: np.ndarray, caster: np.ndarray, light_h: np.ndarray, eps: float) -> np.ndarray:
     """The compiled clipper on one pair of convex polygons (K, 3) and (J, 3), K, J ≤
     :data:`MAX_POLYGON`: the fragment (M, 3) of
-    :func:`shadowlab.geometry.polygon_clipping.shadow_fragment` ((0, 3) when there is no shadow),
+    :func:`shadowlab.geometry.clipping.scalar.shadow_fragment` ((0, 3) when there is no shadow),
     for tests that compare the back-ends polygon by polygon."""
     receiver, caster = np.ascontiguousarray(receiver, np.float64), np.ascontiguousarray(caster, np.float64)
     if len(receiver) > MAX_POLYGON or len(caster) > MAX_POLYGON:

@@ -1,5 +1,5 @@
 """Exact shadow polygons for many (receiver, caster) pairs at once: the clipping of
-:func:`shadowlab.geometry.polygon_clipping.shadow_fragment`, step for step, on numpy arrays.
+:func:`shadowlab.geometry.clipping.scalar.shadow_fragment`, step for step, on numpy arrays.
 
 The clipper is a fixed sequence of at most ``3 + K`` half-space splits, so it vectorises over
 pairs with padded arrays. It is the numpy back-end of the preprocessing (the compiled one,
@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .frusta import side_planes
-from .vectors import dot3, dot4
+from ..frusta import side_planes
+from ..vectors import dot3, dot4
 
 
 @dataclass

@@ -247,7 +247,8 @@ REGISTRY: dict[str, type] = {}
 
 class Technique:
     """Base class. Subclasses set ``name``, ``summary``, ``PARAMS``, ``PASSES``, ``STATS``,
-    ``STYLE`` (and ``LIGHTS``, ``LIGHT_SAMPLED`` where they differ from the defaults) and
+    ``STYLE`` (and ``LIGHTS``, ``LIGHT_SAMPLED``, ``READS``, ``WRITES``, ``PROVIDES`` where they
+    differ from the defaults: the module docstring says why they are declared) and
     implement :meth:`setup`, :meth:`render` and, unless they draw into the visibility target of
     :meth:`visibility_target`, :meth:`visibility`.
 

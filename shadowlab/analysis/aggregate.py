@@ -33,8 +33,6 @@ TIE_TOLERANCE = {"error_rate": 1e-4, "visibility_mae": 1e-3}
 #: Times within this fraction of a row's fastest tie with it: a software rasteriser's timings move
 #: by several percent from one run to the next, and a verdict must not flip with them.
 TIME_TIE = 0.10
-#: The scene family whose scenes are judged on visibility error (:func:`judged_metric`).
-SOFT_FAMILY = "soft shadows"
 
 #: Columns of :func:`per_configuration`, in order.
 CONFIG_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "reference", "lights",
@@ -374,9 +372,14 @@ def names_text(names, keep: int = 2) -> str:
 # --------------------------------------------------------------------------- verdicts
 
 def judged_metric(scene_family: str) -> str:
-    """The error a scene is judged on: ``visibility_mae`` for a soft scene (:data:`SOFT_FAMILY`:
-    fractional visibility is the answer there, a threshold at 0.5 would hide it), else the
-    thresholded ``error_rate``."""
+    """The error a scene is judged on: ``visibility_mae`` for a soft scene (its family is
+    :data:`shadowlab.scene.model.SOFT_FAMILY`, which its file declares: fractional visibility is
+    the answer there, a threshold at 0.5 would hide it), else the thresholded ``error_rate``.
+    The one place soft is decided from a family: the verdicts, the Pareto panels, the report and
+    the rank agreement all ask here."""
+    # imported here: the scene package loads its file reader (trimesh), which tables do not need
+    from ..scene.model import SOFT_FAMILY
+
     return "visibility_mae" if scene_family == SOFT_FAMILY else "error_rate"
 
 

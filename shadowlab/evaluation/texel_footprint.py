@@ -100,11 +100,11 @@ COLUMNS = tuple(f"texel_footprint_p{q}" for q in PERCENTILES) + ("texel_footprin
 
 
 def has_texel_mapping(technique) -> bool:
-    """True for a technique that renders a map per face and can say where a point's texels lie
-    (:class:`shadowlab.techniques.maps.toolkit.TexelMapping`)."""
-    from ..techniques.maps.toolkit import TexelMapping
-
-    return isinstance(technique, TexelMapping)
+    """True for a technique that renders a map per face and can say where a point's texels lie:
+    one that declares the ``texel_mapping`` capability (``PROVIDES``,
+    :data:`shadowlab.techniques.base.CAPABILITIES`). Asked of the declaration, not of the
+    technique's class, so the metric knows no technique family."""
+    return "texel_mapping" in technique.PROVIDES
 
 
 def footprint_image(frame, slot, technique) -> np.ndarray:

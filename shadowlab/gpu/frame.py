@@ -8,11 +8,12 @@ with row 0 at the top of the image; "compact" arrays hold only covered pixels, i
 ``np.flatnonzero(covered)``.
 
 What techniques may do with a frame (the stage contract, docs/architecture.md): read everything — the
-G-buffer textures, the vertex buffers (through :meth:`Frame.draw`), the exact points and the
+G-buffer textures (the channels of :data:`GBUFFER_CHANNELS`, sampled by the techniques that
+declare them in their ``READS``), the vertex buffers (through :meth:`Frame.draw`), the exact points and the
 :class:`LightSlot` they render for (the light, its index, its evaluated mask) — and modify
 nothing, with one declared exception: the G-buffer's depth-stencil
 attachment, whose contents nobody reads after the G-buffer pass, is lent to the techniques that
-list ``"depth_stencil"`` in their ``MODIFIES_FRAME`` (:meth:`Frame.depth_stencil_for`); they
+list ``"depth_stencil"`` in their ``WRITES`` (:meth:`Frame.depth_stencil_for`); they
 clear it before use. The frame's own caches (evaluated masks, keyed by the light object, and
 the scene lights' slots) live on the frame.
 """
@@ -31,6 +32,16 @@ from ..truth.pixel_rays import (  # noqa: F401  (the frame's camera rays and exa
     PIXEL_CENTRE, _pixel_ray_terms, evaluated_rule, plane_hits, plane_numerators,
 )
 from ..scene import Scene
+
+
+#: The G-buffer's channels, in the order they take texture units when a technique binds the ones
+#: it declares (``Technique.READS``, :meth:`shadowlab.techniques.base.Technique.bind_gbuffer`):
+#: world position (w = 1 where covered), geometric normal, (object id, triangle id). A shader
+#: samples channel ``c`` through the uniform ``u_<c>`` (``gbuffer_fetch.glsl``).
+GBUFFER_CHANNELS = ("position", "normal", "ids")
+#: The shared frame resources a technique may declare it overwrites (``Technique.WRITES``): the
+#: G-buffer's depth-stencil attachment (:meth:`Frame.depth_stencil_for`).
+FRAME_WRITABLE = frozenset({"depth_stencil"})
 
 
 @dataclass(frozen=True, eq=False)
@@ -247,14 +258,22 @@ class Frame:
         per_unit = 2.0 * np.tan(np.radians(self.camera.fov_y) / 2.0) / self.height
         return self.to_image(dist * per_unit, dtype=np.float64)
 
+    def gbuffer_texture(self, channel: str):
+        """The G-buffer texture of ``channel`` (one of :data:`GBUFFER_CHANNELS`; KeyError with the
+        known names otherwise). What :meth:`shadowlab.techniques.base.Technique.bind_gbuffer`
+        binds: techniques name channels, not the frame's attributes."""
+        if channel not in GBUFFER_CHANNELS:
+            raise KeyError(f"no G-buffer channel {channel!r} (the channels: {', '.join(GBUFFER_CHANNELS)})")
+        return getattr(self, f"tex_{channel}")
+
     def depth_stencil_for(self, technique) -> gl.ScreenTarget:
         """The G-buffer's depth-stencil attachment, lent to ``technique`` (to share with its own
         colour targets: ``gl.ScreenTarget.create(..., share_depth_stencil=...)``). Only techniques
-        that declare ``"depth_stencil"`` in ``MODIFIES_FRAME`` may have it: its contents are
+        that declare ``"depth_stencil"`` in ``WRITES`` may have it: its contents are
         theirs to clear and overwrite, and nothing after the G-buffer pass reads them."""
-        if "depth_stencil" not in technique.MODIFIES_FRAME:
+        if "depth_stencil" not in technique.WRITES:
             raise RuntimeError(f"{type(technique).__name__} uses the frame's depth-stencil without declaring "
-                               f"'depth_stencil' in MODIFIES_FRAME")
+                               f"'depth_stencil' in WRITES")
         return self.target
 
     # ------------------------------------------------------------------ light slots

@@ -1,7 +1,8 @@
 // The G-buffer (gbuffer.glsl) read at this fragment's own pixel, for the full-screen passes over
-// it: include it in the fragment stage (it reads gl_FragCoord). The technique binds the three
-// textures to the units it sets in u_position, u_normal and u_ids; a pass that reads only some
-// of them leaves the others unused (the compiler drops them).
+// it: include it in the fragment stage (it reads gl_FragCoord). A technique declares the channels
+// it samples (READS) and Technique.bind_gbuffer binds them, setting u_position, u_normal and u_ids
+// to their units; a pass that reads only some of them leaves the others unused (the compiler
+// drops them, and bind_gbuffer skips them).
 uniform sampler2D u_position;            // G-buffer world position, w = 1 where covered
 uniform sampler2D u_normal;              // G-buffer geometric normal, as stored (either side)
 uniform isampler2D u_ids;                // G-buffer (object id, triangle id); -1 where uncovered

@@ -6,12 +6,15 @@ objects, the scene), :mod:`.lights` (point, directional, spot, target-direct),
 
 Import order is one-way: lights ← area_lights ← model ← animation ← reading.
 """
-from .model import Camera, Material, Scene, SceneObject, Shading, default_of
+from .model import (
+    GENERAL_FAMILY, SCENE_FAMILIES, SOFT_FAMILY, Camera, Material, Scene, SceneObject, Shading, default_of,
+    family_from_name,
+)
 from .reading import (
     PRIMITIVES, builtin_scene_dir, builtin_scenes, load_scene, parse_light, parse_scene, resolve_scene_path,
-    scene_purpose, scene_summary,
+    scene_family_key, scene_purpose, scene_summary,
 )
 
-__all__ = ["Camera", "Material", "Scene", "SceneObject", "Shading", "default_of", "PRIMITIVES", "builtin_scene_dir",
-           "builtin_scenes", "load_scene", "parse_light", "parse_scene", "resolve_scene_path", "scene_purpose",
-           "scene_summary"]
+__all__ = ["Camera", "Material", "Scene", "SceneObject", "Shading", "default_of", "GENERAL_FAMILY", "SCENE_FAMILIES",
+           "SOFT_FAMILY", "family_from_name", "PRIMITIVES", "builtin_scene_dir", "builtin_scenes", "load_scene",
+           "parse_light", "parse_scene", "resolve_scene_path", "scene_family_key", "scene_purpose", "scene_summary"]

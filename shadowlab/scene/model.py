@@ -16,6 +16,36 @@ import numpy as np
 from ..geometry import transforms as tf
 from .lights import Light
 
+#: The family of a scene that is a plain set-up rather than one hard case.
+GENERAL_FAMILY = "general"
+#: The one family whose scenes are judged on fractional visibility (``visibility_mae``) instead
+#: of the thresholded ``error_rate``: soft shadows, where the visibility between 0 and 1 is the
+#: answer and a threshold at 0.5 would hide it (:func:`shadowlab.analysis.aggregate.judged_metric`
+#: is the one rule that reads it).
+SOFT_FAMILY = "soft shadows"
+#: Every hard-case family a scene file may declare in its ``family`` key (docs/hard-cases.md), in
+#: the catalogue's order: what a study groups its scenes by (the ``scene_family`` column) and,
+#: through :data:`SOFT_FAMILY`, which metric it judges them on.
+SCENE_FAMILIES = (GENERAL_FAMILY, "shadow volumes", "planar shadows", "shadow maps", "perspective aliasing",
+                  "projective textures", "temporal stability", "real meshes", "ground truth", SOFT_FAMILY,
+                  "city scale")
+#: Scene-name prefixes → family: only the fallback for a scene file without a ``family`` key
+#: (the study notes each such scene, :func:`family_from_name`), as families were named before
+#: scene files declared them; a file's own ``family`` always wins over its name.
+FAMILY_PREFIXES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps",
+                   "pa_": "perspective aliasing", "pt_": "projective textures", "tm_": "temporal stability",
+                   "rm_": "real meshes", "rt_": "ground truth", "soft_": SOFT_FAMILY, "city_": "city scale"}
+
+
+def family_from_name(scene_name: str) -> str:
+    """The family a scene's name suggests (:data:`FAMILY_PREFIXES`; :data:`GENERAL_FAMILY` for
+    any other name): the fallback for a scene file that declares none. A guess, hence only a
+    fallback: a soft scene named like a hard one declares its family instead."""
+    for prefix, family in FAMILY_PREFIXES.items():
+        if scene_name.startswith(prefix):
+            return family
+    return GENERAL_FAMILY
+
 
 def default_of(cls, name: str):
     """The default of field ``name`` of dataclass ``cls`` (its default or a fresh
@@ -131,6 +161,10 @@ class Scene:
     #: The metrics column this scene exists to show (``metric`` key: e.g. ``contact_gap_px`` for a
     #: contact hard case); None for a plain scene. Study pages show it beside the error.
     metric: str | None = None
+    #: Its hard-case family (``family`` key, one of :data:`SCENE_FAMILIES`): what a study groups it
+    #: by and judges it on; None when the file declares none (a study then falls back on the name,
+    #: :func:`family_from_name`, with a note).
+    family: str | None = None
 
     def bounds(self) -> np.ndarray:
         """Axis-aligned bounds of every object, (2, 3)."""

@@ -24,7 +24,7 @@ from ..util.validation import SceneError, TableReader, did_you_mean
 from .animation import parse_animation
 from .area_lights import AREA_SHAPES
 from .lights import LIGHT_TYPES, Light
-from .model import Camera, Material, Scene, SceneObject, Shading, default_of
+from .model import SCENE_FAMILIES, Camera, Material, Scene, SceneObject, Shading, default_of
 
 
 # --------------------------------------------------------------------------- primitives
@@ -228,6 +228,7 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
     rd = TableReader(data, "", file)
     name = rd.string("name", default=Path(file).stem)
     metric = _scene_metric(rd)
+    family = scene_family_key(rd)
     camera = _parse_camera(rd.raw("camera"), file)
     light_tables = rd.table_list("lights")
     if not light_tables:
@@ -245,7 +246,7 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
     animation = None if anim_table is None else parse_animation(anim_table, file, lights, [o.name for o in objects])
     rd.finish()
     return Scene(name, camera, lights, objects, shading, Path(file) if file != "<scene>" else None, animation,
-                 metric)
+                 metric, family)
 
 
 def _scene_metric(rd: TableReader) -> str | None:
@@ -255,6 +256,15 @@ def _scene_metric(rd: TableReader) -> str | None:
     :func:`shadowlab.measurement.scenes.load_measured_scene`), so reading a scene needs no
     metrics."""
     return rd.string("metric", default=None) if "metric" in rd.table else None
+
+
+def scene_family_key(rd: TableReader) -> str | None:
+    """The optional ``family`` key of a scene file's top-level table ``rd``: one of
+    :data:`~shadowlab.scene.model.SCENE_FAMILIES` (a SceneError naming the file and the key, with
+    the closest family, otherwise), or None when the file has none. Read strictly here so that a
+    misspelt family stops a study before it runs rather than regrouping its scene; the study's
+    suite loader reads it with this same function."""
+    return rd.string("family", choices=SCENE_FAMILIES) if "family" in rd.table else None
 
 
 def builtin_scene_dir() -> Path:

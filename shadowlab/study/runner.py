@@ -104,6 +104,8 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
     log = log or (lambda msg: print(msg, file=sys.stderr))
     progress = progress or Progress()
     suite = suite_ref if isinstance(suite_ref, Suite) else load_suite(suite_ref)
+    for note in suite.notes:  # e.g. a scene's family guessed from its name: said before anything runs
+        log(note)
     if workers is not None and workers < 1:
         raise RunError(f"--workers must be >= 1, got {workers}")
     out = Path(out) if out is not None else default_out_dir(suite)

@@ -39,30 +39,16 @@ from ..techniques.rays.raytrace import RayTraced
 from ..util.validation import SceneError, TableReader, did_you_mean
 from ..analysis.aggregate import TUNED_MARK
 
-#: Scene-name prefixes → hard-case family (docs/hard-cases.md), for the study's summary.
-FAMILIES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps", "pa_": "perspective aliasing",
-            "pt_": "projective textures", "tm_": "temporal stability", "rm_": "real meshes", "rt_": "ground truth",
-            "soft_": "soft shadows", "city_": "city scale"}
-GENERAL_FAMILY = "general"
-
 
 class SuiteError(ValueError):
     """A suite file is malformed or names an unknown scene, technique or parameter."""
 
 
-def scene_family(scene_name: str) -> str:
-    """The hard-case family of a scene, from its name's prefix (:data:`FAMILIES`)."""
-    for prefix, family in FAMILIES.items():
-        if scene_name.startswith(prefix):
-            return family
-    return GENERAL_FAMILY
-
-
 @dataclass(frozen=True)
 class SceneEntry:
-    """One scene of a suite: its name (the file stem), file, hard-case family and the types of
-    its lights (read from the file's ``[[lights]]`` tables, for the plan-time check that every
-    configuration renders for them)."""
+    """One scene of a suite: its name (the file stem), file, hard-case family (its file's
+    ``family`` key) and the types of its lights (read from the file's ``[[lights]]`` tables, for
+    the plan-time check that every configuration renders for them)."""
 
     name: str
     path: Path
@@ -70,6 +56,9 @@ class SceneEntry:
     light_types: tuple[str, ...] = ()
     #: The metrics column the scene exists for (its file's ``metric`` key), None when it has none.
     metric: str | None = None
+    #: A warning about the entry for the study's log, or None: the family guessed from the name
+    #: because the file declares none (:func:`shadowlab.scene.family_from_name`).
+    note: str | None = None
 
 
 @dataclass(frozen=True)
@@ -126,6 +115,12 @@ class Suite:
         """Number of (scene, configuration) runs, the ground truths not counted."""
         return sum(len(c) for c in self.configurations.values())
 
+    @property
+    def notes(self) -> list[str]:
+        """Warnings about the suite's scenes (e.g. a family guessed from a scene's name), which
+        the study logs before it runs: nothing is refused, but the reader should know."""
+        return [e.note for e in self.scenes if e.note]
+
 
 def builtin_suite_dir() -> Path:
     """The folder of the shipped suites (package data)."""
@@ -173,8 +168,10 @@ def _string_list(rd: TableReader, key: str, default=None) -> list[str]:
 
 def _scene(ref: str, where: str, file: str, base: Path) -> SceneEntry:
     """Resolve a scene reference (shipped name, or a path relative to the suite file) and check
-    that it is a readable TOML file."""
-    from ..scene import builtin_scenes
+    that it is a readable TOML file. Its family is the file's ``family`` key, read as strictly as
+    a scene load reads it; a file without one gets the family its name suggests
+    (:func:`shadowlab.scene.family_from_name`) and a note that says so."""
+    from ..scene import builtin_scenes, family_from_name, scene_family_key
 
     shipped = builtin_scenes()
     candidates = [base / ref, Path(ref)]
@@ -196,7 +193,15 @@ def _scene(ref: str, where: str, file: str, base: Path) -> SceneEntry:
     if metric is not None and metric not in judged_columns():
         hint = did_you_mean(metric, judged_columns()) or f" (one of {', '.join(judged_columns())})"
         raise SuiteError(f"{path}: metric: {metric!r} is not a metric column{hint} (scene {ref!r} of {file}: {where})")
-    return SceneEntry(name, path.resolve(), scene_family(name), types, metric)
+    try:
+        family, note = scene_family_key(TableReader(data, "", str(path))), None
+    except SceneError as exc:
+        raise SuiteError(f"{exc} (scene {ref!r} of {file}: {where})") from None
+    if family is None:
+        family = family_from_name(name)
+        note = (f"warning: {path} declares no family; {family!r} guessed from the name {name!r} "
+                f"(add family = \"...\" beside metric: docs/contracts.md#scene-files)")
+    return SceneEntry(name, path.resolve(), family, types, metric, note)
 
 
 def _spec(spec: str, where: str, file: str, written: dict[str, str]) -> str:

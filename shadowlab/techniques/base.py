@@ -22,7 +22,32 @@ What a technique declares instead of the core guessing (class attributes):
   of one frame: :data:`SUM` (work per render), :data:`MAX` (a size or peak held while one sample
   is set up) or :data:`FIRST` (describes the configuration or the view);
 - ``STYLE``: its colour and marker in plots (:class:`PlotStyle`);
-- ``cpu`` (work on the CPU: no GL finish around it) and ``MODIFIES_FRAME``.
+- ``cpu``: work on the CPU (no GL finish around it);
+- ``READS``, ``WRITES`` and ``PROVIDES``: what it reads of the frame, what shared resource it
+  overwrites, and what capabilities it offers the layers above (below);
+- ``FAMILY`` is not written but derived: the folder of its module (``techniques/<family>/``).
+
+Declared, not guessed (issue 36). Falcor's render passes declare their inputs and outputs
+(``RenderPassReflection``) and the render graph binds resources to them from the declaration:
+a pass never reaches for a texture it did not declare, and the graph can check, schedule and
+explain every pass from its declaration alone. A technique here is such a pass over the
+frame, so it declares the same three things, and the base class and the layers above act on
+the declarations instead of on isinstance or hasattr guesses:
+
+- ``READS``: the G-buffer channels its shaders sample (:data:`shadowlab.gpu.frame.GBUFFER_CHANNELS`:
+  ``position``, ``normal``, ``ids``). :meth:`Technique.bind_gbuffer` binds them — no technique
+  names a G-buffer texture or its texture unit itself — and refuses a program that samples a
+  channel the technique did not declare. The frame's exact points (the float64 arrays on the
+  CPU) are not channels: every technique may read them.
+- ``WRITES``: the shared frame resources it overwrites (:data:`shadowlab.gpu.frame.FRAME_WRITABLE`:
+  ``depth_stencil``, the G-buffer's depth-stencil attachment, lent by
+  :meth:`shadowlab.gpu.frame.Frame.depth_stencil_for` to the techniques that declare it).
+- ``PROVIDES``: the capabilities other layers ask for (:data:`CAPABILITIES`: ``texel_mapping``
+  for the texel-footprint metric, ``depth_bias`` and ``world_bias`` for the exact bias
+  optimiser). A capability promises members (methods or parameters, listed in
+  :data:`CAPABILITIES`); the layer that needs one asks ``"texel_mapping" in tech.PROVIDES``,
+  not which class the technique is, so a new technique offers a capability by declaring it
+  and implementing what it promises (a registry-wide test holds the two together).
 
 A technique registers itself by subclassing :class:`Technique` with its own ``name`` in a
 module of :mod:`shadowlab.techniques` (modules there are discovered): no list or table in the
@@ -35,7 +60,7 @@ its index, its evaluated mask) and never ``frame.scene.lights``; it writes only 
 objects, registered with :meth:`Technique.own` (released by :meth:`release`), and its
 visibility image. Its programs come from :meth:`Technique.program`: compiled once per process
 and shared, so it sets their uniforms in :meth:`setup` and holds them until released. The one shared resource it may overwrite is the G-buffer's depth-stencil
-attachment, and only if it says so in ``MODIFIES_FRAME`` (see
+attachment, and only if it says so in ``WRITES`` (see
 :meth:`shadowlab.gpu.frame.Frame.depth_stencil_for`). Its notes (fallbacks, skipped objects) go to
 :attr:`Technique.notes`, which the run reports.
 """
@@ -48,6 +73,7 @@ from typing import Any
 import numpy as np
 
 from ..gpu import gl
+from ..gpu.frame import FRAME_WRITABLE, GBUFFER_CHANNELS
 from ..util.validation import did_you_mean
 
 
@@ -173,6 +199,35 @@ FIRST = "first"
 COMBINE_RULES = (SUM, MAX, FIRST)
 
 
+#: Every capability a technique may declare in ``PROVIDES`` → the members it promises (methods,
+#: attributes or declared parameters of the class), which the layer asking for the capability
+#: calls or reads:
+#:
+#: - ``texel_mapping``: it renders a map per face and says where a world point's texels lie
+#:   (:mod:`shadowlab.evaluation.texel_footprint`; valid between setup and release);
+#: - ``depth_bias``: its lookup compares one depth per tap with a constant bias the exact bias
+#:   optimiser can sweep (:mod:`shadowlab.tuning.exact_bias`: the per-tap comparison terms, the
+#:   lookup's defines, the ``bias``, ``variant`` and ``filter`` parameters);
+#: - ``world_bias``: its bias can be a world distance the lookup converts at each receiver, which
+#:   the optimiser converts back (:func:`shadowlab.tuning.exact_bias.world_thresholds`).
+CAPABILITIES: dict[str, tuple[str, ...]] = {
+    "texel_mapping": ("face_index", "texel_coordinates"),
+    "depth_bias": ("comparison_terms", "lookup_defines", "bias", "variant", "filter"),
+    "world_bias": ("converts_world_bias", "face_index", "normal_offset"),
+}
+
+
+def family_of_module(module: str) -> str | None:
+    """The technique family of a module name: ``<family>`` for ``shadowlab.techniques.<family>.<module>``
+    (its folder), None for a module outside a family folder (the base, a test's own technique).
+    Why from the folder: the folder is where a family's code and shaders live and what the
+    layer test keeps apart, so the name cannot drift from it."""
+    parts = module.split(".")
+    if len(parts) >= 4 and parts[:2] == ["shadowlab", "techniques"]:
+        return parts[2]
+    return None
+
+
 @dataclass(frozen=True)
 class PlotStyle:
     """A technique family's colour (any matplotlib colour) and marker in plots."""
@@ -192,7 +247,8 @@ REGISTRY: dict[str, type] = {}
 
 class Technique:
     """Base class. Subclasses set ``name``, ``summary``, ``PARAMS``, ``PASSES``, ``STATS``,
-    ``STYLE`` (and ``LIGHTS``, ``LIGHT_SAMPLED`` where they differ from the defaults) and
+    ``STYLE`` (and ``LIGHTS``, ``LIGHT_SAMPLED``, ``READS``, ``WRITES``, ``PROVIDES`` where they
+    differ from the defaults: the module docstring says why they are declared) and
     implement :meth:`setup`, :meth:`render` and, unless they draw into the visibility target of
     :meth:`visibility_target`, :meth:`visibility`.
 
@@ -219,8 +275,19 @@ class Technique:
     STYLE: PlotStyle | None = None
     #: True when the work is on the CPU (no GL finish needed around it when timing).
     cpu = False
-    #: Shared frame resources this technique overwrites: empty, or {"depth_stencil"}.
-    MODIFIES_FRAME: frozenset[str] = frozenset()
+    #: The G-buffer channels its shaders sample (of :data:`shadowlab.gpu.frame.GBUFFER_CHANNELS`),
+    #: bound by :meth:`bind_gbuffer` on the texture units the declaration gives them.
+    READS: frozenset[str] = frozenset()
+    #: Shared frame resources this technique overwrites (of :data:`shadowlab.gpu.frame.FRAME_WRITABLE`):
+    #: empty, or {"depth_stencil"} to borrow the G-buffer's depth-stencil
+    #: (:meth:`shadowlab.gpu.frame.Frame.depth_stencil_for`).
+    WRITES: frozenset[str] = frozenset()
+    #: The capabilities other layers may ask of it (keys of :data:`CAPABILITIES`).
+    PROVIDES: frozenset[str] = frozenset()
+    #: Its family: the folder of its module under ``shadowlab/techniques/`` (``maps``, ``volumes``,
+    #: ``geometric``, ``rays``), derived when the class is made (:func:`family_of_module`); None
+    #: for a class defined elsewhere.
+    FAMILY: str | None = None
     #: The passes :meth:`render` names with :meth:`timed_pass`, in drawing order.
     PASSES: tuple[str, ...] = ()
     #: Set by the pipeline while it times passes (a :class:`shadowlab.gpu.timing.PassTimer`).
@@ -244,6 +311,16 @@ class Technique:
         unknown = set(cls.LIGHTS) - ALL_LIGHTS
         if unknown:
             raise TypeError(f"{cls.__name__}: LIGHTS names unknown light types {sorted(unknown)}")
+        for attr, known in (("READS", GBUFFER_CHANNELS), ("WRITES", FRAME_WRITABLE), ("PROVIDES", CAPABILITIES)):
+            declared = getattr(cls, attr)
+            if not isinstance(declared, frozenset):
+                raise TypeError(f"{cls.__name__}: {attr} must be a frozenset, got {declared!r}")
+            if declared - set(known):
+                raise TypeError(f"{cls.__name__}: {attr} names unknown entries {sorted(declared - set(known))} "
+                                f"(known: {', '.join(sorted(known))})")
+        if "FAMILY" in cls.__dict__:
+            raise TypeError(f"{cls.__name__}: FAMILY is derived from the module's folder, not declared")
+        cls.FAMILY = family_of_module(cls.__module__)
         if "name" in cls.__dict__:
             if cls.name in REGISTRY and REGISTRY[cls.name].__qualname__ != cls.__qualname__:
                 raise TypeError(f"technique name {cls.name!r} is taken by {REGISTRY[cls.name].__name__}")
@@ -480,6 +557,38 @@ class Technique:
         self.own(fbo)
         self._visibility_texture = tex
         return tex, fbo
+
+    @classmethod
+    def gbuffer_unit(cls, channel: str) -> int:
+        """The texture unit the declared G-buffer ``channel`` is bound on: its place among the
+        declared channels (:attr:`READS`) in the frame's channel order
+        (:data:`shadowlab.gpu.frame.GBUFFER_CHANNELS`). So the G-buffer takes units 0 ..
+        len(READS) − 1 and a technique's own textures start at ``len(READS)``."""
+        declared = [c for c in GBUFFER_CHANNELS if c in cls.READS]
+        if channel not in declared:
+            raise TechniqueError(f"{cls.name}: the G-buffer's {channel} channel is not in its READS "
+                                 f"({', '.join(declared) or 'none'})")
+        return declared.index(channel)
+
+    def bind_gbuffer(self, program) -> None:
+        """Bind the declared G-buffer channels that ``program`` samples, for the pass about to
+        draw with it: for each channel ``c`` of :attr:`READS` whose sampler uniform ``u_<c>`` the
+        program uses (``gbuffer_fetch.glsl`` declares them; the compiler drops the unused ones),
+        the frame's texture on unit :meth:`gbuffer_unit` and the uniform set to that unit. A
+        program that samples a channel the technique did not declare is an error (RuntimeError):
+        the declaration is the whole of what it reads. Why here: the base binds what a technique
+        declares, as a render graph binds a pass's declared inputs, so the declaration cannot
+        drift from the binding."""
+        for channel in GBUFFER_CHANNELS:
+            uniform = f"u_{channel}"
+            if uniform not in program:
+                continue
+            if channel not in self.READS:
+                raise RuntimeError(f"{self.name}: a program samples the G-buffer's {channel} channel "
+                                   f"({uniform}) but READS declares only {', '.join(sorted(self.READS)) or 'none'}")
+            unit = self.gbuffer_unit(channel)
+            program[uniform].value = unit
+            self.frame.gbuffer_texture(channel).use(unit)
 
     def fullscreen_quad(self, prog):
         """An owned full-screen quad VertexArray for ``prog`` (:func:`shadowlab.gpu.gl.fullscreen_quad`)."""

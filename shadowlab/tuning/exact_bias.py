@@ -51,7 +51,7 @@ from ..evaluation import metrics
 from ..measurement.pipeline import Evaluator, Measurement, measure
 from ..techniques import Technique, from_spec
 from ..geometry.transforms import BIAS
-from ..techniques.maps.toolkit import FILTERS, DepthMapTechnique, window_to_world
+from ..techniques.maps.toolkit import FILTERS, window_to_world
 
 #: The objectives :class:`BiasCurve` computes for every bias (sums over the evaluated pixels).
 EXACT_OBJECTIVES = ("error_rate", "false_shadow_rate", "false_lit_rate", "visibility_mae")
@@ -121,7 +121,7 @@ def tap_thresholds(receiver: np.ndarray, stored: np.ndarray, extra: np.ndarray,
     return out
 
 
-def world_thresholds(tech: DepthMapTechnique, thresholds: np.ndarray, normal_offset: float) -> np.ndarray:
+def world_thresholds(tech: Technique, thresholds: np.ndarray, normal_offset: float) -> np.ndarray:
     """Float32 (taps, H·W): window-depth tap ``thresholds`` (rendered with no world bias) as
     thresholds of ``bias`` with ``bias_space=world`` on a perspective map (the lookup converts it
     there: ``converts_world_bias``) — the distance towards the light, as a
@@ -340,8 +340,10 @@ class ExactBiasTune:
 
 def check_spec(tech: Technique, grid_param: str | None = None) -> None:
     """ExactBiasError unless ``tech`` is a depth-map comparison with a constant bias the
-    optimiser can sweep exactly (and ``grid_param`` is the one its variant adds)."""
-    if not isinstance(tech, DepthMapTechnique) or not hasattr(tech, "variant") or not hasattr(tech, "bias"):
+    optimiser can sweep exactly (and ``grid_param`` is the one its variant adds): one that
+    declares the ``depth_bias`` capability (``PROVIDES``), asked of the declaration rather than
+    guessed from its class and attributes."""
+    if "depth_bias" not in tech.PROVIDES:
         raise ExactBiasError(f"{tech.name}: the exact bias optimiser handles shadow_map and lispsm; "
                              f"tune {tech.name}'s bias by rendering")
     if tech.variant not in BIAS_VARIANTS:
@@ -388,7 +390,7 @@ def exact_bias_tune(evaluator: Evaluator, spec: str, light: int = 0, lo: float =
         for value in values:
             t0 = time.perf_counter()
             uniforms = {GRID_UNIFORMS[grid_param]: float(value)} if grid_param else {}
-            world = hasattr(tech, "converts_world_bias") and tech.converts_world_bias()
+            world = "world_bias" in tech.PROVIDES and tech.converts_world_bias()
             if world:
                 uniforms["u_bias_world"] = 0.0  # window thresholds first, converted below
             terms = tech.comparison_terms(taps, uniforms)

@@ -40,10 +40,10 @@ def test_techniques_leave_the_gbuffer_untouched(lab, name):
 def test_only_declared_techniques_get_the_depth_stencil(lab):
     frame = lab.frame("box_on_plane", SIZE)
     for name, cls in REGISTRY.items():
-        if "depth_stencil" in cls.MODIFIES_FRAME:
+        if "depth_stencil" in cls.WRITES:
             assert frame.depth_stencil_for(cls()) is frame.target
         else:
-            with pytest.raises(RuntimeError, match="MODIFIES_FRAME"):
+            with pytest.raises(RuntimeError, match="WRITES"):
                 frame.depth_stencil_for(cls())
 
 

@@ -159,3 +159,36 @@ def test_mesh_file_is_loaded_relative_and_welded(tmp_path):
     s = load_scene(write(tmp_path, GOOD.replace('mesh = "box"', 'mesh = "meshes/soup.obj"')))
     obj = s.objects[1]
     assert len(obj.faces) == 12 and len(obj.vertices) == 8
+
+
+def test_a_scene_declares_its_family_strictly(tmp_path):
+    """``family`` is optional and read strictly: a declared family is the scene's, none gives
+    None (the study falls back on the name), and a misspelt one is a one-line error naming the
+    file and the key, with the closest family."""
+    declared = load_scene(write(tmp_path, GOOD.replace('name = "t"', 'name = "t"\nfamily = "soft shadows"')))
+    assert declared.family == "soft shadows"
+    assert load_scene(write(tmp_path, GOOD, "plain.toml")).family is None
+    path = write(tmp_path, GOOD.replace('name = "t"', 'name = "t"\nfamily = "sof shadows"'), "misspelt.toml")
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    message = str(info.value)
+    assert info.value.key == "family" and str(path) in message and "\n" not in message
+    assert "did you mean 'soft shadows'?" in message
+
+
+def test_every_shipped_scene_declares_the_family_its_name_gave():
+    """Every shipped scene file (the scaling suite's included) declares its family, the one the
+    name's prefix gave before files declared it, so that no study's grouping or judged metric
+    changed. Read as TOML only: the meshes are not built."""
+    import tomllib
+    from pathlib import Path
+
+    from shadowlab.scene import SCENE_FAMILIES, builtin_scene_dir, family_from_name
+
+    files = sorted(builtin_scene_dir().glob("*.toml"))
+    files += sorted((Path(builtin_scene_dir()).parent / "suites" / "scaling").glob("*.toml"))
+    assert len(files) > 40
+    for path in files:
+        data = tomllib.loads(path.read_text())
+        assert data.get("family") in SCENE_FAMILIES, path.name
+        assert data["family"] == family_from_name(data.get("name", path.stem)), path.name

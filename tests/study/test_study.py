@@ -472,3 +472,45 @@ def test_a_scene_whose_timing_runs_all_failed_still_gets_its_plot(tmp_path):
     rows = pd.DataFrame({"short_label": ["shadow_map", "planar"], "light": [0, 0], "error_rate": [0.01, 0.02]})
     pictures.speed_error_plot(rows, tmp_path / "speed_vs_error.png")
     assert (tmp_path / "speed_vs_error.png").stat().st_size > 0
+
+
+def test_the_family_comes_from_the_scene_file_and_the_name_is_only_a_fallback(tmp_path):
+    """A soft scene named like a hard one (``rm_area_bunny.toml``, ``family = "soft shadows"``)
+    is in the soft family and judged on visibility_mae; a scene file without a family falls back
+    on its name's prefix with a warning naming the file; a misspelt family refuses the suite in
+    one line naming the file and the key, with the closest family."""
+    from shadowlab.analysis.aggregate import judged_metric, verdict_table
+    from shadowlab.scene import builtin_scenes
+
+    soft = builtin_scenes()["soft_overlap"].read_text()
+    assert 'family = "soft shadows"' in soft
+    (tmp_path / "rm_area_bunny.toml").write_text(soft.replace('name = "soft_overlap"', 'name = "rm_area_bunny"'))
+    plain = builtin_scenes()["box_on_plane"].read_text().replace('family = "general"\n', "")
+    (tmp_path / "rm_plain.toml").write_text(plain.replace('name = "box_on_plane"', 'name = "rm_plain"'))
+    text = ('name = "families"\nsize = [96, 72]\nrepeat = 1\n'
+            'scenes = ["rm_area_bunny.toml", "rm_plain.toml"]\ntechniques = ["shadow_map"]\n')
+    suite = load_suite(write_suite(tmp_path, text))
+    bunny, rm_plain = suite.scenes
+    assert bunny.family == "soft shadows" and bunny.note is None
+    assert judged_metric(bunny.family) == "visibility_mae"
+    assert rm_plain.family == "real meshes" and judged_metric(rm_plain.family) == "error_rate"
+    assert suite.notes == [rm_plain.note]
+    assert "warning" in rm_plain.note and str(tmp_path / "rm_plain.toml") in rm_plain.note
+    # the verdicts judge the soft scene on mean |V - G|, the hard one on the error rate
+    rows = pd.DataFrame([{"scene": e.name, "light": 0, "technique": t, "label": t, "short_label": t,
+                          "reference": t == "raytrace", "scene_family": e.family, "status": "ok", "error": "",
+                          "evaluated_pixels": 100, "error_rate": 0.5, "false_shadow_rate": 0.5,
+                          "false_lit_rate": 0.0, "boundary_error_px": 0.0, "time_ms_median": 1.0,
+                          "time_ms_iqr": 0.0, "setup_ms": 1.0, "visibility_mae": 0.001}
+                         for e in suite.scenes for t in ("raytrace", "shadow_map")])
+    verdicts = verdict_table(rows).set_index("scene")
+    assert verdicts.loc["rm_area_bunny", "metric"] == "visibility_mae" and not verdicts.loc["rm_area_bunny", "failed"]
+    assert verdicts.loc["rm_plain", "metric"] == "error_rate" and verdicts.loc["rm_plain", "failed"]
+
+    (tmp_path / "rm_plain.toml").write_text(plain.replace('name = "box_on_plane"', 'name = "rm_plain"\n'
+                                                          'family = "real mesh"'))
+    with pytest.raises(SuiteError) as info:
+        load_suite(tmp_path / "suite.toml")
+    message = str(info.value)
+    assert "\n" not in message and str(tmp_path / "rm_plain.toml") in message and ": family: " in message
+    assert "did you mean 'real meshes'?" in message

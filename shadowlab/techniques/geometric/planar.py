@@ -87,7 +87,7 @@ class PlanarShadow(Technique):
         "offset_units": Param(-4.0, "glPolygonOffset units of the offset fix", min=-1e6, max=0.0),
     }
     #: Its own depth pre-pass and the stencil of the fixes live in the G-buffer's depth-stencil.
-    MODIFIES_FRAME = frozenset({"depth_stencil"})
+    WRITES = frozenset({"depth_stencil"})
     PASSES = ("stencil", "darken")
     STYLE = PlotStyle("#2ca02c", "^")
     STATS = {"planar_receivers": FIRST, "polygons": SUM, "passes": SUM, "preprocess_ms": SUM}

@@ -56,6 +56,7 @@ class ShadowPolygons(Technique):
     STYLE = PlotStyle("#9467bd", "D")
     STATS = {"preprocess_ms": SUM, "compile_ms": SUM, "pairs_clipped": SUM, "polygons": SUM,
              "fragment_triangles": SUM, "dropped_faces": FIRST}
+    READS = frozenset({"ids"})
     LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.measurement.light_sampling)
     PARAMS = {
         "epsilon": Param(1e-9, "geometric tolerance of every predicate, relative to the scene's size",
@@ -91,7 +92,7 @@ class ShadowPolygons(Technique):
         ctx = frame.ctx
         self.prog = self.program("shadow_fragments.glsl")
         self.prog["u_view_proj"].write(gl.mat_bytes(frame.view_projection))
-        gl.set_uniforms(self.prog, {"u_ids": 0, "u_shadowed": 0.0})
+        gl.set_uniforms(self.prog, {"u_shadowed": 0.0})
         self.count = len(vertices)
         self.vbo = self.own(ctx.buffer(vertices.tobytes() if len(vertices) else b"\0" * 12))
         self.ibo_ids = self.own(ctx.buffer(triangle_ids.tobytes() if len(triangle_ids) else b"\0" * 4))
@@ -156,7 +157,7 @@ class ShadowPolygons(Technique):
             self.vis_fbo.use()
             glstate.apply(PassState())
             GL.glClearBufferfv(GL.GL_COLOR, 0, (1.0, 0.0, 0.0, 0.0))
-            self.frame.tex_ids.use(0)
+            self.bind_gbuffer(self.prog)
             if self.count:
                 self.vao.render(vertices=self.count)
 

@@ -181,6 +181,8 @@ class FilteredShadowMap(TexelMapping, Technique):
     STYLE = PlotStyle("#e377c2", "X")
     STATS = {"memory_bytes": MAX, "bits_per_texel": FIRST, "faces": FIRST, "passes": SUM, "depth_range": FIRST,
              "texel_world": FIRST}
+    READS = frozenset({"position"})
+    PROVIDES = frozenset({"texel_mapping"})
     PARAMS = {
         "variant": Param("vsm", "vsm (two moments, Chebyshev bound), esm (exp(c z)), evsm2 / evsm4 (Chebyshev on "
                                 "exp-warped depth: positive, positive and negative), msm (Hamburger 4 moments)",
@@ -289,7 +291,7 @@ class FilteredShadowMap(TexelMapping, Technique):
         self.lookup_prog["u_light_view"].write(self.atlas.view_matrices())
         gl.set_uniforms(self.lookup_prog, self.light.uniforms())
         gl.set_uniforms(self.lookup_prog, {
-            "u_position": 0, "u_moments": 1, "u_near": self.near, "u_far": self.far,
+            "u_moments": 1, "u_near": self.near, "u_far": self.far,
             "u_exponent": float(self.exponent),
             "u_min_variance": float(self.min_variance), "u_bleed_reduction": float(self.bleed_reduction),
             "u_moment_bias": float(self.moment_bias), "u_moment_bias_target": MSM_BIAS_TARGET,
@@ -363,7 +365,7 @@ class FilteredShadowMap(TexelMapping, Technique):
         with self.timed_pass("lookup"):
             self.vis_fbo.use()
             glstate.apply(PassState())
-            self.frame.tex_position.use(0)
+            self.bind_gbuffer(self.lookup_prog)
             self.moments[0].use(1)
             self.quad.render()
 

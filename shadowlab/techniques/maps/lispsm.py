@@ -63,6 +63,8 @@ class LiSPSM(ComparisonVariants, DepthMapTechnique):
     #: directional light; planning a compare, study or animation elsewhere is an error).
     LIGHTS = frozenset({"directional"})
     STATS = {**DEPTH_MAP_STATS, "n_used": FIRST, "gamma_deg": FIRST}
+    #: The map's texel mapping, and the bias family the exact optimiser sweeps (ComparisonVariants).
+    PROVIDES = frozenset({"texel_mapping", "depth_bias", "world_bias"})
     PARAMS = {
         **{k: p for k, p in COMPARISON_PARAMS.items() if k != "variant"},
         "variant": Param("slope", "depth comparison (slope: offset from the warped map's own depth slope)",

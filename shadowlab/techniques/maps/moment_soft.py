@@ -231,6 +231,8 @@ class MomentSoftShadows(TexelMapping, Technique):
     LIGHTS = frozenset({"area"})
     STATS = {"memory_bytes": MAX, "faces": FIRST, "passes": SUM, "depth_range": FIRST, "light_size": FIRST,
              "texel_world": FIRST, "sat_bits": FIRST, "max_region_texels": FIRST}
+    READS = frozenset({"position", "normal"})
+    PROVIDES = frozenset({"texel_mapping"})
     PARAMS = {
         "resolution": Param(1024, "moment map (and SAT) width and height in texels", min=16, max=4096,
                             # the paper's 1024²; the SAT's 16 bytes a texel make 4096² cost 256 MiB
@@ -330,7 +332,7 @@ class MomentSoftShadows(TexelMapping, Technique):
         self.lookup_prog["u_dequantize"].write(gl.mat_bytes(MSM_DEQUANTIZE))
         normal = light.normal if light.one_sided else np.zeros(3)
         gl.set_uniforms(self.lookup_prog, {
-            "u_position": 0, "u_normal": 1, "u_sat": 2,
+            "u_sat": 2,
             "u_sat_step": 1.0 / self.scale if fixed else 1.0,
             "u_height_axis": tuple(map(float, axis)), "u_search_height": self.search_height,
             "u_height_range": (self.h_lo, self.h_hi),
@@ -373,8 +375,7 @@ class MomentSoftShadows(TexelMapping, Technique):
         with self.timed_pass("lookup"):
             self.vis_fbo.use()
             glstate.apply(PassState())
-            self.frame.tex_position.use(0)
-            self.frame.tex_normal.use(1)
+            self.bind_gbuffer(self.lookup_prog)
             self.sat.use(2)
             self.quad.render()
 

@@ -99,6 +99,8 @@ class PCSS(TexelMapping, Technique):
     LIGHTS = frozenset({"area"})
     STATS = {"memory_bytes": MAX, "faces": FIRST, "passes": SUM, "depth_range": FIRST, "light_size": FIRST,
              "texel_world": FIRST}
+    READS = frozenset({"position", "normal"})
+    PROVIDES = frozenset({"texel_mapping"})
     PARAMS = {
         "resolution": Param(2048, "shadow map width and height in texels", min=16, max=16384,
                             # powers of two; the taps' cost does not grow with it, the map's memory does
@@ -148,7 +150,7 @@ class PCSS(TexelMapping, Technique):
         self.lookup_prog["u_light_extents"].write(np.ascontiguousarray(extents.T, dtype="f4").tobytes())
         normal = light.normal if light.one_sided else np.zeros(3)
         gl.set_uniforms(self.lookup_prog, {
-            "u_position": 0, "u_normal": 1, "u_map": 2,
+            "u_map": 2,
             "u_near": near, "u_far": far, "u_bias": float(self.bias), "u_empty_depth": float(CLEAR_DEPTH),
             "u_basis_switch": BASIS_SWITCH, "u_basis_helper_a": BASIS_HELPERS[0],
             "u_basis_helper_b": BASIS_HELPERS[1],
@@ -171,7 +173,7 @@ class PCSS(TexelMapping, Technique):
         with self.timed_pass("depth"):
             depth_pass(self.frame, self.map, self.depth_prog, self.atlas)
         with self.timed_pass("lookup"):
-            lookup_pass(self.frame, self.vis_fbo, self.quad, self.map.texture)
+            lookup_pass(self, self.vis_fbo, self.quad, self.map.texture)
 
     def work(self, counted: dict, stats: dict) -> dict:
         """Texture taps per lookup fragment: the G-buffer's position and normal, the blocker

@@ -128,6 +128,7 @@ class ProjectiveShadow(Technique):
     PASSES = ("mask", "lookup")
     STYLE = PlotStyle("#bcbd22", "<")
     STATS = {"memory_bytes": MAX, "shadow_images": SUM, "passes": SUM}
+    READS = frozenset({"position", "ids"})
     LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.measurement.light_sampling)
     PARAMS = {
         "resolution": Param(512, "width and height of each caster's shadow image in texels", min=16, max=8192),
@@ -181,7 +182,7 @@ class ProjectiveShadow(Technique):
         self.lookup_prog = self.program("projective_lookup.glsl")
         light_h = self.light.homogeneous()
         gl.set_uniforms(self.lookup_prog, {
-            "u_position": 0, "u_ids": 1, "u_receives": 2, "u_mask": 3,
+            "u_receives": 2, "u_mask": 3,
             "u_clip": 1 if self.clip else 0, "u_light": tuple(map(float, light_h)),
             "u_segment_end": 1.0 if light_h[3] != 0 else float(T_INFINITE),
             "u_parallel": PARALLEL_EPS, "u_lit": LIT,
@@ -213,8 +214,7 @@ class ProjectiveShadow(Technique):
                 self.vis_fbo.use()
                 glstate.apply(PassState(blend=("zero", "src_color")))  # dst = dst · src
                 ctx.viewport = (0, 0, frame.width, frame.height)
-                frame.tex_position.use(0)
-                frame.tex_ids.use(1)
+                self.bind_gbuffer(self.lookup_prog)
                 self.flags.use(2)
                 tex.use(3)
                 self.lookup_prog["u_light_matrix"].write(gl.mat_bytes(BIAS @ view.view_proj))

@@ -220,6 +220,8 @@ class ShadowMap(ComparisonVariants, DepthMapTechnique):
                "among them), second-depth, midpoint, dual, PCF")
     STYLE = PlotStyle("#1f77b4", "o")
     LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.measurement.light_sampling)
+    #: The map's texel mapping, and the bias family the exact optimiser sweeps (ComparisonVariants).
+    PROVIDES = frozenset({"texel_mapping", "depth_bias", "world_bias"})
     PARAMS = {
         **COMPARISON_PARAMS,
         "projection": Param("auto", "point lights: cube (six faces), frustum (one), auto",

@@ -200,14 +200,14 @@ def depth_pass(frame, layer: gl.DepthTexture, prog, atlas: Atlas, cull_front: bo
         frame.draw(prog, "casters")
 
 
-def lookup_pass(frame, target, quad, map_texture) -> None:
-    """One full-screen lookup over ``frame``'s G-buffer into ``target`` (a framebuffer): world
-    position on texture unit 0, normal on 1, ``map_texture`` (the depth atlas) on 2 — the layout
-    of ``shadow_lookup.glsl`` and ``pcss.glsl``."""
+def lookup_pass(technique, target, quad, map_texture) -> None:
+    """One full-screen lookup over ``technique``'s frame's G-buffer into ``target`` (a
+    framebuffer): the channels the technique declares (``READS``: world position and normal, on
+    units 0 and 1, :meth:`~shadowlab.techniques.base.Technique.bind_gbuffer`), ``map_texture``
+    (the depth atlas) on 2 — the layout of ``shadow_lookup.glsl`` and ``pcss.glsl``."""
     target.use()
     glstate.apply(PassState())
-    frame.tex_position.use(0)
-    frame.tex_normal.use(1)
+    technique.bind_gbuffer(quad.program)
     map_texture.use(2)
     quad.render()
 
@@ -326,6 +326,8 @@ class DepthMapTechnique(TexelMapping, Technique):
 
     PASSES = ("depth", "peel", "resolve", "lookup")
     STATS = DEPTH_MAP_STATS
+    READS = frozenset({"position", "normal"})
+    PROVIDES = frozenset({"texel_mapping"})
     #: How the faces are laid out in the atlas: "grid" (1 face, or a cube's 3x2) or "row".
     ATLAS_LAYOUT = "grid"
 
@@ -386,8 +388,7 @@ class DepthMapTechnique(TexelMapping, Technique):
                                                 compare_func="<=", repeat_x=False, repeat_y=False))
         gl.set_uniforms(self.lookup_prog, self.light.uniforms())
         self.atlas.write_uniforms(self.lookup_prog)
-        gl.set_uniforms(self.lookup_prog, {"u_position": 0, "u_normal": 1, "u_map": 2,
-                                           **self.comparison_uniforms()})
+        gl.set_uniforms(self.lookup_prog, {"u_map": 2, **self.comparison_uniforms()})
         self.quad = self.fullscreen_quad(self.lookup_prog)
         self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
 
@@ -416,8 +417,7 @@ class DepthMapTechnique(TexelMapping, Technique):
         with self.timed_pass("lookup"):
             self.vis_fbo.use()
             glstate.apply(PassState(samplers=(2,) if self.sampler is not None else ()))
-            self.frame.tex_position.use(0)
-            self.frame.tex_normal.use(1)
+            self.bind_gbuffer(self.lookup_prog)
             if self.sampler is not None:
                 self.sampler.use(2)
             else:
@@ -442,8 +442,7 @@ class DepthMapTechnique(TexelMapping, Technique):
         prog = self.program("shadow_lookup.glsl", defines={**ATLAS_DEFINES, **self.lookup_defines(), "THRESHOLDS": 1})
         gl.set_uniforms(prog, self.light.uniforms())
         self.atlas.write_uniforms(prog)
-        gl.set_uniforms(prog, {"u_position": 0, "u_normal": 1, "u_map": 2, **self.comparison_uniforms(),
-                               **(uniforms or {})})
+        gl.set_uniforms(prog, {"u_map": 2, **self.comparison_uniforms(), **(uniforms or {})})
         quad = self.fullscreen_quad(prog)
         size = (self.frame.width, self.frame.height)
         tex = self.own(ctx.texture(size, 4, dtype="f4"))
@@ -453,8 +452,7 @@ class DepthMapTechnique(TexelMapping, Technique):
             prog["u_tap"].value = tuple(int(v) for v in tap)
             fbo.use()
             glstate.apply(PassState())
-            self.frame.tex_position.use(0)
-            self.frame.tex_normal.use(1)
+            self.bind_gbuffer(prog)
             self.map.texture.use(2)
             quad.render()
             out[k] = gl.read_texture(tex, 4)

@@ -163,6 +163,8 @@ class VirtualMap(TexelMapping, Technique):
     STYLE = PlotStyle("#8c564b", "p")
     LIGHT_SAMPLED = True  # area lights: averaged over light samples like shadow_map
     PASSES = ("request", "allocate", "depth", "lookup")
+    READS = frozenset({"position", "normal"})
+    PROVIDES = frozenset({"texel_mapping"})
     PARAMS = {
         "virtual_resolution": Param(16384, "virtual map width and height in texels (level 0; a power of two)",
                                     min=16, max=2 ** 20, tune=TuneRange(2048, 65536, log=True)),
@@ -310,11 +312,11 @@ class VirtualMap(TexelMapping, Technique):
         for prog in (self.request_prog, self.lookup_prog):
             gl.set_uniforms(prog, common)
             prog["u_light_matrix"].write(b"".join(gl.mat_bytes(m) for m in matrices))
-        gl.set_uniforms(self.request_prog, {"u_position": 0, "u_evaluated": 1,
+        gl.set_uniforms(self.request_prog, {"u_evaluated": 1,
                                             "u_mask_offset": self._padded_levels(self.mask_offset),
                                             "u_face_words": self.face_words})
         gl.set_uniforms(self.lookup_prog, {
-            "u_position": 0, "u_normal": 1, "u_pool": 2, "u_page_table": 3,
+            "u_pool": 2, "u_page_table": 3,
             "u_table_row": self._padded_levels(self.table_row), "u_face_rows": self.face_rows,
             "u_pool_side": self.pool_side,
             "u_page_size": self.page_size, "u_virtual_resolution": float(self.virtual_resolution),
@@ -424,7 +426,7 @@ class VirtualMap(TexelMapping, Technique):
             self.requests.clear()
             self.requests.bind_to_storage_buffer(BINDING_REQUESTS)
             glstate.apply(PassState())  # no framebuffer, but no inherited sampler objects on its units
-            frame.tex_position.use(0)
+            self.bind_gbuffer(self.request_prog)
             self.evaluated_tex.use(1)
             self.request_prog.run(-(-frame.width // LOCAL_SIZE), -(-frame.height // LOCAL_SIZE))
             ctx.memory_barrier()
@@ -438,8 +440,7 @@ class VirtualMap(TexelMapping, Technique):
             self.vis_fbo.use()
             ctx.viewport = (0, 0, frame.width, frame.height)
             glstate.apply(PassState())
-            frame.tex_position.use(0)
-            frame.tex_normal.use(1)
+            self.bind_gbuffer(self.lookup_prog)
             self.pool.texture.use(2)
             self.table_tex.use(3)
             self.quad.render()

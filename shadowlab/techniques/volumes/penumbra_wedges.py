@@ -198,6 +198,9 @@ class PenumbraWedges(ShadowVolume):
     STYLE = PlotStyle("#e377c2", "d")
     STATS = {**ShadowVolume.STATS, "wedges": SUM, "wedge_triangles": SUM, "wedge_fragments": SUM,
              "wedge_fill_per_pixel": SUM, "outside_unit_share": FIRST}
+    #: The wedge and combine passes read each pixel's surface point and normal (units 0 and 1);
+    #: the hard volume's stencil counts borrow the frame's depth-stencil (``WRITES``, inherited).
+    READS = frozenset({"position", "normal"})
 
     def setup(self, frame, slot) -> None:
         """The hard volume's setup (programs, buffers, depth pre-pass), then the wedge and
@@ -214,12 +217,11 @@ class PenumbraWedges(ShadowVolume):
         self.wedge_prog = self.program("penumbra_wedges.glsl")
         self.wedge_prog["u_view"].write(gl.mat_bytes(frame.view))
         self.wedge_prog["u_proj"].write(gl.mat_bytes(self.proj))  # the depth pre-pass's projection
-        common = {"u_position": 0, "u_normal": 2, "u_light_centre": tuple(self.centre),
-                  "u_light_normal": tuple(self.normal)}
+        common = {"u_light_centre": tuple(self.centre), "u_light_normal": tuple(self.normal)}
         gl.set_uniforms(self.wedge_prog, {**common, "u_light_du": tuple(du), "u_light_dv": tuple(dv),
                                           "u_slab_margin": SLAB_MARGIN, "u_coplanar": COPLANAR_TOLERANCE})
         self.combine_prog = self.program("penumbra_wedges_combine.glsl")
-        gl.set_uniforms(self.combine_prog, {**common, "u_wedges": 1, "u_clamp": bool(self.clamp),
+        gl.set_uniforms(self.combine_prog, {**common, "u_wedges": 2, "u_clamp": bool(self.clamp),
                                             "u_horizon": bool(self.horizon), "u_light_u": tuple(map(float, light.u)),
                                             "u_light_v": tuple(map(float, light.v)),
                                             "u_eye": tuple(map(float, frame.camera.eye))})
@@ -303,17 +305,15 @@ class PenumbraWedges(ShadowVolume):
             frame.ctx.viewport = (0, 0, frame.width, frame.height)
             glstate.apply(self._wedge_state())
             GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
-            frame.tex_position.use(0)
-            frame.tex_normal.use(2)
+            self.bind_gbuffer(self.wedge_prog)
             self._draw_wedges()
         with self.timed_pass("combine"):
             # V_hard is 1 where the centre's count is 0, else 0: one draw under each stencil test.
             self.target.use()
             frame.ctx.viewport = (0, 0, frame.width, frame.height)
             glstate.apply(PassState(depth_write=False, stencil=Stencil("==", 0, 0xFF)))
-            frame.tex_position.use(0)
-            self.acc_tex.use(1)
-            frame.tex_normal.use(2)
+            self.bind_gbuffer(self.combine_prog)
+            self.acc_tex.use(2)
             self.combine_prog["u_hard"].value = 1.0
             self.combine_quad.render()
             glstate.set_stencil(Stencil("!=", 0, 0xFF))

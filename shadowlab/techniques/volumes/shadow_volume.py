@@ -91,7 +91,7 @@ class ShadowVolume(Technique):
                      choices=("infinite", "clamp", "finite")),
     }
     #: Counts in the G-buffer's stencil, after its own depth pre-pass into the same attachment.
-    MODIFIES_FRAME = frozenset({"depth_stencil"})
+    WRITES = frozenset({"depth_stencil"})
     PASSES = ("silhouette", "volume", "caps", "count")
     STYLE = PlotStyle("#d62728", "s")
     STATS = {"silhouette_edges": SUM, "stencil_peak_count": MAX, "zpass_casters": SUM, "zfail_casters": SUM,

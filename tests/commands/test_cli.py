@@ -118,6 +118,7 @@ def test_bad_scene_file_exit_2(tmp_path, capsys, change, culprit):
     assert not (tmp_path / "r").exists()
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): one of the slowest tests; make test runs it
 def test_failed_run_leaves_earlier_results(tmp_path, monkeypatch):
     """A failure in the middle of a run (after GL work began) keeps the old run directory."""
     from shadowlab.output import rundir
@@ -149,6 +150,7 @@ def test_listing_and_python_m(tmp_path):
     assert res.returncode == 0 and res.stderr == ""
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): one of the slowest tests; make test runs it
 def test_pass_timing_and_device_are_recorded(tmp_path):
     """--pass-timing adds pass_<name>_ms columns and the report's chart; run.json names the GL
     device (vendor, renderer, version, driver) and the code revision."""
@@ -252,6 +254,7 @@ def test_techniques_name_prints_its_block_of_the_listing(capsys):
     assert one == blocks["pcss"] and one.startswith("pcss: ") and "\n    lights: area\n" in one
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): one of the slowest tests; make test runs it
 def test_scenes_listing_gives_every_scene_its_purpose(capsys):
     from shadowlab.scene import builtin_scenes, scene_purpose
 

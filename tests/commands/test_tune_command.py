@@ -23,6 +23,7 @@ def exact_run(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): one of the slowest tests; make test runs it
 def test_exact_route_writes_the_contract(exact_run):
     out = exact_run
     for name in ("best.json", "candidates.csv", "curve.npz", "frontier.png", "tune.html", "tune.json",

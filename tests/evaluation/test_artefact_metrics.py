@@ -86,6 +86,7 @@ def test_occluder_layers_against_geometry(ctx):
     frame.release()
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): one of the slowest tests; make test runs it
 def test_light_bleeding_tells_filtered_maps_apart(lab):
     """sm_light_bleeding (320x240): the region is there; exact techniques pass no light; VSM
     without bleeding reduction bleeds, its reduction and ESM far less. Measured (resolution 512,

@@ -62,6 +62,7 @@ def test_without_the_packages_the_columns_are_absent_with_a_note(monkeypatch):
     assert "flip_mean, ssim" in note and "pip install 'shadowlab[perceptual]'" in note
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): one of the slowest tests; make test runs it
 def test_a_run_without_the_packages_has_no_perceptual_columns_and_says_why(tmp_path, monkeypatch):
     from shadowlab.commands.compare import compare
 

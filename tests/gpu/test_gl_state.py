@@ -29,7 +29,12 @@ SPECS = ["raytrace:offset_scale=1e-05", "shadow_map", "shadow_map:variant=second
 OTHERS = [name for name in REGISTRY if not any(s.split(":")[0] == name for s in SPECS)]
 
 
-@pytest.mark.parametrize("name", OTHERS)
+#: Techniques whose default run is seconds of CPU work (exact soft shadows, ray-traced soft
+#: shadows at their default sample counts): checked with the slow tests (inner-loop budget).
+HEAVY = {"exact_soft", "rt_soft"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in HEAVY else n for n in OTHERS])
 def test_every_other_technique_ignores_inherited_state(lab, ctx, name):
     """The same check for every registered technique SPECS does not name, at its defaults, on a
     scene whose lights it renders for."""

@@ -5,6 +5,7 @@ scene's light list), one release path for every technique's GL objects."""
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import shadowlab
@@ -17,6 +18,7 @@ def _module_name(path: Path) -> str:
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
 
 
+@functools.lru_cache(maxsize=None)
 def _imports(path: Path) -> set[str]:
     """The shadowlab modules ``path`` imports, anywhere in it (a late import inside a function
     is still a dependency: two modules that need each other are one module in two files)."""
@@ -80,6 +82,7 @@ def _family(module: str) -> str | None:
     return None
 
 
+@functools.lru_cache(maxsize=None)
 def _package_edges() -> list[tuple[str, str]]:
     """Every (importer, imported) pair of shadowlab modules, late imports included."""
     modules = {_module_name(p): p for p in PACKAGE.rglob("*.py")}

@@ -92,10 +92,9 @@ def check_against_oracle(key, n_penumbra=300, n_other=100) -> tuple[list[str], d
     return failures, figures
 
 
-#: The inner loop checks the plain rectangle and the horizon/one-sided scene; the disc light and
+#: The inner loop checks the plain rectangle; the horizon/one-sided scene, the disc light and
 #: the overlapping casters run with the slow tests (each check: ~2.5 s of 1024-sample truth and oracle).
-@pytest.mark.parametrize("key", [k if k in ("rect", "below_horizon") else pytest.param(k, marks=pytest.mark.slow)
-                                 for k in SCENES])
+@pytest.mark.parametrize("key", [k if k == "rect" else pytest.param(k, marks=pytest.mark.slow) for k in SCENES])
 def test_sampled_truth_matches_exact_fraction(key):
     failures, figures = check_against_oracle(key)
     assert not failures, f"{failures}\n{figures}"

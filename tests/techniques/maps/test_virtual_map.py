@@ -148,6 +148,7 @@ def _same_frames_cached_and_fresh(df):
     return cached, fresh
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): one of the slowest tests; make test runs it
 def test_cached_pages_give_the_same_frames_with_fewer_renders(tmp_path):
     """A dolly under a fixed sun: pages fixed in light space (fit=scene) are kept from frame to
     frame; the frames are exactly those of re-rendering every page (measured at 320x240 over 24
@@ -238,6 +239,7 @@ def test_clipmap_is_refused_for_local_lights(lab, scene):
         lab.measure(scene, "virtual_map:fit=clipmap", SMALL)
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): one of the slowest tests; make test runs it
 def test_clipmap_pages_are_kept_while_the_camera_moves(tmp_path):
     """tm_camera_dolly: the levels shift by whole pages, pages are cached under their light-space
     page coordinates, so the pages a level still covers are kept; the frames are those of

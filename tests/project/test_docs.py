@@ -78,6 +78,52 @@ def test_rest_roles_become_markdown_and_paths_links():
     assert "computed as:\n\n    a = b" in md
 
 
+def _layout_module():
+    """tests/project/test_layout.py, the test that holds the layers (its LAYERS and its import graph)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("_layout_for_docs", Path(__file__).with_name("test_layout.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_layers_section_is_what_the_layout_test_holds():
+    """docs/architecture.md#layers: its table lists the packages layer by layer as
+    tests/project/test_layout.py's LAYERS does, and its diagram's arrows are the package imports
+    with those a longer path implies left out."""
+    layout = _layout_module()
+    text = (DOCS / "architecture.md").read_text(encoding="utf-8").split("\n## Layers\n", 1)[1].split("\n## ", 1)[0]
+    listed: dict[int, set] = {}
+    for layer, cell in re.findall(r"^\| (\d+) \| (.*?) \|", text, re.M):
+        names = {n.rstrip("/").removesuffix(".py") for n in re.findall(r"`([\w./]+)`", cell)}
+        listed.setdefault(int(layer), set()).update(names - {"__main__"})
+    assert listed == {i: set(units) for i, units in enumerate(layout.LAYERS)}, listed
+
+    edges = set()
+    for a, b in layout._package_edges():
+        ua, ub = layout._unit(a), layout._unit(b)
+        if ub != "shadowlab" and ua != ub:
+            edges.add((ua, ub))
+
+    def reaches(start, target, skip):
+        todo, seen = [start], set()
+        while todo:
+            node = todo.pop()
+            for p, q in edges:
+                if p == node and (p, q) != skip and q not in seen:
+                    if q == target:
+                        return True
+                    seen.add(q)
+                    todo.append(q)
+        return False
+
+    reduced = {(a, b) for a, b in edges if not reaches(a, b, (a, b))}
+    mermaid = text.split("```mermaid", 1)[1].split("```", 1)[0]
+    drawn = set(re.findall(r"^\s+(\w+)(?:\[[^\]]*\])? --> (\w+)", mermaid, re.M))
+    assert drawn == reduced, f"drawn but not imported: {sorted(drawn - reduced)}; imported but not drawn: {sorted(reduced - drawn)}"
+
+
 def test_tables_round_trip_through_the_markers():
     text = "intro\n<!-- layout-table:begin -->\nold\n<!-- layout-table:end -->\nrest\n"
     table = "| module | holds |\n|---|---|\n| `a.py` | A. |"

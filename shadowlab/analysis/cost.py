@@ -6,8 +6,8 @@ cost model for one device is the non-negative linear map
     time ≈ c_0 + Σ_k c_k · counter_k        (c ≥ 0, ms per unit; c_0 per render)
 
 fitted by non-negative least squares (Lawson & Hanson 1974, ``scipy.optimize.nnls``) over the
-rows of a study run on that device. Times span four decades (a planar shadow in 0.1 ms, a
-million-triangle truth in a second), so each row is weighted by 1 / its measured time: the fit
+rows of a study run on that device. Times span decades (a planar shadow on a small scene
+against a million-triangle truth), so each row is weighted by 1 / its measured time: the fit
 minimises the relative error, and a slow configuration cannot buy its accuracy with every fast
 one's. The coefficients' units are the counters' own (ms per sample passed, per byte cleared,
 per ray ...), so a model says what a device charges for each kind of work.

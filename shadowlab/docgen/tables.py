@@ -1,14 +1,17 @@
 """Documentation tables generated from the code and data, so that they cannot go stale: the
-technique table (from the registry) and the code-layout table (from the modules' docstrings) in
-docs/guide.md, and the README's headline verdicts (from the committed quick study in
-results/quick).
+technique table (from the registry, each name linked to its reference page) and the code-layout
+table (from the modules' docstrings) in docs/guide.md, and the README's headline verdicts (from
+the committed quick study in results/quick).
 
 Each page holds each table between marker comments (``<!-- technique-table:begin -->`` …
 ``<!-- technique-table:end -->``); ``tests/project/test_docs.py`` regenerates them and fails, showing
-the difference, when a page's copy differs.
+the difference, when a page's copy differs. ``--write`` also rewrites the technique reference
+pages in docs/techniques/ (:mod:`.technique_pages`), so one command brings every generated page
+up to date.
 
     python -m shadowlab.docgen.tables            # print the tables
-    python -m shadowlab.docgen.tables --write    # rewrite them in README.md and docs/guide.md
+    python -m shadowlab.docgen.tables --write    # rewrite them in README.md and docs/guide.md,
+                                                 # and the pages in docs/techniques/
 """
 from __future__ import annotations
 
@@ -22,6 +25,8 @@ import sys
 from pathlib import Path
 
 from ..util.text import MAX_SUMMARY, _cell, first_sentence  # noqa: F401  (MAX_SUMMARY: the layout table's limit)
+from . import technique_pages
+from .technique_pages import lights_cell
 
 #: The README of a source checkout (the package's parent folder), and the user's guide in docs/.
 README = Path(__file__).resolve().parents[2] / "README.md"
@@ -31,32 +36,23 @@ HEADLINE_STUDY = README.parent / "results" / "quick"
 #: The generated tables, by marker name → the page that holds them.
 HOMES = {"technique-table": GUIDE, "layout-table": GUIDE, "headline-verdicts": README}
 TABLES = tuple(HOMES)
-#: The command that brings the README's tables up to date (shown when they differ).
+#: The command that brings the generated tables and pages up to date (shown when they differ).
 FIX_COMMAND = "python -m shadowlab.docgen.tables --write"
 
 
 # --------------------------------------------------------------------------- technique table
 
-def _lights_cell(cls) -> str:
-    """A technique's ``LIGHTS`` as a table cell: "all" when it renders every light type a scene
-    can hold ("all (area: sampled)" for a light-sampled technique, which renders an area light
-    as the average of point lights on it), else the type names."""
-    from ..techniques.base import ALL_LIGHTS
-
-    if cls.LIGHTS >= ALL_LIGHTS:
-        return "all" + (" (area: sampled)" if cls.LIGHT_SAMPLED else "")
-    return ", ".join(sorted(cls.LIGHTS))
-
-
 def technique_table(registry=None) -> str:
-    """The markdown table of every registered technique, in registry order: name, summary, named
-    passes in drawing order and the light types it renders for (all declared by the technique)."""
+    """The markdown table of every registered technique, in registry order: name (a link to its
+    generated reference page, :mod:`.technique_pages`), summary, named passes in drawing order and
+    the light types it renders for (all declared by the technique)."""
     if registry is None:
         from ..techniques import REGISTRY as registry
     lines = ["| technique | what | passes (drawing order) | lights |", "|---|---|---|---|"]
+    pages = technique_pages.PAGES.relative_to(GUIDE.parent).as_posix()
     for name, cls in registry.items():
-        cells = [f"`{name}`", _cell(cls.summary), _cell(", ".join(f"`{p}`" for p in cls.PASSES)),
-                 _cell(_lights_cell(cls))]
+        cells = [f"[`{name}`]({pages}/{name}.md)", _cell(cls.summary), _cell(", ".join(f"`{p}`" for p in cls.PASSES)),
+                 _cell(lights_cell(cls))]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -192,11 +188,13 @@ def main(argv: list[str] | None = None) -> int:
     """Print the tables, or (``--write``) update them in the README."""
     p = argparse.ArgumentParser(prog="python -m shadowlab.docgen.tables", description=__doc__.split("\n\n")[0])
     p.add_argument("--write", action="store_true", help="rewrite the tables between the markers of README.md "
-                                                        "and docs/guide.md")
+                                                        "and docs/guide.md, and the technique pages in docs/techniques/")
     args = p.parse_args(argv)
     if args.write:
         changed = write()
         print(f"{'tables updated' if changed else 'tables already up to date'}: {', '.join(map(str, dict.fromkeys(HOMES.values())))}")
+        pages = technique_pages.write()
+        print(f"technique pages {'updated' if pages else 'already up to date'}: {technique_pages.PAGES}")
         return 0
     for name, table in generated().items():
         begin, end = _markers(name)

@@ -241,8 +241,8 @@ def over_darkening(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, co
 #: tenth of the truth's shadowed pixels (both thresholded at :data:`THRESHOLD`, V < 0.5 shadowed,
 #: as the thresholded rates count them). Why: the error rate is a share of *all* evaluated
 #: pixels, so a configuration that draws no shadow at all scores the truth's shadowed share —
-#: 2.7 % on box_on_plane, where the box shadows 2.7 % of the floor — a number that reads as
-#: "slightly wrong" while the picture has lost every shadow (issue 35). The truth's share must be
+#: a few per cent on box_on_plane, the share of the evaluated pixels the box shadows — a number
+#: that reads as "slightly wrong" while the picture has lost every shadow (issue 35). The truth's share must be
 #: above 1 % so that a scene whose shadow is a few pixels (a shadow clipped by the frame, a
 #: grazing light) is not called degenerate over pixel noise; a tenth leaves room for a
 #: configuration that draws a thin or partial shadow (peter-panning, a blurred umbra) and still
@@ -324,7 +324,7 @@ class Column:
 #: Baseline tolerances (absolute, relative). Rates: 0.02 % of the pixels (61 pixels at 640x480)
 #: or 5 % of the value — wide enough for the few pixels of rasterisation ties that differ
 #: between drivers (docs/architecture.md#full-pass-state-shadowlabgpuglstatepy), below what a tenfold too small bias does to the grazing
-#: receivers of sm_grazing (+0.07 %). Distances: a quarter of a pixel or 10 %.
+#: receivers of sm_grazing. Distances: a quarter of a pixel or 10 %.
 RATE_TOLERANCE = (2e-4, 0.05)
 DISTANCE_TOLERANCE = (0.25, 0.1)
 #: visibility_rmse: the rate tolerance's share of pixels flipped from right to wholly wrong

@@ -14,9 +14,8 @@ import numpy as np
 #: the same world point. A looser match (up to the one-pixel rounding to the nearest pixel)
 #: compares V at points up to a pixel apart, and a shadow map's staircase — fixed in the world
 #: under a stabilised map — then reads as flicker merely because a different point of it was
-#: sampled: measured on tm_camera_dolly (320x240), with 2 footprints stabilised cascades
-#: "flipped" more than unstabilised ones (0.00026 vs 0.00021) although their texel grids do not
-#: move. A point on another surface is rejected all the more. Pixels that find no match this
+#: sampled: on tm_camera_dolly, matched within 2 footprints, stabilised cascades "flipped" more
+#: than unstabilised ones although their texel grids do not move. A point on another surface is rejected all the more. Pixels that find no match this
 #: close are not judged (``valid_pixels`` says how many were).
 SAME_SURFACE_FOOTPRINTS = 0.25
 

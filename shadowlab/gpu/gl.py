@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import OpenGL
 
-# PyOpenGL calls glGetError after every call by default, which doubles the cost of the state
-# changes inside timed passes (a full pass state: 44 µs → 20 µs on llvmpipe). The lab checks the
+# PyOpenGL calls glGetError after every call by default, which doubled the cost of setting a
+# full pass state inside timed passes on llvmpipe. The lab checks the
 # error flag itself — after every measured technique (pipeline) and after every test — so the
 # per-call checks are off; SHADOWLAB_GL_DEBUG=1 turns them back on to find the offending call.
 if "OpenGL.GL" not in sys.modules:

@@ -2,12 +2,12 @@
 already mapped instead of page-faulting fresh memory (glibc only; elsewhere nothing changes).
 
 Why (issue 27, "a faster truth"): a frame's per-pixel arrays (exact points, normals, ray
-origins: 20–70 MB at 800x600–1600x1200) are larger than glibc's mmap threshold (dynamic, at
+origins: tens of MB at 800x600 and above) are larger than glibc's mmap threshold (dynamic, at
 most 32 MiB by default), so each is mapped fresh and unmapped when freed, and every allocation
 pays one page fault per 4 KiB page on first touch — more than the arithmetic that fills it
-(the frame's exact points: 1.7 ms into memory already mapped, 3.6–24 ms into fresh memory at
-800x600 on the development machine; the spread is the kernel's, and with two threads writing
-each unmap also costs a TLB shoot-down). Raising glibc's mmap and trim thresholds
+(the frame's exact points took several times longer into fresh memory than into memory
+already mapped, with a wide spread that is the kernel's; with two threads writing each unmap
+also costs a TLB shoot-down). Raising glibc's mmap and trim thresholds
 (``mallopt(3)``: ``M_MMAP_THRESHOLD``, ``M_TRIM_THRESHOLD``) keeps such blocks in the heap when
 freed, where the next allocation of the same size takes them back.
 
@@ -16,7 +16,8 @@ heap can hold more than separate mappings would (a freed 40 MB block does not se
 request). ``peak_rss_mib`` (docs/cost.md) is the process's resident peak during a measurement, so
 it counts that memory as it counts everything else resident (the GL driver, the frame, caches).
 Giving it back before each measurement (``malloc_trim``) was tried and dropped: every small
-render then faulted its memory in again (the inner test loop 81 → 99 s, system time 4 → 17 s).
+render then faulted its memory in again, and the inner test loop got slower, most of it in
+system time.
 """
 from __future__ import annotations
 

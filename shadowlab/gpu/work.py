@@ -47,8 +47,9 @@ class Counter:
     """One work counter: what it counts, whether it is exact and why, and where it comes from
     (hook, pass query or the technique). *Exact* means defined to the unit by the GL spec or by
     counting, given the rasterisation: two drivers that rasterise an edge pixel differently
-    (sub-pixel precision) differ by those pixels — measured against an H100, at most 1e-5 of
-    the evaluated pixels and 7e-4 of shadow volumes' stencil updates (docs/cost.md).
+    (sub-pixel precision) differ by those pixels — against an H100, a small fraction of the
+    evaluated pixels and of shadow volumes' stencil updates (docs/cost.md, the rows in
+    results/cost/h100/mismatches.csv).
     *Approximate* counters differ by design from driver to driver, or are models."""
 
     doc: str

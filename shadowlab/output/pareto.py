@@ -409,7 +409,7 @@ def pareto_figure(results: pd.DataFrame):
                 axis.set_major_locator(LogLocator(base=10, subs=subs))
                 axis.set_major_formatter(plain)
                 # no minor ticks: on log axes matplotlib makes a tick object for each one, and laying
-                # them out was most of the figure's time (3.5 of 4.7 s for the quick study); the grid
+                # them out was most of the figure's time (measured on the quick study); the grid
                 # follows the labelled ticks
                 axis.set_minor_locator(NullLocator())
             ax.axhline(threshold, color=FAIL_COLOR, ls="-", lw=FAIL_LINE_PT, alpha=0.8, zorder=1, gid="fail-threshold")

@@ -1,9 +1,12 @@
 """The technique registry: name → class, filled by the techniques themselves.
 
-Every module of this package is imported here (discovered with :mod:`pkgutil`), and every :class:`~shadowlab.techniques.base.Technique` subclass that sets its own ``name``
-registers itself when its class is made (:data:`~shadowlab.techniques.base.REGISTRY`). Adding a
-technique is one module here, one shader and one test file: no list to edit. Modules that hold
-no technique (``base``, the map toolkit ``maps``) register nothing. The registry's order: the
+Every module of this package and of its family sub-packages (``maps``, ``volumes``, ``geometric``,
+``rays``) is imported here (discovered with :mod:`pkgutil`), and every
+:class:`~shadowlab.techniques.base.Technique` subclass that sets its own ``name`` registers itself
+when its class is made (:data:`~shadowlab.techniques.base.REGISTRY`). Adding a technique is one
+module in a family's folder with its GLSL beside it, one test file and one line in a suite: no
+list to edit (docs/adding-a-technique.md). Modules that hold no technique (``base``, the map
+toolkit ``maps.toolkit``, ``maps.page_cache``) register nothing. The registry's order: the
 ground truth (``raytrace``) first, then by name.
 """
 from __future__ import annotations

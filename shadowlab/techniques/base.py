@@ -50,9 +50,10 @@ the declarations instead of on isinstance or hasattr guesses:
   and implementing what it promises (a registry-wide test holds the two together).
 
 A technique registers itself by subclassing :class:`Technique` with its own ``name`` in a
-module of :mod:`shadowlab.techniques` (modules there are discovered): no list or table in the
-core names it (docs/adding-a-technique.md says what else a new one brings: its shader, its
-test file, a line in a suite).
+module of a family folder of :mod:`shadowlab.techniques` (modules there are discovered): no list
+or table in the core names it (docs/adding-a-technique.md says what else a new one brings: its
+GLSL beside it, its test file, a line in a suite; its reference page is generated from these
+declarations).
 
 Inputs and outputs (the stage contract of docs/architecture.md): a technique reads the frame (G-buffer
 textures, vertex buffers, exact points) and its :class:`~shadowlab.gpu.frame.LightSlot` (the light,
@@ -470,8 +471,9 @@ class Technique:
 
     # -- resources ---------------------------------------------------------------
     def program(self, name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()):
-        """The cached program of ``shaders/<name>`` (:func:`shadowlab.gpu.gl.program`), held by this
-        technique until :meth:`release`. Programs are shared within a process, and a technique
+        """The cached program of the GLSL file ``name``, found by its file name on the loader's
+        search path (:func:`shadowlab.gpu.gl.program`, :func:`shadowlab.gpu.gl.shader_path`), held
+        by this technique until :meth:`release`. Programs are shared within a process, and a technique
         sets their uniforms in :meth:`setup`: a program another live technique holds is an error
         (RuntimeError), never a render with someone else's uniforms."""
         key = gl.program_key(name, defines, varyings)

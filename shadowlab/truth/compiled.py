@@ -1,9 +1,9 @@
 """The ground truth's per-ray arithmetic in compiled code (numba), bit for bit the numpy it
 replaces.
 
-Issue 27, "a faster truth": the sampled soft truth ran at about a quarter of raw Embree's rays/s
-and the hard truth, end to end at one light, at about a third; the difference was numpy work
-around the Embree calls.
+Issue 27, "a faster truth": the sampled soft truth, and the hard truth end to end at one light,
+ran well below raw Embree's rays/s over the same rays (``experiments/gt_throughput.py``); the
+difference was numpy work around the Embree calls.
 
 What is compiled, and why: everything around the Embree calls that runs once per pixel or once
 per light sample — the frame's exact hit points (:meth:`shadowlab.gpu.frame.Frame.compute_exact_points`),

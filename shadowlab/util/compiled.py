@@ -36,7 +36,8 @@ def cores() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-#: Work items below this size run in the calling thread alone (a hand-over costs ~0.05 ms).
+#: Work items below this size run in the calling thread alone (handing work to a helper thread
+#: costs more than such an item's arithmetic).
 MIN_PART = 1 << 15
 #: Helper threads for :func:`in_parts`, made on first use in each process (pid: a forked child
 #: has no threads of its parent's pool and makes its own).

@@ -1,6 +1,7 @@
-"""The documentation cannot go stale unnoticed: the README's generated tables match the code,
-every relative link in README.md and docs/ resolves, every shipped scene has its entry in the
-hard-case catalogue and every metrics column its definition. No GL."""
+"""The documentation cannot go stale unnoticed: the README's and the guide's generated tables and
+the technique reference pages (docs/techniques/) match the code, every relative link in
+README.md and docs/ resolves, every shipped scene has its entry in the hard-case catalogue and
+every metrics column its definition. No GL."""
 from __future__ import annotations
 
 import re
@@ -9,13 +10,14 @@ from pathlib import Path
 import pytest
 
 from shadowlab.docgen import tables as docs_tables
+from shadowlab.docgen import technique_pages
 from shadowlab.evaluation import metrics
 from shadowlab.evaluation.temporal import TEMPORAL_COLUMNS
 
 ROOT = Path(__file__).resolve().parents[2]
 README = ROOT / "README.md"
 DOCS = ROOT / "docs"
-PAGES = [README, *sorted(DOCS.glob("*.md"))]
+PAGES = [README, *sorted(DOCS.glob("*.md")), *sorted((DOCS / "techniques").glob("*.md"))]
 
 
 @pytest.mark.parametrize("table", docs_tables.TABLES)
@@ -24,6 +26,102 @@ def test_readme_tables_are_generated_from_the_code(table):
     assert table not in diffs, (
         f"{docs_tables.HOMES[table].name}'s {table} differs from the code:\n{diffs[table]}\n\n"
         f"fix: {docs_tables.FIX_COMMAND}   (e.g. .venv/bin/python -m shadowlab.docgen.tables --write)")
+
+
+def test_technique_pages_are_generated_from_the_code():
+    """docs/techniques/: one page per registered technique and the index, each exactly what
+    shadowlab.docgen.technique_pages makes from the code now (no page missing, none left over)."""
+    diffs = technique_pages.differences()
+    shown = "\n\n".join(diff[:3000] for diff in diffs.values())
+    assert not diffs, (f"technique pages differ from the code: {sorted(diffs)}\n{shown}\n\n"
+                       f"fix: {technique_pages.FIX_COMMAND}   (e.g. .venv/bin/python -m shadowlab.docgen.tables --write)")
+
+
+def test_technique_pages_read_the_declarations(registry_snapshot):
+    """A page is made from what the class declares: its family folder, parameters with their
+    defaults, allowed values and tune range, passes, lights, stats with their combine rules, and
+    the GLSL programs it compiles with what they include."""
+    from shadowlab.techniques.base import FIRST, SUM, Param, PlotStyle, TuneRange
+    from shadowlab.techniques.maps.shadow_map import ShadowMap
+
+    text = technique_pages.page(ShadowMap)
+    assert text.startswith("# `shadow_map`") and "[maps](README.md#maps)" in text
+    assert "| `resolution` | `2048` | int, ≥ 16, ≤ 16384 | 256 – 8192, log |" in text
+    assert "| `bias_space` | `world` | `world` \\| `window` |" in text
+    assert "1. `depth`" in text and "4. `lookup`" in text
+    assert "[`shadow_lookup.glsl`](../../shadowlab/techniques/maps/shadow_lookup.glsl)" in text  # the toolkit's
+    assert "[`lights.glsl`](../../shadowlab/gpu/lights.glsl)" in text  # included from gpu/
+    assert "## Theory" in text and "Williams 1978" in text
+
+    class Demo(ShadowMap):  # a technique made here: its page follows its own declarations
+        name = "demo_page"
+        summary = "a demo"
+        PARAMS = {"k": Param(3, "a knob", min=1, max=9, tune=TuneRange(1, 5))}
+        PASSES = ("one", "two")
+        LIGHTS = frozenset({"spot"})
+        STATS = {"n": SUM, "view": FIRST}
+        STYLE = PlotStyle("#000000", "x")
+
+    demo = technique_pages.page(Demo)
+    assert "| `k` | `3` | int, ≥ 1, ≤ 9 | 1 – 5 | a knob |" in demo
+    assert "1. `one`\n2. `two`" in demo and "- **Lights:** `spot`" in demo
+    assert "| `n` | `sum`:" in demo and "| `view` | `first`:" in demo
+
+
+def test_rest_roles_become_markdown_and_paths_links():
+    md = technique_pages.rest_to_markdown(
+        "See :func:`shadowlab.geometry.frusta.perspective_fit` and ``x < 1``, docs/tuning.md and\n"
+        "tests/techniques/maps/test_pcss.py; computed as::\n\n    a = b\n")
+    assert "`shadowlab.geometry.frusta.perspective_fit`" in md and "`x < 1`" in md
+    assert "[docs/tuning.md](../tuning.md)" in md
+    assert "[tests/techniques/maps/test_pcss.py](../../tests/techniques/maps/test_pcss.py)" in md
+    assert "computed as:\n\n    a = b" in md
+
+
+def _layout_module():
+    """tests/project/test_layout.py, the test that holds the layers (its LAYERS and its import graph)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("_layout_for_docs", Path(__file__).with_name("test_layout.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_layers_section_is_what_the_layout_test_holds():
+    """docs/architecture.md#layers: its table lists the packages layer by layer as
+    tests/project/test_layout.py's LAYERS does, and its diagram's arrows are the package imports
+    with those a longer path implies left out."""
+    layout = _layout_module()
+    text = (DOCS / "architecture.md").read_text(encoding="utf-8").split("\n## Layers\n", 1)[1].split("\n## ", 1)[0]
+    listed: dict[int, set] = {}
+    for layer, cell in re.findall(r"^\| (\d+) \| (.*?) \|", text, re.M):
+        names = {n.rstrip("/").removesuffix(".py") for n in re.findall(r"`([\w./]+)`", cell)}
+        listed.setdefault(int(layer), set()).update(names - {"__main__"})
+    assert listed == {i: set(units) for i, units in enumerate(layout.LAYERS)}, listed
+
+    edges = set()
+    for a, b in layout._package_edges():
+        ua, ub = layout._unit(a), layout._unit(b)
+        if ub != "shadowlab" and ua != ub:
+            edges.add((ua, ub))
+
+    def reaches(start, target, skip):
+        todo, seen = [start], set()
+        while todo:
+            node = todo.pop()
+            for p, q in edges:
+                if p == node and (p, q) != skip and q not in seen:
+                    if q == target:
+                        return True
+                    seen.add(q)
+                    todo.append(q)
+        return False
+
+    reduced = {(a, b) for a, b in edges if not reaches(a, b, (a, b))}
+    mermaid = text.split("```mermaid", 1)[1].split("```", 1)[0]
+    drawn = set(re.findall(r"^\s+(\w+)(?:\[[^\]]*\])? --> (\w+)", mermaid, re.M))
+    assert drawn == reduced, f"drawn but not imported: {sorted(drawn - reduced)}; imported but not drawn: {sorted(reduced - drawn)}"
 
 
 def test_tables_round_trip_through_the_markers():

@@ -18,9 +18,9 @@ Per caster object (``casts = true``), computed once per light in :meth:`BlobShad
    once, takes every caster's ray in one batch, and each caster keeps its nearest hit among the
    objects other than itself (:func:`receiver_hits`): O(triangles) build work, not a scene of
    all the other receivers per caster (O(casters × triangles)). An object whose bounding box no
-   ray reaches gets no scene at all. Set-up on sv_many_casters (12 casters, 245,762 triangles)
-   at 160x120: 2.7–4.6 s before, 38 ms after (the result bit for bit the same:
-   tests/techniques/geometric/test_blob.py). The receiver's plane is that triangle's plane (unit normal n turned
+   ray reaches gets no scene at all. On sv_many_casters (12 casters, 245,762 triangles) that took
+   the set-up from seconds to milliseconds, the result bit for bit the same
+   (tests/techniques/geometric/test_blob.py). The receiver's plane is that triangle's plane (unit normal n turned
    towards the caster), through the hit point h, the blob's centre;
 3. the blob's ellipse: the bounding box's three full edge vectors g_i projected along d onto
    the plane, g'_i = g_i − d (n·g_i)/(n·d), in an orthonormal basis (e1, e2) of the plane.

@@ -27,8 +27,8 @@ the points split over the cores like :mod:`shadowlab.truth.compiled`), per point
    projections already cover the back faces'. For points on the mesh itself only when it is
    convex and the G-buffer saw the face's outer side: the exact point is the pixel's ray on the
    plane of the triangle the G-buffer saw, which at a concave edge can lie just beyond it,
-   inside the solid (measured: a 512-triangle torus, 1 point in 12,590 off by 0.43 when its own
-   back faces were culled).
+   inside the solid (seen on a torus: a few of its own points went wrong when its back faces
+   were culled).
 2. **Clip** each candidate (Sutherland & Hodgman 1974) to the slab 0 ≤ d ≤ d_P(1 − 1e-9) (d the
    height above the light's plane: the oracle's slab, same margin) and to P's upper half-space
    (X − P)·N ≥ 0 (what lies below P's tangent plane projects below the horizon line, which is
@@ -66,11 +66,11 @@ The clipping frustum runs through a polygon 1e-6 larger than a rect light, so th
 edges never lie on the light's own edges; it also keeps every projected coordinate bounded
 (unclipped, a triangle reaching P's parallel plane projects ~1e9 away through the slab margin).
 
-Measured (experiments/exact_soft.py, 320x240, 2 cores shared, load average 2.0-2.8): equal to
-the oracle to ≤ 1e-13; mean |V − G| against the 4096-sample truth 6.3e-5 – 4.8e-4 (its per-pixel
-bound is 0.0078); 13-87 ms per frame on six soft scenes and 0.38 s on soft_large_close, against
-0.9-4.4 s for the 1024-sample truth; linear in pixels; about linear in a fine caster's triangles
-(2k / 10k / 20k-triangle torus: 0.35 / 1.7 / 4.3 s; the truth 1.2-1.5 s at any count).
+What ``experiments/exact_soft.py`` measures (docs/soft-shadows.md): equal to the exact oracle to
+round-off; against the sampled truth within the truth's own per-pixel error bound; faster than
+the 1024-sample truth on the shipped soft scenes; time linear in pixels and about linear in a
+fine caster's triangles, while the truth's hardly grows with them — so past some triangle count
+the truth is the faster one.
 """
 from __future__ import annotations
 

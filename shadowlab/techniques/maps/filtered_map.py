@@ -135,11 +135,11 @@ def max_evsm_negative_exponent() -> float:
     lookup's Chebyshev bound subtracts numbers of that size, so it needs exp(−2c⁻) · 2⁻²³ (its
     last mantissa bit) ≥ FLT_MIN = 1.18e-38: c⁻ ≤ (ln(1/FLT_MIN) − 23 ln 2)/2 = 35.70. Past it the
     differences are subnormal — flushed to zero or not depending on the floating-point mode of
-    the CPU/GPU thread — and the verdict would depend on the driver's state: measured on
-    llvmpipe (box_on_plane, 320x240), evsm4 at c⁻ = 40 changed 722 pixels by up to 0.028 after a
-    float16 EVSM had run in the same process, at c⁻ = 43.6 its false-shadow rate went from 1.6 %
-    to 0.019 %; at 34 and 36 the bits were the same. The shader computes in float32 whatever the
-    storage, so this bound holds for both precisions."""
+    the CPU/GPU thread — and the verdict would depend on the driver's state: on llvmpipe
+    (box_on_plane) evsm4 with c⁻ well past the bound changed pixels, and its false-shadow rate,
+    after a float16 EVSM had run in the same process (near the bound the bits stayed the
+    same). The shader computes in float32 whatever the storage, so this bound holds for both
+    precisions."""
     f32 = np.finfo(np.float32)
     return float((np.log(1.0 / f32.tiny) - f32.nmant * np.log(2.0)) / 2.0)
 

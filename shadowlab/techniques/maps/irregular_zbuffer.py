@@ -20,16 +20,16 @@ and storage buffers):
    keeps only the texels whose square, grown by :data:`EDGE_PAD`, overlaps the triangle's
    projection: Hasselgren et al. 2005); each fragment whose texel holds rays appends the pair
    (triangle, texel) to a work list. ``coverage=box`` is the default: on llvmpipe the
-   per-fragment test costs more than it saves except on long thin triangles (measured: 2.1×
-   slower on sv_many_casters and the 1M-triangle torus for 3 % fewer pairs; 16 % faster on
-   sm_wires, 17× fewer pairs);
+   per-fragment test costs more than it saves except on long thin triangles (slower on dense
+   meshes such as sv_many_casters, where it drops few pairs; faster on sm_wires, where it drops
+   most: docs/irregular-zbuffer.md);
 3. ``test`` (compute): each pair's triangle against every ray listed in its texel, with the
    watertight ray/triangle test (Woop et al. 2013), setting the sample's bit in a per-pixel
    mask.
 
 The list walk is a compute pass, not the fragment stage as in Johnson et al.: on llvmpipe a
-fragment shader that walks a list costs about 1000× a compute shader per step (3.5 µs against
-2 ns, measured on box_on_plane), so the fragments only append work.
+fragment shader that walks a list costs orders of magnitude more per step than a compute
+shader (docs/irregular-zbuffer.md), so the fragments only append work.
 
 The grid is the shadow map's atlas (:class:`shadowlab.techniques.maps.toolkit.Atlas`): one face, or a
 point light's six cube faces, fitted as the shadow map fits its faces

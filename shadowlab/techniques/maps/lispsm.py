@@ -69,9 +69,9 @@ class LiSPSM(ComparisonVariants, DepthMapTechnique):
         **{k: p for k, p in COMPARISON_PARAMS.items() if k != "variant"},
         "variant": Param("slope", "depth comparison (slope: offset from the warped map's own depth slope)",
                          choices=VARIANTS),
-        # Window depth by default: the warp spreads depth along the view, and on pa_long_view (extent
-        # 204) a world bias of 0.002 x the extent lifted the shadows off their casters (error 0.43 %
-        # against 0.2 % in window depth, 320x240).
+        # Window depth by default: the warp spreads depth along the view, and on pa_long_view (a
+        # long scene) a world bias of 0.002 x the extent lifted the shadows off their casters, a
+        # larger error than the window-depth bias.
         "bias_space": Param("window", COMPARISON_PARAMS["bias_space"].doc, choices=("world", "window")),
         "fit": Param("shadowable", "the box the view frustum is clipped to: bounds of the shadowable receivers, "
                                    "of every visible receiver, or of the scene (the paper's)",

@@ -34,8 +34,8 @@ Passes:
 SAT precision, the method's known weakness: a float32 table sums ~0.5 per texel and moment to
 ~5·10⁵ at the far corner of a 1024² map, where one float32 step is 2⁻⁵; a small rectangle
 there, the difference of four such sums, keeps only a few bits of its moments, and the
-reconstruction turns the error into light leaks and false shadow (soft_overlap, 160x120:
-visibility_mae 0.018 against 0.0071). The remedy (the paper's, with its published demo): a
+reconstruction turns the error into light leaks and false shadow (on soft_overlap: see
+docs/soft-shadows.md). The remedy (the paper's, with its published demo): a
 fixed-point table of 32-bit unsigned integers (``sat_precision=
 fixed32``, the default). Integer sums wrap around 2³², but a rectangle's sum taken from four
 wrapped entries in the same modular arithmetic is exact as long as its true sum is below 2³²;
@@ -43,8 +43,8 @@ each moment is stored as round(m · s) with s = ⌊(2³² − 1) / A⌋ and A th
 texels) any lookup reads — computed in :meth:`MomentSoftShadows.setup` from the evaluated
 receivers' search regions (:func:`max_region_texels`), which hold every filter region. So the
 table costs no more than float32 and a rectangle's average is exact to half a step, 0.5 / s
-(``stats()['sat_bits']`` = log2 s: 17.5 on soft_overlap, about 12 where a search region spans
-the whole 1024² map). ``sat_precision=float32`` sums the same moments in float32: the
+(``stats()['sat_bits']`` = log2 s, reported per run: 12 where a search region spans the whole
+1024² map). ``sat_precision=float32`` sums the same moments in float32: the
 artefact, on purpose.
 
 The moments are biased towards Peters et al. 2017's three-point target
@@ -110,8 +110,8 @@ GBUFFER_TAPS, SEARCH_TAPS, FILTER_TAPS = 2, 4, 16
 #: to z = (s + 1) / 2). The 2015 target (½, ½, ½, ½) of filtered_map is the two-point {0, 1}
 #: distribution, whose Hankel matrix is singular: a region holding only a caster at z = 0 and the
 #: floor at z = 1 (soft_overlap's high plank over the floor) stays singular after biasing, and
-#: float32 gave d33 < 0 there — white speckles in the high plank's shadow (441 of 19200 pixels
-#: at 160x120, measured with the 2015 target).
+#: float32 gave d33 < 0 there — white speckles in the high plank's shadow, measured with the
+#: 2015 target.
 SIGNED_BIAS_TARGET = (0.0, 0.628, 0.0, 0.628)
 #: Near and far planes of the map when no receiver lies in front of the light (nothing to map).
 EMPTY_NEAR_FAR = (1.0, 2.0)
@@ -142,8 +142,8 @@ def normal_view(light, receivers: np.ndarray, casters: frusta.Casters, resolutio
     average over the light's copy. The map toolkit's fit looks along the receivers' mean
     direction instead (47° from the normal on ``soft_banding``, a 160° frustum), where the
     same light-sized region covers texels of very different sizes and the box average weighed
-    its far side less: the whole penumbra moved towards the near side (visibility_mae 0.037
-    against pcss's 0.0094 at 160x120)."""
+    its far side less: the whole penumbra moved towards the near side (a visibility error
+    several times pcss's there)."""
     p = np.asarray(light.position, np.float64)
     axis = np.asarray(light.normal, np.float64)
     d = np.asarray(receivers, np.float64) - p

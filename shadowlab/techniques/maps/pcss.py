@@ -42,8 +42,8 @@ do not shadow themselves; ``receiver_plane=false`` compares every tap with the c
 Empty texels (still at the clear depth: no caster up to the far plane) never block: extrapolated
 to them, the receiver's plane can pass the far plane (a wide map along a tilted axis, scene
 ``soft_banding``), and a cleared texel taken for a blocker at the far plane put the average
-blocker behind the receiver and the kernel at 0: a hard shadow (soft_large_close: visibility_mae
-0.20 without this rule, 0.06 with it).
+blocker behind the receiver and the kernel at 0: a hard shadow (soft_large_close's penumbra
+was lost without this rule).
 
 ``blocker_search=false`` skips steps 1-2 and filters every pixel over light_uv, scaled so its
 larger extent is ``fixed_filter`` texels: classic fixed-size PCF, whose penumbra width

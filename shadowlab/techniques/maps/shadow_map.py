@@ -61,8 +61,8 @@ The variants:
   plane — a projective map keeps planes planar, so ``receiver_plane``'s extrapolation and
   ``adaptive``'s ray intersection agree up to float32 round-off — and the variants differ in
   the epsilon: ``receiver_plane`` needs a constant ``bias`` above the depth format's step and
-  the rasteriser's round-off (at ``bias=0`` acne remains, 160x120: sm_grazing, fit=receivers 0.33;
-  16-bit depth on sm_contact 0.22), ``adaptive``'s epsilon scales with the scene. Both per-tap
+  the rasteriser's round-off (at ``bias=0`` acne remains: sm_grazing with fit=receivers, and
+  16-bit depth on sm_contact), ``adaptive``'s epsilon scales with the scene. Both per-tap
   variants need a depth test per texel, so ``filter=hw2x2`` (one reference depth for the 2x2
   footprint) is refused with them.
 

@@ -54,16 +54,16 @@ Deviations from UE5's design:
   ``fit=scene`` and ``fit=clipmap`` keep pages while the camera moves (``fit=shadowable``'s view
   follows the view);
 - each rendered page is cleared by a quad writing gl_FragDepth (``shadowlab/techniques/maps/page_clear.glsl``) over its
-  viewport, as UE5 clears only the pages it renders (a glClear of the whole 64 MiB pool cost
-  ~5 ms a render on llvmpipe; the lab keeps the scissor test off);
+  viewport, as UE5 clears only the pages it renders (a glClear of the whole pool costs every
+  render the pool's size, however few pages it renders; the lab keeps the scissor test off);
 - pages are dropped within a level in page order (UE5 has no single rule here either; it
   reports the overflow); casters are culled per object, not per cluster (Nanite);
 - no per-page depth ranges or HZB culling, no filtering (nearest, one tap: UE5 uses SMRT).
 - the level follows distance only (pixel size over texel size at the point), as UE5's does: a
   receiver at a grazing angle to the light or the camera gets texels longer than a pixel along
-  one axis (texel footprint p95 1.8 px on sun_scene at 320x240, p50 0.76); texels about a
-  pixel wide also mean a larger boundary error than a 2048² map's tenth-of-a-pixel texels on
-  small scenes (sun_scene: 0.35 px against 0.12; ``lod_bias=-1``: 0.02 px with 18 pages).
+  one axis (the texel footprint's tail above a pixel on sun_scene); texels about a pixel wide
+  also mean a larger boundary error than a 2048² map's tenth-of-a-pixel texels on small scenes
+  (sun_scene; with ``lod_bias=-1``, finer pages, it falls below the 2048² map's).
 
 Clipmaps (``fit=clipmap``, directional lights only; UE5's "clipmap" levels, Epic Games 2022,
 "Virtual Shadow Maps": each level a full virtual map, twice the previous one's side, centred on
@@ -82,11 +82,11 @@ to the finest level containing the point, the lookup likewise to the finest resi
 containing it. A page is rendered through its own orthographic square in light space (a matrix
 that depends only on where it lies) and cached under its light-space page coordinates, so a
 level shifted by whole pages keeps every page it still covers (as UE5), and a cached page is
-bit-for-bit what rendering it again gives. Measured at 320x240 (error_rate, against
-fit=shadowable): pa_long_view 0.13 % vs 0.14 % with 57 pages vs 90; sun_scene 0.047 % vs 0.051 %;
-sm_wires 0.78 % vs 0.39 % — clipmap texels are square, while the fitted view's rectangle gives
-V texels along its short side too (finer there); tm_camera_dolly animated over 24 frames: 123
-pages rendered against fit=scene's 204 (969 and 1407 without the cache). Not done: UE5's first/last clipmap level in world
+bit-for-bit what rendering it again gives. Against fit=shadowable, clipmaps are as accurate
+on pa_long_view (with fewer pages) and sun_scene and less accurate on sm_wires — clipmap texels
+are square, while the fitted view's rectangle gives V texels along its short side too (finer
+there); over an animated camera dolly (tm_camera_dolly) they render fewer pages than fit=scene,
+and caching either renders far fewer than no cache (docs/resolution.md). Not done: UE5's first/last clipmap level in world
 units (K is a count), its coarse-page marking and per-page depth ranges.
 
 Texel footprint (:class:`~shadowlab.techniques.maps.toolkit.TexelMapping`): supported — the texel
@@ -181,8 +181,8 @@ class VirtualMap(TexelMapping, Technique):
                       # as cascaded_map: the slope term carries the receiver's slope
                       min=0.0, max=1.0, tune=TuneRange(1e-6, 0.05, log=True)),
         # Window depth by default: the slope term dominates here, and over the shipped perspective scenes
-        # (320x240) a world bias of 0.0005 x the extent lowered sm_lamp_contact's error from 0.86 % to
-        # 0.11 % but raised sv_open_mesh's by 0.013 points (results/light_frusta/, docs/tuning.md).
+        # a world bias of 0.0005 x the extent lowered sm_lamp_contact's error but raised sv_open_mesh's
+        # (the committed rows: docs/techniques/virtual_map.md, "Measured"; docs/tuning.md).
         "bias_space": Param("window", "what bias measures, as shadow_map's: world (a distance towards the light "
                                       "converted at each receiver on perspective maps; orthographic maps keep window "
                                       "depth, linear there) or window", choices=("world", "window")),

@@ -34,12 +34,12 @@ by P's tangent plane: :func:`rect_unshadowed`). The ratio estimator of V is then
 
 against the plain average V̂_plain = (1/N) Σ_k f_k u_k = free / N (the truth's estimator at N
 samples). **Where the whole light faces P and is above its horizon (U = 1, f ≡ 1: the floors
-and tops under the shipped soft scenes' lights, over 90 % of their evaluated pixels) the two
+and tops under the shipped soft scenes' lights, most of their evaluated pixels) the two
 are the same number** — bit for bit without the denoiser (live = N); with it, the filter of
 the numerator over the filter of a denominator that is 1 all around is the filter of free / N,
 up to rounding (and to the few taps from cut pixels nearby). They differ only where P's
 tangent plane or the light's plane cuts the light — the sides of boxes facing the light,
-soft_below_plane's slab (41 % of the light below its plane): there the
+soft_below_plane's slab (part of the light below its plane): there the
 ratio takes the clipped part exactly from U and spends all its samples' information on the
 shadow of the visible part — lower variance, a small bias of the ratio of estimates
 (consistent: it vanishes as N grows) — and where no live sample is left (live = 0, U > 0) it
@@ -71,7 +71,7 @@ exponential moving average of the per-pixel sums (free/N and live/N) with the re
 reprojected history (Nehab et al. 2007, §3; the technique reprojects with the frames' exact
 points itself, :func:`shadowlab.geometry.reprojection.reproject`, matching within :data:`HISTORY_FOOTPRINTS`
 pixel footprints rather than the flicker metrics' quarter footprint, which under a camera pan
-kept about 20 % of the pixels):
+kept only a small share of the pixels):
 
     S_k(p) = (1 − a_p) · s_k(p) + a_p · S_{k−1}(q),   a_p = min(a, n_p / (n_p + 1)),
 
@@ -84,10 +84,10 @@ temporal anti-aliasing, Karis 2014, with Salvi's mean and deviation bounds): rep
 the *surface*, so a shadow moving over a still floor leaves a valid but stale history behind it
 (ghosting, the SS3 lag); where the current frame's neighbourhood is all lit or all shadowed
 (σ = 0) the clamp replaces the stale value, while inside a noisy penumbra (large σ) it lets the
-history through. Measured on soft_moving_caster (320x240, 16 frames, 4 samples, no denoiser,
-``temporal_alpha`` = 0.8): without the clamp accumulation *raised* visibility_mae (0.017 → 0.035,
-the history trails the crate); with γ = 1 it lowered it to 0.012 (temporal_error 0.022 → 0.009),
-with γ = 0.5 (the default) to 0.0084 (temporal_error 0.0074).
+history through. Measured on soft_moving_caster (no denoiser, docs/soft-shadows.md): without
+the clamp accumulation *raised* visibility_mae (the history trails the crate); with it,
+accumulation lowered both visibility_mae and temporal_error, γ = 0.5 (the default) more than
+γ = 1.
 The accumulated sums are what the denoiser filters (SVGF's order: accumulate, then filter);
 the history is the unfiltered sums, so the spatial blur never feeds back. a is the weight of the
 *history* (SVGF's α is 1 − a). U is analytic and recomputed every frame: only the shadow
@@ -125,10 +125,10 @@ B3 = np.array([1.0, 4.0, 6.0, 4.0, 1.0]) / 16.0
 MAX_HISTORY = 64
 #: Temporal accumulation's same-surface test: the reprojected pixel's exact point within this
 #: many pixel footprints of the current one. The metrics' quarter footprint
-#: (:data:`shadowlab.geometry.reprojection.SAME_SURFACE_FOOTPRINTS`) keeps only about a fifth of the pixels
-#: under a camera pan (the nearest pixel centre is up to half a pixel diagonal off, more on a
-#: slanted floor: measured on soft_moving_caster, 160x120, 3.1k of 16k pixels); 2 footprints
-#: keeps a surface's nearest pixel and still rejects a caster's top over the floor.
+#: (:data:`shadowlab.geometry.reprojection.SAME_SURFACE_FOOTPRINTS`) keeps only a small share of the
+#: pixels under a camera pan (the nearest pixel centre is up to half a pixel diagonal off, more
+#: on a slanted floor, as on soft_moving_caster: tests/techniques/rays/test_rt_soft.py); 2
+#: footprints keeps a surface's nearest pixel and still rejects a caster's top over the floor.
 HISTORY_FOOTPRINTS = 2.0
 #: Half-width of the neighbourhood clamp's window (5 x 5 pixels).
 CLAMP_RADIUS = 2
@@ -393,8 +393,8 @@ class RaySoft(Technique):
         "ratio": Param(True, "ratio estimator: V = U(P) * sum f V / sum f with U analytic (rect lights); "
                              "false: the plain average of the samples"),
         # 3: the lowest visibility_mae at 1 and 4 samples on soft_overlap and soft_moving_caster at
-        # 320x240 (4 passes over-blur: 0.0087 -> 0.0139 at 1 sample on soft_overlap); the holes are
-        # in pixels, so the best count grows with the image (soft_contact_hardening prefers 2)
+        # 320x240 (4 passes over-blur); the holes are in pixels, so the best count grows with the
+        # image (soft_contact_hardening prefers 2)
         "iterations": Param(3, "a-trous denoiser passes (holes 1, 2, 4, ...); 0 = no denoiser", min=0, max=8),
         "sigma_normal": Param(0.5, "a-trous normal weight exp(-|n_p - n_q|^2 / sigma^2); 0 = off", min=0.0, max=10.0),
         "sigma_position": Param(1.0, "a-trous position weight: distance off p's tangent plane per pixel footprint "

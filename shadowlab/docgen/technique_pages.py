@@ -12,7 +12,7 @@ Everything on a page comes from the technique's own declarations or from committ
   turn them (:func:`shadowlab.util.text._markdown`), paths of the repository turned into links;
 - ``PARAMS`` (default, allowed values or range, the :class:`~shadowlab.techniques.base.Param`'s
   doc, the tuner's default range ``tune``), ``PASSES``, ``LIGHTS``, ``LIGHT_SAMPLED``,
-  ``STATS`` with their combine rules, ``cpu`` and ``MODIFIES_FRAME``;
+  ``STATS`` with their combine rules, ``cpu``, and what it ``READS``, ``WRITES`` and ``PROVIDES``;
 - its GLSL programs — the file names its class and the classes it is built on pass to
   ``self.program(...)`` — and the files they ``#include``, found on the loader's search path
   (:func:`shadowlab.gpu.gl.shader_files`);
@@ -43,6 +43,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..gpu.frame import GBUFFER_CHANNELS
 from ..util.text import _cell, _markdown, first_sentence
 
 #: The repository of a source checkout (the package's parent folder) and its documentation.
@@ -421,9 +422,13 @@ def page(cls) -> str:
                  + (" (area lights: averaged over `light_samples` point lights on the light)"
                     if cls.LIGHT_SAMPLED and "area" in cls.LIGHTS else ""))
     facts.append(f"- **Runs on:** {'the CPU (no GL finish around its timing)' if cls.cpu else 'the GPU (GL)'}")
-    if cls.MODIFIES_FRAME:
-        facts.append("- **Borrows from the frame:** " + ", ".join(f"`{m}`" for m in sorted(cls.MODIFIES_FRAME))
+    facts.append("- **Reads from the G-buffer:** " + (", ".join(f"`{c}`" for c in GBUFFER_CHANNELS if c in cls.READS) if cls.READS else "nothing"))
+    if cls.WRITES:
+        facts.append("- **Borrows from the frame:** " + ", ".join(f"`{m}`" for m in sorted(cls.WRITES))
                      + " (everything else on the frame is read-only)")
+    if cls.PROVIDES:
+        facts.append("- **Provides:** " + ", ".join(f"`{c}`" for c in sorted(cls.PROVIDES))
+                     + " (what the metrics and the tuner ask for: `CAPABILITIES` in `shadowlab/techniques/base.py`)")
     out += facts + [""]
 
     doc = sys.modules[cls.__module__].__doc__

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import gl, glstate, heap
+from . import gl, glstate, heap, programs, targets
 from .glstate import PassState
 from ..geometry.frusta import Casters
 from ..geometry.triangles import triangle_normals
@@ -160,9 +160,9 @@ class Frame:
         self.tex_ids = ctx.texture(size, 2, dtype="i4")
         for tex in (self.tex_position, self.tex_normal, self.tex_ids):
             tex.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.target = gl.ScreenTarget.create(size, [self.tex_position, self.tex_normal, self.tex_ids])
-        self.gbuffer_program = gl.program("gbuffer.glsl")
-        self.gbuffer_program["u_view_proj"].write(gl.mat_bytes(self.view_projection))
+        self.target = targets.ScreenTarget.create(size, [self.tex_position, self.tex_normal, self.tex_ids])
+        self.gbuffer_program = programs.program("gbuffer.glsl")
+        self.gbuffer_program["u_view_proj"].write(programs.mat_bytes(self.view_projection))
         self.target.use()
         glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True))  # before the clears
         GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
@@ -172,7 +172,7 @@ class Frame:
         self.draw(self.gbuffer_program, "all")
         ctx.finish()
         gl.check_errors("G-buffer pass")
-        ids = gl.read_texture(self.tex_ids, 2, "i4")
+        ids = targets.read_texture(self.tex_ids, 2, "i4")
         self.object_id = ids[..., 0].copy()
         self.triangle_id = ids[..., 1].copy()
         self.covered = self.triangle_id >= 0
@@ -247,9 +247,9 @@ class Frame:
         per_unit = 2.0 * np.tan(np.radians(self.camera.fov_y) / 2.0) / self.height
         return self.to_image(dist * per_unit, dtype=np.float64)
 
-    def depth_stencil_for(self, technique) -> gl.ScreenTarget:
+    def depth_stencil_for(self, technique) -> targets.ScreenTarget:
         """The G-buffer's depth-stencil attachment, lent to ``technique`` (to share with its own
-        colour targets: ``gl.ScreenTarget.create(..., share_depth_stencil=...)``). Only techniques
+        colour targets: ``targets.ScreenTarget.create(..., share_depth_stencil=...)``). Only techniques
         that declare ``"depth_stencil"`` in ``MODIFIES_FRAME`` may have it: its contents are
         theirs to clear and overwrite, and nothing after the G-buffer pass reads them."""
         if "depth_stencil" not in technique.MODIFIES_FRAME:
@@ -308,10 +308,10 @@ class Frame:
 
     def release(self) -> None:
         """Free the frame's GL objects."""
-        gl.park()
+        targets.park()
         for _, vao in self._vaos.values():
             vao.release()
         self.target.release()
         for obj in (self.tex_position, self.tex_normal, self.tex_ids, self.vbo_position, self.vbo_normal,
-                    self.vbo_object):  # gbuffer_program: gl.program's cache keeps it
+                    self.vbo_object):  # gbuffer_program: programs.program's cache keeps it
             obj.release()

@@ -278,7 +278,7 @@ def _error_text(metric: str, value) -> str:
 
 
 def tuned_tables(meta: dict) -> list[dict]:
-    """study.json's ``tuned`` (:func:`shadowlab.study.runner.tuning_summary`) as the page and
+    """study.json's ``tuned`` (:func:`shadowlab.study.tuning_phase.tuning_summary`) as the page and
     summary.md show it: per ``[[tuned]]`` entry its name, objective, one row per scene (the
     objective as given and tuned, the regret of the default, the tuned parameters, the per-pixel
     oracle; or the failure) and, on the exact bias route, the sentence on one global bias."""

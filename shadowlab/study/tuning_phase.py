@@ -1,6 +1,8 @@
-"""The tuning phase of a study: each ``[[tuned]]`` entry of a suite tuned on each of its scenes
-(in parallel, cached) before the accuracy phase, which then runs every scene's optimum like any
-other configuration; afterwards, what the tuning found, for results.csv and study.json.
+"""The tuning phase of a study: each ``[[tuned]]`` entry tuned on each of its scenes before the
+accuracy phase, which then runs every scene's optimum like any other configuration.
+
+The tune tasks run in parallel and are cached like the study's other tasks; afterwards this
+module also says what the tuning found, for results.csv and study.json.
 
 The runner (:mod:`shadowlab.study.runner`) calls, in order: :func:`run_tuning_phase` (the tune
 tasks), :func:`with_tuned` (the suite with each optimum among its scene's configurations), then,

@@ -11,8 +11,6 @@ read these tables.
 from __future__ import annotations
 
 import math
-import os
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -155,14 +153,6 @@ def fmt_pct(rate) -> str:
 
 def fmt_ms(value) -> str:
     return COLUMN_BY_NAME["time_ms_median"].format(None if is_missing(value) else float(value))
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to a temporary name beside ``path`` and rename it into place."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
 
 
 def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) -> pd.DataFrame:

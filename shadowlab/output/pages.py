@@ -8,12 +8,12 @@ Values reach the templates raw and are escaped by Jinja2; the few formatting fil
 from __future__ import annotations
 
 import functools
-import os
 from pathlib import Path
 
 import jinja2
 
 from ..analysis.aggregate import is_missing
+from ..util.files import write_text_atomic
 
 TEMPLATES = Path(__file__).parent / "templates"
 
@@ -82,7 +82,5 @@ def render_page(template: str, path: Path, **context) -> Path:
     path = Path(path)
     context.setdefault("banner", timing_banner(context.get("renderer")))
     text = environment().get_template(template).render(**context)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    write_text_atomic(path, text)
     return path

@@ -22,6 +22,7 @@ import pandas as pd
 
 from . import provenance
 from ..analysis.aggregate import DEGENERATE_MARK, is_true
+from ..util.files import temporary_path
 from ..util.validation import RunError
 from . import pictures
 from .insets import common_insets, wrong_pixels
@@ -44,7 +45,7 @@ def staging_dir(out: Path) -> Path:
     if out.exists() and not out.is_dir():
         raise RunError(f"--out {out} exists and is not a directory")
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.parent / f".{out.name}.tmp-{os.getpid()}"
+    tmp = temporary_path(out)
     if tmp.exists():
         shutil.rmtree(tmp)
     tmp.mkdir(parents=True)

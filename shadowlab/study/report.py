@@ -32,8 +32,8 @@ from ..analysis.aggregate import (
     DEGENERATE_MARK, FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, TIME_TIE, as_text, failed_runs,
     family_order, family_table, fmt_limit, fmt_ms, fmt_pct, is_missing, judged_metric, names_text,
     normalised, per_configuration, scenes_in_order, summary_table, verdict_sentences, verdict_table,
-    write_text_atomic,
 )
+from ..util.files import write_text_atomic
 from .agreement import MIN_CONFIGURATIONS, agreement_sentences, rank_agreement
 
 

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
-import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -35,6 +34,7 @@ from ..evaluation import perceptual
 from ..output import provenance
 from ..gpu import timing
 from ..output.rundir import safe_name
+from ..util.files import replacing, write_text_atomic
 from ..util.validation import RunError
 from ..techniques import from_spec
 from . import rundir
@@ -417,13 +417,10 @@ def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, timing
 def _write_study_files(out: Path, results: pd.DataFrame, meta: dict, record: dict) -> dict:
     """results.csv, study.json and the report, each written to a temporary name and renamed."""
     out.mkdir(parents=True, exist_ok=True)
-    tmp = out / f".results.csv.tmp-{os.getpid()}"
-    results.to_csv(tmp, index=False)
-    os.replace(tmp, out / "results.csv")
+    with replacing(out / "results.csv") as (tmp,):
+        results.to_csv(tmp, index=False)
     study = {**meta, "record": record, "date_finished": _dt.datetime.now().astimezone().isoformat(timespec="seconds")}
-    tmp = out / f".study.json.tmp-{os.getpid()}"
-    tmp.write_text(json.dumps(study, indent=2, default=str))
-    os.replace(tmp, out / "study.json")
+    write_text_atomic(out / "study.json", json.dumps(study, indent=2, default=str))
     from . import report as study_report
 
     return study_report.write_study_report(out, results, meta)

@@ -10,6 +10,7 @@ import argparse
 import re
 import sys
 
+from .util.sizes import ANIMATE_SIZE, COMPARE_SIZE, size_text
 from .util.validation import SceneError
 
 EXIT_BAD_INPUT = 2
@@ -141,7 +142,8 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("scene", help="a shipped scene's name (see 'shadowlab scenes') or a path to a scene file")
     c.add_argument("--technique", "-t", action="append", default=None, metavar="SPEC",
                    help="name or name:key=value,... (repeatable; default: shadow_map)")
-    c.add_argument("--size", default="800x600", help="image size WIDTHxHEIGHT (default 800x600)")
+    c.add_argument("--size", default=size_text(COMPARE_SIZE),
+                   help=f"image size WIDTHxHEIGHT (default {size_text(COMPARE_SIZE)})")
     c.add_argument("--out", default=None, help="run directory (default results/<scene>_<date-time>)")
     c.add_argument("--repeat", type=int, default=5, help="timed runs per configuration (default 5)")
     c.add_argument("--warmup", type=int, default=1, help="untimed warm-up runs (default 1)")
@@ -164,7 +166,8 @@ def _parser() -> argparse.ArgumentParser:
     an.add_argument("--technique", "-t", action="append", default=None, metavar="SPEC",
                     help="name or name:key=value,... (repeatable; default: shadow_map)")
     an.add_argument("--frames", type=int, default=None, help="frame count (default: the scene's animation.frames)")
-    an.add_argument("--size", default="320x240", help="image size WIDTHxHEIGHT (default 320x240)")
+    an.add_argument("--size", default=size_text(ANIMATE_SIZE),
+                    help=f"image size WIDTHxHEIGHT (default {size_text(ANIMATE_SIZE)})")
     an.add_argument("--out", default=None, help="run directory (default results/<scene>_animate_<date-time>)")
     an.add_argument("--repeat", type=int, default=1, help="timed runs per configuration and frame (default 1)")
     an.add_argument("--warmup", type=int, default=0, help="untimed warm-up runs per frame (default 0)")
@@ -182,7 +185,8 @@ def _parser() -> argparse.ArgumentParser:
     tu.add_argument("--budget", type=int, default=24, help="renders the search may spend (default 24; the exact "
                     "bias route renders once)")
     tu.add_argument("--light", type=int, default=0, help="the scene light to tune for (default 0)")
-    tu.add_argument("--size", default="800x600", help="image size WIDTHxHEIGHT (default 800x600, as compare)")
+    tu.add_argument("--size", default=size_text(COMPARE_SIZE),
+                    help=f"image size WIDTHxHEIGHT (default {size_text(COMPARE_SIZE)}, as compare)")
     tu.add_argument("--out", default=None, help="run directory (default results/<scene>_tune_<technique>)")
     tu.add_argument("--cache", default=None, metavar="DIR", help="a study's cache directory (e.g. "
                     "results/study-quick/cache) to reuse its renders and keep this search's")

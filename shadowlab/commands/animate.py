@@ -42,6 +42,7 @@ from ..measurement.pipeline import (
 from ..output.pages import provenance_items
 from ..output.rundir import RunDirectory, error_legend, safe_name
 from ..gpu.shading import ShadingPass
+from ..util.sizes import ANIMATE_SIZE
 from ..util.validation import RunError
 from ..util.validation import check_size
 from ..scene import Scene
@@ -101,7 +102,7 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def animate(scene_ref, specs: list[str], frames: int | None = None, size: tuple[int, int] = (320, 240),
+def animate(scene_ref, specs: list[str], frames: int | None = None, size: tuple[int, int] = ANIMATE_SIZE,
             out: Path | None = None, repeat: int = 1, warmup: int = 0, on_step: StepCallback | None = None) -> Path:
     """Run the truth and every technique spec on every frame of an animated scene; return the
     run directory. Bad input (scene, specs, size, frames, repeat) raises SceneError /

@@ -37,6 +37,7 @@ from ..evaluation.occluder_layers import first_occluder_distance, occluder_layer
 from ..techniques import Technique, TechniqueError, from_spec
 from ..techniques.base import FIRST
 from ..techniques.rays.raytrace import RayTraced
+from ..util.sizes import SWEEP_SIZE
 
 #: ``on_step(what, total)``: called after each render run (warm-up or timed).
 StepCallback = Callable[[str, int], None]
@@ -466,7 +467,7 @@ def build_techniques(specs: Sequence[str], truth: Technique | None = None) -> li
     return techs
 
 
-def measure_configs(scene_ref, specs: Sequence[str], size: tuple[int, int] = (640, 480), repeat: int = 1,
+def measure_configs(scene_ref, specs: Sequence[str], size: tuple[int, int] = SWEEP_SIZE, repeat: int = 1,
                     warmup: int = 0, light_index: int = 0, frame: Frame | None = None,
                     evaluator: Evaluator | None = None, on_step: StepCallback | None = None,
                     pass_timing: bool = False) -> pd.DataFrame:

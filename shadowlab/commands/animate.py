@@ -40,7 +40,7 @@ from ..measurement.pipeline import (
     Evaluator, StepCallback, build_techniques, check_lights, measure, pass_order,
 )
 from ..output.pages import provenance_items
-from ..output.rundir import RunDirectory, error_legend, safe_name
+from ..output.rundir import GROUND_TRUTH_KEY, RunDirectory, error_legend, safe_name
 from ..gpu.shading import ShadingPass
 from ..util.sizes import ANIMATE_SIZE
 from ..util.validation import RunError
@@ -49,7 +49,6 @@ from ..scene import Scene
 
 #: Decimals of the temporal error (a visibility difference, not a rate) on the page.
 TEMPORAL_ERROR_DECIMALS = 4
-TRUTH_KEY = "ground_truth"
 
 
 def default_out_dir(scene: Scene) -> Path:
@@ -158,13 +157,13 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
                     step = None if on_step is None else (lambda what=f"frame {k + 1}/{n} truth light {li}":
                                                          on_step(what, total))
                     truth_m = evaluator.truth(li, step)
-                    measured = [(TRUTH_KEY, truth_m, True)]
+                    measured = [(GROUND_TRUTH_KEY, truth_m, True)]
                     for tech in techniques:
                         step = None if on_step is None else (lambda what=f"frame {k + 1}/{n} {tech.short_label()} light {li}":
                                                              on_step(what, total))
                         tech.begin_frame(temporal.FrameStep(k, li))  # state across frames, if it keeps any
                         measured.append((tech.spec(), measure(tech, frame, li, repeat, warmup, step), False))
-                    truth_track = tracks.get((TRUTH_KEY, li))
+                    truth_track = tracks.get((GROUND_TRUTH_KEY, li))
                     truth_prev = truth_track.prev_vis if truth_track is not None else None
                     for key, m, is_ref in measured:
                         track = tracks.setdefault((key, li), _Track(m.technique.spec(),
@@ -228,7 +227,7 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
         "frames": n,
         "times": times.tolist(),
         "size": list(size),
-        "ground_truth": truth_spec,
+        GROUND_TRUTH_KEY: truth_spec,
         "configurations": [{"label": t.spec(), "technique": t.name, "params": t.params()} for t in techniques],
         "renderer": gl.renderer(),
         "device": gl.device(),

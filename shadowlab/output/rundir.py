@@ -28,6 +28,8 @@ from . import pictures
 from .insets import common_insets, wrong_pixels
 from .pages import fmt_ms, fmt_pct, provenance_items, render_page
 
+#: How a run names its ground truth: its key in masks.npz, the stem of its images
+#: (``ground_truth_shaded.png``) and the run record's field holding its spec.
 GROUND_TRUTH_KEY = "ground_truth"
 #: The picture kinds of a configuration, in the order the page offers them.
 PICTURE_KINDS = ("shaded", "visibility", "error", "signed", "footprint")
@@ -128,7 +130,7 @@ class ConfigImages:
     @property
     def stem(self) -> str:
         """File-name stem of its images."""
-        return "ground_truth" if self.reference else safe_name(self.title)
+        return GROUND_TRUTH_KEY if self.reference else safe_name(self.title)
 
 
 def write_comparison(rd: RunDirectory, rows: pd.DataFrame, configs: list[ConfigImages], record: dict,

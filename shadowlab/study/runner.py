@@ -33,7 +33,7 @@ import pandas as pd
 from ..evaluation import perceptual
 from ..output import provenance
 from ..gpu import timing
-from ..output.rundir import safe_name
+from ..output.rundir import GROUND_TRUTH_KEY, safe_name
 from ..util.files import replacing, write_text_atomic
 from ..util.validation import RunError
 from ..techniques import from_spec
@@ -185,7 +185,7 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
             executor.close()
 
     timing_text = _timing_sentence(suite, renderer, dask)
-    record = {"renderer": renderer, "device": device["device"], "gl": device["gl"], "ground_truth": suite.truth,
+    record = {"renderer": renderer, "device": device["device"], "gl": device["gl"], GROUND_TRUTH_KEY: suite.truth,
               "timing_method": timing_text, "timing_phase": "separate",
               "pass_timing": timing.pass_timing_method_for(renderer) if suite.pass_timing else None,
               "repeat": suite.repeat, "warmup": suite.warmup, "study": suite.name, "size": list(suite.size),
@@ -385,7 +385,7 @@ def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, timing
             if not r.reference:
                 sr.configs[r.spec] = res
             sr.keys += [r.acc_key, r.time_key if tim is not None else "untimed"]
-            stem = "ground_truth" if r.reference else rundir.image_stem(res["meta"]["rows"][0]["short_label"])
+            stem = GROUND_TRUTH_KEY if r.reference else rundir.image_stem(res["meta"]["rows"][0]["short_label"])
             columns = tim["columns"] if tim is not None else [{}] * len(res["meta"]["rows"])
             for li, (row, cols) in enumerate(zip(res["meta"]["rows"], columns)):
                 row = {**row, **cols}

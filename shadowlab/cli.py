@@ -367,7 +367,7 @@ def _cmd_animate(args) -> int:
         repeat=args.repeat, warmup=args.warmup, on_step=step))
     if out is None:
         return EXIT_NO_GL
-    from .output.pages import fmt_ms, fmt_pct
+    from .util.format import fmt_ms, fmt_pct
 
     summary = pd.read_csv(out / "summary.csv")
     shown = pd.DataFrame({"configuration": summary["short_label"], "light": summary["light"],
@@ -386,6 +386,7 @@ def _cmd_animate(args) -> int:
 
 def _cmd_cost(args) -> int:
     from .commands import cost as cost_cmd
+    from .util.format import fmt_whole_pct
     from .analysis.cost import PREDICTED_LABEL, summary_line
 
     if args.cost_command == "fit":
@@ -398,10 +399,10 @@ def _cmd_cost(args) -> int:
         return 0
     table, path, model = cost_cmd.predict_command(args.study_dir, args.model)
     print(f"{PREDICTED_LABEL} {model.target} on {model.device} (a prediction: the model's leave-one-scene-out "
-          f"median error is {cost_cmd.pct(model.cv_median_rel_error)})")
+          f"median error is {fmt_whole_pct(model.cv_median_rel_error)})")
     if table["measured_ms"].notna().any():
         print(f"the study ran on that device: median relative error of the predictions "
-              f"{cost_cmd.pct(float(table['rel_error'].median()))}")
+              f"{fmt_whole_pct(float(table['rel_error'].median()))}")
     key = next(c for c in ("short_label", "label", "scene") if c in table.columns)
     here = "measured_here_ms" if "measured_here_ms" in table.columns else "measured_ms"
     summary = table.groupby(key, sort=False)[[here, f"{PREDICTED_LABEL}_ms"]].median()
@@ -426,7 +427,7 @@ def _cmd_tune(args) -> int:
     if out is None:
         return EXIT_NO_GL
     best = json.loads((out / "best.json").read_text())
-    from .output.pages import fmt_num
+    from .util.format import fmt_num
 
     print(f"best:    {best['spec']}")
     print(f"         {best['objective']} = {fmt_num(best['value'], 6)} (as given: {fmt_num(best['default']['value'], 6)}, "

@@ -13,7 +13,6 @@ renamed: a failed command leaves earlier files as they were.
 from __future__ import annotations
 
 import json
-import math
 import re
 from pathlib import Path
 
@@ -22,6 +21,7 @@ import pandas as pd
 
 from ..analysis import cost
 from ..util.files import replacing
+from ..util.format import fmt_whole_pct
 from ..util.validation import RunError
 
 
@@ -103,17 +103,12 @@ def fit_plot(model: cost.CostModel, table: pd.DataFrame, path: Path) -> Path:
     ax.set_xlabel(f"measured {model.target} (ms)")
     ax.set_ylabel(f"{cost.PREDICTED_LABEL} (ms)")
     ax.set_title(f"cost model: {model.device[:60]}\nR² {model.r2:.3f}, "
-                 f"leave-one-scene-out median error {pct(model.cv_median_rel_error)}", fontsize=9)
+                 f"leave-one-scene-out median error {fmt_whole_pct(model.cv_median_rel_error)}", fontsize=9)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
     fig.savefig(path, format="png", dpi=110)
     plt.close(fig)
     return path
-
-
-def pct(x: float) -> str:
-    """A fraction as a whole percentage ("n/a" when missing)."""
-    return "n/a" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.0f} %"
 
 
 def slug(text: str) -> str:

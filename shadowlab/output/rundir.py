@@ -26,7 +26,8 @@ from ..util.files import temporary_path
 from ..util.validation import RunError
 from . import pictures
 from .insets import common_insets, wrong_pixels
-from .pages import fmt_ms, fmt_pct, provenance_items, render_page
+from ..util.format import fmt_ms, fmt_pct
+from .pages import provenance_items, render_page
 
 #: How a run names its ground truth: its key in masks.npz, the stem of its images
 #: (``ground_truth_shaded.png``) and the run record's field holding its spec.

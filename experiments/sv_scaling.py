@@ -61,7 +61,7 @@ def gs_only_timer(frame, table, light, repeat):
     prog["u_view"].write(programs.mat_bytes(frame.view))
     prog["u_proj"].write(programs.mat_bytes(frame.projection))
     programs.set_uniforms(prog, {"u_two_sided": False, "u_caps": True, "u_far_cap": not light.at_infinity,
-                           "u_stage": GS_STAGE_VOLUME})
+                                 "u_stage": GS_STAGE_VOLUME})
     vbo = ctx.buffer(table.vertices.astype("f4").tobytes())
     ibo = ctx.buffer(table.adjacency_indices().tobytes())
     vao = ctx.vertex_array(prog, [(vbo, "3f", "in_pos")], index_buffer=ibo, index_element_size=4)

@@ -103,7 +103,7 @@ def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = 
         raise glsl.ShaderError(f"{label}: a compute program has a '#ifdef COMPUTE_SHADER' section and no other stage")
     if "vertex" not in stages and "compute" not in stages:
         raise glsl.ShaderError(f"{label}: no '#ifdef VERTEX_SHADER' (or COMPUTE_SHADER) section (in the file or its "
-                          f"includes)")
+                               f"includes)")
     if varyings:
         stages.pop("fragment", None)  # transform feedback: vertex (and geometry) only
     try:
@@ -111,10 +111,10 @@ def program(name: str, defines: dict | None = None, varyings: tuple[str, ...] = 
             prog = gl.context().compute_shader(stages["compute"])
         else:
             prog = gl.context().program(vertex_shader=stages["vertex"], geometry_shader=stages.get("geometry"),
-                                     fragment_shader=stages.get("fragment"), varyings=tuple(varyings))
+                                        fragment_shader=stages.get("fragment"), varyings=tuple(varyings))
     except moderngl.Error as exc:
         raise glsl.ShaderError(f"{label} failed to build (locations as file:line):\n{exp.rewrite(str(exc)).strip()}"
-                          ) from None
+                               ) from None
     declared = frozenset().union(*(glsl.declared_uniforms(src) for src in stages.values()))
     prog.extra = ProgramInfo(name, dict(defines or {}), glstate.clip_distances_written(stages), declared,
                              exp.files)

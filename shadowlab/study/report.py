@@ -510,7 +510,7 @@ def prediction_tables(meta: dict) -> list[dict]:
                 f"into {entry.get('target')} on that device. Rows: {entry.get('csv')}.")
         rows = [[as_text(r.get("technique")), as_text(r.get("label")), fmt_ms(r.get("measured_here_ms")),
                  (fmt_ms(r.get("predicted_ms")) + (" (extrapolated: no such technique in the fitted rows)"
-                                                         if r.get("extrapolated") else ""))
+                                                   if r.get("extrapolated") else ""))
                  if r.get("predicted_ms") is not None
                  else f"— (no cost for {as_text(r.get('unmodelled')) or 'its work'})"]
                 for r in entry.get("rows", [])]

@@ -275,7 +275,7 @@ void main() { out_value = u_used + u_array[2].x; }
     info = programs.program_info(prog)
     assert {"u_used", "u_unused", "u_also_unused", "u_array"} <= info.uniforms and "u_fancy" not in info.uniforms
     programs.set_uniforms(prog, {"u_used": 0.5, "u_unused": 1.0, "u_also_unused": 2.0,
-                           "u_array": np.ones((3, 4), np.float32)})  # unused ones: skipped
+                                 "u_array": np.ones((3, 4), np.float32)})  # unused ones: skipped
     assert prog["u_used"].value == 0.5
     with pytest.raises(KeyError) as exc:
         programs.set_uniforms(prog, {"u_usde": 1.0})

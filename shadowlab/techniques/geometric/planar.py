@@ -167,7 +167,7 @@ class PlanarShadow(Technique):
                     stencil=stencil,
                     clip_distances=2 if self.clip_light else 0))  # the light's and the receiver's planes
                 programs.set_uniforms(self.prog, {"u_light_plane": tuple(map(float, rec.light_plane)),
-                                            "u_receiver_plane": tuple(map(float, rec.plane))})
+                                                  "u_receiver_plane": tuple(map(float, rec.plane))})
                 self.prog["u_plane_projection"].write(programs.mat_bytes(rec.projection))
                 for i in casters:
                     if i != rec.index:

@@ -276,9 +276,9 @@ class FilteredShadowMap(TexelMapping, Technique):
 
         self.depth_prog = self.program("filtered_depth.glsl", defines=VARIANT_DEFINES)
         programs.set_uniforms(self.depth_prog, {"u_near": self.near, "u_far": self.far,
-                                          "u_exponent": float(self.exponent),
-                                          "u_derivative_weight": DERIVATIVE_WEIGHT,
-                                          "u_moment_max": FORMAT_MAX[self.precision]})
+                                                "u_exponent": float(self.exponent),
+                                                "u_derivative_weight": DERIVATIVE_WEIGHT,
+                                                "u_moment_max": FORMAT_MAX[self.precision]})
         self._set_variant_uniforms(self.depth_prog)
         self.blur_prog = self.program("filtered_blur.glsl")
         programs.set_uniforms(self.blur_prog, {"u_moments": 0, "u_radius": self.kernel // 2})

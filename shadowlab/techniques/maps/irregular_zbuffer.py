@@ -180,13 +180,13 @@ class IrregularZBuffer(Technique):
         programs.set_uniforms(self.insert_prog, self.light.uniforms())
         self.atlas.write_uniforms(self.insert_prog)
         programs.set_uniforms(self.insert_prog, {"u_rays": self.ray_count, "u_samples_per_pixel": self.samples,
-                                           "u_node_capacity": self.pool})
+                                                 "u_node_capacity": self.pool})
         self.raster_prog = self.program("izb_raster.glsl",
                                         defines={"COVERAGE_POLYGON": 1} if self.coverage == "polygon" else None)
         self.test_prog = self.program("izb_test.glsl", defines={"LOCAL_SIZE": LOCAL_SIZE})
         for prog in (self.raster_prog, self.test_prog):
             programs.set_uniforms(prog, {"u_samples_per_pixel": self.samples,
-                                   "u_atlas_size": tuple(map(float, self.atlas.size))})
+                                         "u_atlas_size": tuple(map(float, self.atlas.size))})
         programs.set_uniforms(self.raster_prog, {"u_edge_pad": EDGE_PAD, "u_edge_test_limit": EDGE_TEST_LIMIT})
         tri_vbo = self.own(ctx.buffer(np.ascontiguousarray(corners[:, :3]).tobytes()))
         self.caster_vao = self.own(ctx.vertex_array(self.raster_prog, [(tri_vbo, "3f", "in_position")]))
@@ -293,7 +293,7 @@ class IrregularZBuffer(Technique):
                 self.raster_prog["u_face_view_proj"].write(programs.mat_bytes(face.view_proj))
                 margin = 2.0 * COVERAGE_MARGIN / np.array(rect[2:], np.float64)
                 programs.set_uniforms(self.raster_prog, {"u_w_min": w_min, "u_margin_ndc": tuple(map(float, margin)),
-                                                   "u_viewport": tuple(map(float, rect))})
+                                                         "u_viewport": tuple(map(float, rect))})
                 self.caster_vao.render(ctx.TRIANGLES)
             ctx.memory_barrier()
             asked = int(np.frombuffer(b["counters"].read(4, offset=4 * COUNTERS.index("pairs")), np.uint32)[0])

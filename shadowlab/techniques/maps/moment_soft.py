@@ -315,13 +315,13 @@ class MomentSoftShadows(TexelMapping, Technique):
         self.depth_prog["u_light_view_proj"].write(programs.mat_bytes(face.view_proj))
         self.depth_prog["u_quantize"].write(programs.mat_bytes(MSM_QUANTIZE))
         programs.set_uniforms(self.depth_prog, {"u_near": self.h_lo, "u_far": self.h_hi, "u_variant": VARIANT_ID["msm"],
-                                          "u_quantize_offset": tuple(map(float, MSM_QUANTIZE_OFFSET)),
-                                          "u_height_origin": tuple(map(float, centre)),
-                                          "u_height_axis": tuple(map(float, axis))})
+                                                "u_quantize_offset": tuple(map(float, MSM_QUANTIZE_OFFSET)),
+                                                "u_height_origin": tuple(map(float, centre)),
+                                                "u_height_axis": tuple(map(float, axis))})
         sat_defines = {"LOCAL_SIZE": LOCAL_SIZE, **({"SAT_FIXED": 1} if fixed else {})}
         self.sat_prog = self.program("moment_soft_sat.glsl", defines=sat_defines)
         programs.set_uniforms(self.sat_prog, {"u_moments": 0, "u_sat": 0, "u_size": (res, res),
-                                        **({"u_fixed_scale": float(self.scale)} if fixed else {})})
+                                              **({"u_fixed_scale": float(self.scale)} if fixed else {})})
 
         self.lookup_prog = self.program("moment_soft.glsl", defines={"SAT_FIXED": 1} if fixed else {})
         programs.set_uniforms(self.lookup_prog, light.uniforms())

@@ -219,7 +219,7 @@ class ProjectiveShadow(Technique):
                 tex.use(3)
                 self.lookup_prog["u_light_matrix"].write(programs.mat_bytes(BIAS @ view.view_proj))
                 programs.set_uniforms(self.lookup_prog, {"u_caster": index, "u_box_min": tuple(map(float, bounds[0])),
-                                                   "u_box_max": tuple(map(float, bounds[1]))})
+                                                         "u_box_max": tuple(map(float, bounds[1]))})
                 self.quad.render()
 
     def work(self, counted: dict, stats: dict) -> dict:

@@ -178,7 +178,7 @@ class Atlas:
         ``u_face_rect`` and ``u_atlas_size``."""
         prog["u_light_matrix"].write(self.light_matrices())
         programs.set_uniforms(prog, {"u_faces": len(self.faces), "u_face_rect": self.rect_array(),
-                               "u_atlas_size": tuple(map(float, self.size))})
+                                     "u_atlas_size": tuple(map(float, self.size))})
 
 
 # --------------------------------------------------------------------------- passes
@@ -375,7 +375,8 @@ class DepthMapTechnique(TexelMapping, Technique):
             self.resolve_prog = self.program("shadow_resolve.glsl")
             self.resolve_quad = self.fullscreen_quad(self.resolve_prog)
             programs.set_uniforms(self.peel_prog, {"u_first_layer": 0, "u_peel_epsilon": DEPTH_STEP[self.depth_bits]})
-            programs.set_uniforms(self.resolve_prog, {"u_first_layer": 0, "u_second_layer": 1, **self.resolve_uniforms()})
+            programs.set_uniforms(self.resolve_prog, {"u_first_layer": 0, "u_second_layer": 1,
+                                                      **self.resolve_uniforms()})
         hw = FILTERS[self.filter] is None
         defines = {**ATLAS_DEFINES, **self.lookup_defines(), **({"FILTER_HW": 1} if hw else {})}
         self.lookup_prog = self.program("shadow_lookup.glsl", defines=defines)
@@ -387,7 +388,7 @@ class DepthMapTechnique(TexelMapping, Technique):
         programs.set_uniforms(self.lookup_prog, self.light.uniforms())
         self.atlas.write_uniforms(self.lookup_prog)
         programs.set_uniforms(self.lookup_prog, {"u_position": 0, "u_normal": 1, "u_map": 2,
-                                           **self.comparison_uniforms()})
+                                                 **self.comparison_uniforms()})
         self.quad = self.fullscreen_quad(self.lookup_prog)
         self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
 
@@ -443,7 +444,7 @@ class DepthMapTechnique(TexelMapping, Technique):
         programs.set_uniforms(prog, self.light.uniforms())
         self.atlas.write_uniforms(prog)
         programs.set_uniforms(prog, {"u_position": 0, "u_normal": 1, "u_map": 2, **self.comparison_uniforms(),
-                               **(uniforms or {})})
+                                     **(uniforms or {})})
         quad = self.fullscreen_quad(prog)
         size = (self.frame.width, self.frame.height)
         tex = self.own(ctx.texture(size, 4, dtype="f4"))

@@ -311,8 +311,8 @@ class VirtualMap(TexelMapping, Technique):
             programs.set_uniforms(prog, common)
             prog["u_light_matrix"].write(b"".join(programs.mat_bytes(m) for m in matrices))
         programs.set_uniforms(self.request_prog, {"u_position": 0, "u_evaluated": 1,
-                                            "u_mask_offset": self._padded_levels(self.mask_offset),
-                                            "u_face_words": self.face_words})
+                                                  "u_mask_offset": self._padded_levels(self.mask_offset),
+                                                  "u_face_words": self.face_words})
         programs.set_uniforms(self.lookup_prog, {
             "u_position": 0, "u_normal": 1, "u_pool": 2, "u_page_table": 3,
             "u_table_row": self._padded_levels(self.table_row), "u_face_rows": self.face_rows,

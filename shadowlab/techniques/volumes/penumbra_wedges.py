@@ -217,18 +217,19 @@ class PenumbraWedges(ShadowVolume):
         common = {"u_position": 0, "u_normal": 2, "u_light_centre": tuple(self.centre),
                   "u_light_normal": tuple(self.normal)}
         programs.set_uniforms(self.wedge_prog, {**common, "u_light_du": tuple(du), "u_light_dv": tuple(dv),
-                                          "u_slab_margin": SLAB_MARGIN, "u_coplanar": COPLANAR_TOLERANCE})
+                                                "u_slab_margin": SLAB_MARGIN, "u_coplanar": COPLANAR_TOLERANCE})
         self.combine_prog = self.program("penumbra_wedges_combine.glsl")
         programs.set_uniforms(self.combine_prog, {**common, "u_wedges": 1, "u_clamp": bool(self.clamp),
-                                            "u_horizon": bool(self.horizon), "u_light_u": tuple(map(float, light.u)),
-                                            "u_light_v": tuple(map(float, light.v)),
-                                            "u_eye": tuple(map(float, frame.camera.eye))})
+                                                  "u_horizon": bool(self.horizon),
+                                                  "u_light_u": tuple(map(float, light.u)),
+                                                  "u_light_v": tuple(map(float, light.v)),
+                                                  "u_eye": tuple(map(float, frame.camera.eye))})
         self.combine_quad = self.fullscreen_quad(self.combine_prog)
         # The wedges' sum, drawn with the hard volume's depth pre-pass as its depth buffer.
         size = (frame.width, frame.height)
         self.acc_tex = self.own(frame.ctx.texture(size, 1, dtype="f4"))
         self.acc_fbo = self.own(targets.ScreenTarget.create(size, [self.acc_tex],
-                                                       share_depth_stencil=frame.depth_stencil_for(self)))
+                                                            share_depth_stencil=frame.depth_stencil_for(self)))
         self.wedge_buffers: dict = {}
         self.extent = frame.scene.extent()
         corners = np.stack(np.meshgrid(*frame.scene.bounds().T, indexing="ij"), -1).reshape(-1, 3)

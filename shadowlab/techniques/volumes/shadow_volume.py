@@ -151,7 +151,7 @@ class ShadowVolume(Technique):
             for key, val in self.matrices.items():
                 self.gs_prog[key].write(val)
             programs.set_uniforms(self.gs_prog, {"u_two_sided": False, "u_caps": True,
-                                           "u_far_cap": not self.light.at_infinity})
+                                                 "u_far_cap": not self.light.at_infinity})
             for p in self.plans:
                 if p.path == "gpu":
                     vbo = self.own(ctx.buffer(p.table.vertices.astype("f4").tobytes()))

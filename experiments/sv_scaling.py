@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 from OpenGL import GL
 
-from shadowlab.gpu import gl
+from shadowlab.gpu import gl, programs
 from shadowlab.output import provenance
 from shadowlab.gpu.frame import Frame
 from shadowlab.geometry import adjacency as adj
@@ -56,12 +56,12 @@ def gs_only_timer(frame, table, light, repeat):
     """Median ms of the silhouette geometry shader over the torus with the rasteriser off:
     the program of the GPU path, drawn through the public GL helpers."""
     ctx = frame.ctx
-    prog = gl.program("shadow_volume_gs.glsl")
-    gl.set_uniforms(prog, light.uniforms())
-    prog["u_view"].write(gl.mat_bytes(frame.view))
-    prog["u_proj"].write(gl.mat_bytes(frame.projection))
-    gl.set_uniforms(prog, {"u_two_sided": False, "u_caps": True, "u_far_cap": not light.at_infinity,
-                           "u_stage": GS_STAGE_VOLUME})
+    prog = programs.program("shadow_volume_gs.glsl")
+    programs.set_uniforms(prog, light.uniforms())
+    prog["u_view"].write(programs.mat_bytes(frame.view))
+    prog["u_proj"].write(programs.mat_bytes(frame.projection))
+    programs.set_uniforms(prog, {"u_two_sided": False, "u_caps": True, "u_far_cap": not light.at_infinity,
+                                 "u_stage": GS_STAGE_VOLUME})
     vbo = ctx.buffer(table.vertices.astype("f4").tobytes())
     ibo = ctx.buffer(table.adjacency_indices().tobytes())
     vao = ctx.vertex_array(prog, [(vbo, "3f", "in_pos")], index_buffer=ibo, index_element_size=4)
@@ -72,7 +72,7 @@ def gs_only_timer(frame, table, light, repeat):
         GL.glDisable(GL.GL_RASTERIZER_DISCARD)
 
     ms = time_passes(gs_only, repeat=repeat, warmup=1).median_ms
-    for obj in (vao, ibo, vbo):  # prog: gl.program's cache keeps it
+    for obj in (vao, ibo, vbo):  # prog: programs.program's cache keeps it
         obj.release()
     return ms
 

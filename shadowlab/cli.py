@@ -10,6 +10,7 @@ import argparse
 import re
 import sys
 
+from .util.sizes import ANIMATE_SIZE, COMPARE_SIZE, size_text
 from .util.validation import SceneError
 
 EXIT_BAD_INPUT = 2
@@ -141,7 +142,8 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("scene", help="a shipped scene's name (see 'shadowlab scenes') or a path to a scene file")
     c.add_argument("--technique", "-t", action="append", default=None, metavar="SPEC",
                    help="name or name:key=value,... (repeatable; default: shadow_map)")
-    c.add_argument("--size", default="800x600", help="image size WIDTHxHEIGHT (default 800x600)")
+    c.add_argument("--size", default=size_text(COMPARE_SIZE),
+                   help=f"image size WIDTHxHEIGHT (default {size_text(COMPARE_SIZE)})")
     c.add_argument("--out", default=None, help="run directory (default results/<scene>_<date-time>)")
     c.add_argument("--repeat", type=int, default=5, help="timed runs per configuration (default 5)")
     c.add_argument("--warmup", type=int, default=1, help="untimed warm-up runs (default 1)")
@@ -164,7 +166,8 @@ def _parser() -> argparse.ArgumentParser:
     an.add_argument("--technique", "-t", action="append", default=None, metavar="SPEC",
                     help="name or name:key=value,... (repeatable; default: shadow_map)")
     an.add_argument("--frames", type=int, default=None, help="frame count (default: the scene's animation.frames)")
-    an.add_argument("--size", default="320x240", help="image size WIDTHxHEIGHT (default 320x240)")
+    an.add_argument("--size", default=size_text(ANIMATE_SIZE),
+                    help=f"image size WIDTHxHEIGHT (default {size_text(ANIMATE_SIZE)})")
     an.add_argument("--out", default=None, help="run directory (default results/<scene>_animate_<date-time>)")
     an.add_argument("--repeat", type=int, default=1, help="timed runs per configuration and frame (default 1)")
     an.add_argument("--warmup", type=int, default=0, help="untimed warm-up runs per frame (default 0)")
@@ -182,7 +185,8 @@ def _parser() -> argparse.ArgumentParser:
     tu.add_argument("--budget", type=int, default=24, help="renders the search may spend (default 24; the exact "
                     "bias route renders once)")
     tu.add_argument("--light", type=int, default=0, help="the scene light to tune for (default 0)")
-    tu.add_argument("--size", default="800x600", help="image size WIDTHxHEIGHT (default 800x600, as compare)")
+    tu.add_argument("--size", default=size_text(COMPARE_SIZE),
+                    help=f"image size WIDTHxHEIGHT (default {size_text(COMPARE_SIZE)}, as compare)")
     tu.add_argument("--out", default=None, help="run directory (default results/<scene>_tune_<technique>)")
     tu.add_argument("--cache", default=None, metavar="DIR", help="a study's cache directory (e.g. "
                     "results/study-quick/cache) to reuse its renders and keep this search's")
@@ -363,7 +367,7 @@ def _cmd_animate(args) -> int:
         repeat=args.repeat, warmup=args.warmup, on_step=step))
     if out is None:
         return EXIT_NO_GL
-    from .output.pages import fmt_ms, fmt_pct
+    from .util.format import fmt_ms, fmt_pct
 
     summary = pd.read_csv(out / "summary.csv")
     shown = pd.DataFrame({"configuration": summary["short_label"], "light": summary["light"],
@@ -382,6 +386,7 @@ def _cmd_animate(args) -> int:
 
 def _cmd_cost(args) -> int:
     from .commands import cost as cost_cmd
+    from .util.format import fmt_whole_pct
     from .analysis.cost import PREDICTED_LABEL, summary_line
 
     if args.cost_command == "fit":
@@ -394,10 +399,10 @@ def _cmd_cost(args) -> int:
         return 0
     table, path, model = cost_cmd.predict_command(args.study_dir, args.model)
     print(f"{PREDICTED_LABEL} {model.target} on {model.device} (a prediction: the model's leave-one-scene-out "
-          f"median error is {cost_cmd.pct(model.cv_median_rel_error)})")
+          f"median error is {fmt_whole_pct(model.cv_median_rel_error)})")
     if table["measured_ms"].notna().any():
         print(f"the study ran on that device: median relative error of the predictions "
-              f"{cost_cmd.pct(float(table['rel_error'].median()))}")
+              f"{fmt_whole_pct(float(table['rel_error'].median()))}")
     key = next(c for c in ("short_label", "label", "scene") if c in table.columns)
     here = "measured_here_ms" if "measured_here_ms" in table.columns else "measured_ms"
     summary = table.groupby(key, sort=False)[[here, f"{PREDICTED_LABEL}_ms"]].median()
@@ -422,7 +427,7 @@ def _cmd_tune(args) -> int:
     if out is None:
         return EXIT_NO_GL
     best = json.loads((out / "best.json").read_text())
-    from .output.pages import fmt_num
+    from .util.format import fmt_num
 
     print(f"best:    {best['spec']}")
     print(f"         {best['objective']} = {fmt_num(best['value'], 6)} (as given: {fmt_num(best['default']['value'], 6)}, "

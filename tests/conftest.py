@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from helpers import Lab
-from shadowlab.gpu import gl, glstate
+from shadowlab.gpu import gl, glstate, programs
 
 
 @pytest.fixture(autouse=True)
@@ -27,7 +27,7 @@ def _check_draw(vao) -> None:
     """Record what is wrong with the GL state for a draw by ``vao``'s program (see
     shadowlab.gpu.glstate.draw_problems): the test that made the draw then fails."""
     prog = vao.program
-    info = gl.program_info(prog)
+    info = programs.program_info(prog)
     units = {}
     for name in prog:
         member = prog[name]

@@ -11,13 +11,11 @@ read these tables.
 from __future__ import annotations
 
 import math
-import os
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from ..evaluation.metrics import COLUMN_BY_NAME
+from ..util.format import fmt_table_ms, fmt_table_pct, is_missing
 
 #: A configuration *fails* a scene when its run failed or its error rate (pooled over the scene's
 #: lights) exceeds this fraction of the evaluated pixels: 1 %.
@@ -64,16 +62,6 @@ def is_tuned_name(config: str) -> bool:
 
 
 _IMAGE_COLUMNS = ["run_dir", "shaded_image", "error_image", "signed_image", "footprint_image"]
-
-
-def is_missing(value) -> bool:
-    """Whether a table cell holds nothing: None or NaN (other values, lists included, do not)."""
-    if value is None:
-        return True
-    try:
-        return bool(pd.isna(value))
-    except (TypeError, ValueError):
-        return False
 
 
 def as_text(value) -> str:
@@ -145,22 +133,6 @@ def family_order(names) -> list[str]:
 
     names = set(names)
     return [n for n in REGISTRY if n in names] + sorted(names - set(REGISTRY))
-
-
-def fmt_pct(rate) -> str:
-    return COLUMN_BY_NAME["error_rate"].format(None if is_missing(rate) else float(rate))
-
-
-def fmt_ms(value) -> str:
-    return COLUMN_BY_NAME["time_ms_median"].format(None if is_missing(value) else float(value))
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to a temporary name beside ``path`` and rename it into place."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
 
 
 def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) -> pd.DataFrame:
@@ -302,7 +274,7 @@ def summary_table(results: pd.DataFrame) -> pd.DataFrame:
         g = conf[conf["label"] == label]
         f = fails[fails["label"] == label]
         bad = [(s, f"failed: {e}" if e else "failed") for s, e in zip(f["scene"], f["error"])]
-        bad += [(s, fmt_pct(e) + (f" {DEGENERATE_MARK}" if d else "")) for s, e, d in
+        bad += [(s, fmt_table_pct(e) + (f" {DEGENERATE_MARK}" if d else "")) for s, e, d in
                 zip(g["scene"], g["error_rate"], g["degenerate"].astype(bool)) if e > FAIL_ERROR_RATE or d]
         rows.append({"technique": info["technique"], "label": label, "short_label": info["short_label"],
                      "median_error_rate": g["error_rate"].median() if len(g) else math.nan,
@@ -480,7 +452,7 @@ def _fastest_names(times: pd.Series) -> list[str]:
 def _fastest(times: pd.Series) -> str:
     """"A (1.20 ms)" or, with ties, "A (1.20 ms), B (1.25 ms), tied within 10 %"."""
     names = _fastest_names(times)
-    text = ", ".join(f"{n} ({fmt_ms(times[n])} ms)" for n in names)
+    text = ", ".join(f"{n} ({fmt_table_ms(times[n])} ms)" for n in names)
     return text + (f", tied within {100 * TIME_TIE:g} %" if len(names) > 1 else "")
 
 
@@ -503,7 +475,7 @@ def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
         per = per.loc[[t for t in family_order(per.index) if t in per.index]]
         full = per[per["scenes"] == per["scenes"].max()]
         metric = g["metric"].iloc[0]
-        show = fmt_pct if metric == "error_rate" else (lambda v: f"{v:.4f}")
+        show = fmt_table_pct if metric == "error_rate" else (lambda v: f"{v:.4f}")
         where = f"{n} scene{'s' if n != 1 else ''}: {', '.join(scenes)}"
         parts = []
         scored = full[full["err"].notna()]
@@ -521,7 +493,7 @@ def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
             if moving != static:
                 slow = [n for n in static if n not in moving]
                 extra = (f"; {', '.join(slow)} {'needs' if len(slow) == 1 else 'need'} "
-                         f"{', '.join(fmt_ms(sound.loc[n, 'moving']) + ' ms' for n in slow)} with per-light "
+                         f"{', '.join(fmt_table_ms(sound.loc[n, 'moving']) + ' ms' for n in slow)} with per-light "
                          f"preprocessing" if slow else "")
                 parts.append(f"for a moving light: {_fastest(sound['moving'])}{extra}")
             else:

@@ -17,12 +17,8 @@ light: mean error rate, flip rate mean/p95/max, temporal error mean/max, median 
 the truth did not, coloured over the last frame's shaded truth in grey), ``strip_<name>.gif``
 (per technique, first light: truth | technique | error map, one labelled GIF frame per animation
 frame), ``animation.json`` (provenance, :mod:`shadowlab.output.provenance`) and ``report.html``
-(template ``animate.html``). These names are a contract: users' scripts read them.
-
-The GIFs are written, and their frames labelled, with Pillow (GIF writer, ImageDraw and its
-default font): Pillow is already installed (matplotlib depends on it), whereas imageio would be a
-new dependency for the same few lines; the strips are flat colour pictures that a 256-colour
-palette holds without visible loss.
+(template ``animate.html``). These names are a contract: users' scripts read them. The strips,
+GIFs and flicker maps are drawn by :mod:`shadowlab.output.animation_pictures`.
 """
 from __future__ import annotations
 
@@ -34,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from ..measurement.scenes import load_measured_scene
-from ..output import pictures
+from ..output import animation_pictures, pictures
 from ..gpu import gl, timing
 from ..evaluation import metrics, temporal
 from ..output import provenance
@@ -44,45 +40,15 @@ from ..measurement.pipeline import (
     Evaluator, StepCallback, build_techniques, check_lights, measure, pass_order,
 )
 from ..output.pages import provenance_items
-from ..output.rundir import RunDirectory, error_legend, safe_name
+from ..output.rundir import GROUND_TRUTH_KEY, RunDirectory, error_legend, safe_name
 from ..gpu.shading import ShadingPass
+from ..util.sizes import ANIMATE_SIZE
 from ..util.validation import RunError
 from ..util.validation import check_size
 from ..scene import Scene
 
-#: Display time of one GIF frame, milliseconds.
-GIF_FRAME_MS = 150
-#: Width of the dark separator between the panels of a strip, pixels.
-STRIP_GAP = 2
-#: Colour map of the flicker heat maps (matplotlib name): dark = few flips, bright = many.
-FLICKER_COLORMAP = "inferno"
-#: Where on :data:`FLICKER_COLORMAP` a count of 1 starts: its near-black low end would read as
-#: shadow over the grey scene, so the overlay uses the map from here up.
-FLICKER_COLORMAP_FLOOR = 0.3
-#: Entries of that cut colour map (matplotlib's usual resolution).
-FLICKER_COLORMAP_STEPS = 256
-#: The grey scene under the flicker counts: luminance of the shaded truth mapped linearly onto
-#: [low, high], so the scene is visible but never as bright as the brightest overlay colours.
-FLICKER_UNDERLAY_GREY = (0.15, 0.75)
-#: Rec. 709 luma weights (sRGB-encoded RGB → grey) of the flicker picture's underlay.
-LUMA_WEIGHTS = np.array([0.2126, 0.7152, 0.0722])
-#: Panel names of a strip, left to right, drawn on every GIF frame.
-STRIP_PANELS = ("truth", "technique", "error")
-#: Margin of a GIF label from its panel's corner, and padding of its dark box, pixels.
-LABEL_MARGIN = 2
-LABEL_PAD = 1
-#: Opacity (0–255) of the dark box behind a GIF label.
-LABEL_BOX_ALPHA = 170
-#: The flicker figure: width and title height (inches), resolution, and its colour bar's width
-#: and gap from the picture (matplotlib axes_grid1 sizes).
-FLICKER_FIGURE_WIDTH = 5.0
-FLICKER_TITLE_HEIGHT = 0.6
-FLICKER_DPI = 110
-COLORBAR_WIDTH = "4%"
-COLORBAR_PAD = 0.08
 #: Decimals of the temporal error (a visibility difference, not a rate) on the page.
 TEMPORAL_ERROR_DECIMALS = 4
-TRUTH_KEY = "ground_truth"
 
 
 def default_out_dir(scene: Scene) -> Path:
@@ -116,117 +82,6 @@ class _Track:
     strip: list = field(default_factory=list)
 
 
-def _uint8(rgb: np.ndarray) -> np.ndarray:
-    return (np.clip(rgb, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
-
-
-def _strip_picture(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, covered: np.ndarray) -> np.ndarray:
-    """truth's visibility | the technique's | its error map (over the truth's visibility), uint8
-    (H, 3W + 2·gap, 3), row 0 = top."""
-    truth_pic = pictures.visibility_picture(truth, evaluated, covered)
-    vis_pic = pictures.visibility_picture(vis, evaluated, covered)
-    err_pic = pictures.error_picture(metrics.error_classes(vis, truth, evaluated), truth_pic.copy())
-    gap = np.zeros((vis.shape[0], STRIP_GAP, 3))
-    return _uint8(np.concatenate([truth_pic, gap, vis_pic, gap, err_pic], axis=1))
-
-
-def label_strip(strip: np.ndarray, k: int, n: int) -> np.ndarray:
-    """One strip picture (uint8 (H, 3W + 2·gap, 3), :func:`_strip_picture`) with its labels drawn
-    in: each panel's name (:data:`STRIP_PANELS`) at its top left and "frame k/n" (1-based) at the
-    bottom left, white on a translucent dark box, so a GIF frame says what it shows and when
-    (Pillow ImageDraw, default font). Returns a new array of the same shape."""
-    from PIL import Image, ImageDraw, ImageFont
-
-    h, total, _ = strip.shape
-    panel = (total - (len(STRIP_PANELS) - 1) * STRIP_GAP) // len(STRIP_PANELS)
-    image = Image.fromarray(strip, "RGB").convert("RGBA")
-    overlay = Image.new("RGBA", image.size, (0, 0, 0, 0))
-    draw = ImageDraw.Draw(overlay)
-    font = ImageFont.load_default()
-
-    def text(x: int, y: int, words: str, anchor: str) -> None:
-        box = draw.textbbox((x, y), words, font=font, anchor=anchor)
-        draw.rectangle((box[0] - LABEL_PAD, box[1] - LABEL_PAD, box[2] + LABEL_PAD, box[3] + LABEL_PAD),
-                       fill=(0, 0, 0, LABEL_BOX_ALPHA))
-        draw.text((x, y), words, font=font, fill=(255, 255, 255, 255), anchor=anchor)
-
-    for i, name in enumerate(STRIP_PANELS):
-        text(i * (panel + STRIP_GAP) + LABEL_MARGIN, LABEL_MARGIN, name, "la")
-    text(LABEL_MARGIN, h - LABEL_MARGIN, f"frame {k + 1}/{n}", "ld")
-    return np.asarray(Image.alpha_composite(image, overlay).convert("RGB")).copy()
-
-
-def write_gif(path: Path, strip: list[np.ndarray]) -> None:
-    """An animated, looping GIF of uint8 RGB pictures (H, W, 3), :data:`GIF_FRAME_MS` each
-    (Pillow's GIF writer, see the module docstring)."""
-    from PIL import Image
-
-    images = [Image.fromarray(p, "RGB") for p in strip]
-    images[0].save(path, save_all=True, append_images=images[1:], duration=GIF_FRAME_MS, loop=0)
-
-
-def flicker_colormap():
-    """:data:`FLICKER_COLORMAP` from :data:`FLICKER_COLORMAP_FLOOR` up (a matplotlib colour map):
-    the overlay's colours, none of them dark enough to pass for shadow."""
-    import matplotlib
-    from matplotlib.colors import ListedColormap
-
-    base = matplotlib.colormaps[FLICKER_COLORMAP]
-    return ListedColormap(base(np.linspace(FLICKER_COLORMAP_FLOOR, 1.0, FLICKER_COLORMAP_STEPS)),
-                          name=f"{FLICKER_COLORMAP}_floor")
-
-
-def flicker_overlay(counts: np.ndarray, covered: np.ndarray, underlay: np.ndarray) -> np.ndarray:
-    """The flicker picture's pixels, RGB float in [0, 1] (H, W, 3), row 0 = top: the scene in grey
-    (``underlay``: sRGB-encoded shaded RGB (H, W, 3), its luma mapped onto
-    :data:`FLICKER_UNDERLAY_GREY`), the flip ``counts`` in :func:`flicker_colormap` colours where
-    a count is above 0 (1 → the floor colour, the largest count → the top), background where
-    nothing is covered. Why: counts alone are black wherever nothing flickers, which hides the
-    scene the flicker is on."""
-    lo, hi = FLICKER_UNDERLAY_GREY
-    grey = lo + (hi - lo) * np.clip(underlay @ LUMA_WEIGHTS, 0.0, 1.0)
-    rgb = np.repeat(grey[..., None], 3, axis=2)
-    top = max(1, int(counts.max()))
-    hot = (counts > 0) & covered
-    if hot.any():
-        rel = (counts[hot] - 1) / max(1, top - 1)
-        rgb[hot] = flicker_colormap()(rel)[:, :3]
-    rgb[~covered] = pictures.BACKGROUND
-    return rgb
-
-
-def flicker_picture(path: Path, counts: np.ndarray, covered: np.ndarray, underlay: np.ndarray, title: str,
-                    caption: str) -> None:
-    """The flicker heat map (PNG, matplotlib): :func:`flicker_overlay` — per pixel the number of
-    frame pairs in which the technique's thresholded visibility flipped while the truth's did not,
-    coloured over the grey scene ``underlay`` — with a colour bar of the counts (from 1)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.cm import ScalarMappable
-    from matplotlib.colors import Normalize
-    from matplotlib.ticker import MaxNLocator
-    from mpl_toolkits.axes_grid1 import make_axes_locatable
-
-    h, w = counts.shape
-    top = max(1, int(counts.max()))
-    fig, ax = plt.subplots(figsize=(FLICKER_FIGURE_WIDTH, FLICKER_FIGURE_WIDTH * h / w + FLICKER_TITLE_HEIGHT),
-                           dpi=FLICKER_DPI)
-    ax.imshow(flicker_overlay(counts, covered, underlay), interpolation="nearest")
-    ax.set_axis_off()
-    ax.set_title(title, fontsize=8)
-    # counts 1..top on the colour bar, as the overlay maps them (a single count still gets a bar),
-    # in an axes as tall as the picture
-    cax = make_axes_locatable(ax).append_axes("right", size=COLORBAR_WIDTH, pad=COLORBAR_PAD)
-    cb = fig.colorbar(ScalarMappable(Normalize(1, max(top, 2)), flicker_colormap()), cax=cax)
-    cb.locator = MaxNLocator(integer=True)
-    cb.update_ticks()
-    cb.set_label(caption, fontsize=7)
-    cb.ax.tick_params(labelsize=7)
-    fig.savefig(path, bbox_inches="tight")
-    plt.close(fig)
-
 
 def summary_table(df: pd.DataFrame) -> pd.DataFrame:
     """Per configuration and light (``label``, ``light``): frames, mean error rate, flip rate
@@ -246,7 +101,7 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def animate(scene_ref, specs: list[str], frames: int | None = None, size: tuple[int, int] = (320, 240),
+def animate(scene_ref, specs: list[str], frames: int | None = None, size: tuple[int, int] = ANIMATE_SIZE,
             out: Path | None = None, repeat: int = 1, warmup: int = 0, on_step: StepCallback | None = None) -> Path:
     """Run the truth and every technique spec on every frame of an animated scene; return the
     run directory. Bad input (scene, specs, size, frames, repeat) raises SceneError /
@@ -302,13 +157,13 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
                     step = None if on_step is None else (lambda what=f"frame {k + 1}/{n} truth light {li}":
                                                          on_step(what, total))
                     truth_m = evaluator.truth(li, step)
-                    measured = [(TRUTH_KEY, truth_m, True)]
+                    measured = [(GROUND_TRUTH_KEY, truth_m, True)]
                     for tech in techniques:
                         step = None if on_step is None else (lambda what=f"frame {k + 1}/{n} {tech.short_label()} light {li}":
                                                              on_step(what, total))
                         tech.begin_frame(temporal.FrameStep(k, li))  # state across frames, if it keeps any
                         measured.append((tech.spec(), measure(tech, frame, li, repeat, warmup, step), False))
-                    truth_track = tracks.get((TRUTH_KEY, li))
+                    truth_track = tracks.get((GROUND_TRUTH_KEY, li))
                     truth_prev = truth_track.prev_vis if truth_track is not None else None
                     for key, m, is_ref in measured:
                         track = tracks.setdefault((key, li), _Track(m.technique.spec(),
@@ -323,8 +178,8 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
                         else:
                             row.update({c: float("nan") for c in temporal.TEMPORAL_COLUMNS})
                         if li == 0 and not is_ref:
-                            track.strip.append(label_strip(_strip_picture(m.visibility, truth_m.visibility, evals[0],
-                                                                          frame.covered), k, n))
+                            track.strip.append(animation_pictures.label_strip(animation_pictures.strip_picture(
+                                m.visibility, truth_m.visibility, evals[0], frame.covered), k, n))
                         track.prev_vis = m.visibility
                         rows.append(row)
                 for tech in techniques:
@@ -357,9 +212,9 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
         track = tracks[(tech.spec(), 0)]
         flicker = f"flicker_{track.stem}.png"
         strip = f"strip_{track.stem}.gif"
-        flicker_picture(rd.path / flicker, track.flip_count, covered_last, underlay, tech.short_label(),
-                        "flips / pixel")
-        write_gif(rd.path / strip, track.strip)
+        animation_pictures.flicker_picture(rd.path / flicker, track.flip_count, covered_last, underlay,
+                                           tech.short_label(), "flips / pixel")
+        animation_pictures.write_gif(rd.path / strip, track.strip)
         images.append({"label": tech.spec(), "title": tech.short_label(), "flicker": flicker, "strip": strip,
                          "flips_total": int(track.flip_count.sum()), "flips_max": int(track.flip_count.max())})
 
@@ -372,7 +227,7 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
         "frames": n,
         "times": times.tolist(),
         "size": list(size),
-        "ground_truth": truth_spec,
+        GROUND_TRUTH_KEY: truth_spec,
         "configurations": [{"label": t.spec(), "technique": t.name, "params": t.params()} for t in techniques],
         "renderer": gl.renderer(),
         "device": gl.device(),

@@ -18,7 +18,8 @@ from ..gpu import gl, timing
 from ..evaluation import metrics, perceptual
 from ..output import provenance
 from ..output import pictures
-from ..output.rundir import ConfigImages, RunDirectory, write_comparison
+from ..output.rundir import GROUND_TRUTH_KEY, ConfigImages, RunDirectory, write_comparison
+from ..util.sizes import COMPARE_SIZE
 from ..util.validation import RunError, check_size  # noqa: F401  (check_size: the commands' size check)
 from ..gpu.frame import Frame
 from ..measurement.pipeline import (
@@ -35,7 +36,7 @@ def default_out_dir(scene: Scene) -> Path:
     return Path("results") / f"{scene.name}_{_dt.datetime.now().strftime('%Y%m%d-%H%M%S')}"
 
 
-def compare(scene_ref, specs: list[str], size: tuple[int, int] = (800, 600), out: Path | None = None,
+def compare(scene_ref, specs: list[str], size: tuple[int, int] = COMPARE_SIZE, out: Path | None = None,
             repeat: int = 5, warmup: int = 1, on_step: StepCallback | None = None, pass_timing: bool = False) -> Path:
     """Run the ground truth and every technique spec on a scene; return the run directory.
 
@@ -99,7 +100,7 @@ def write_run(rd: RunDirectory, result: Comparison, repeat: int, warmup: int, pa
         "scene": frame.scene.describe(),
         "camera": {"eye": cam.eye.tolist(), "target": cam.target.tolist(), "fov_y": cam.fov_y, "near": cam.near,
                    "far": cam.far},
-        "ground_truth": result.truth[0].technique.spec(),
+        GROUND_TRUTH_KEY: result.truth[0].technique.spec(),
         "configurations": [{"label": ms[0].technique.spec(), "technique": ms[0].technique.name,
                             "params": ms[0].technique.params()} for ms in result.results],
         "renderer": gl.renderer(),

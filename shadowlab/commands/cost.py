@@ -13,8 +13,6 @@ renamed: a failed command leaves earlier files as they were.
 from __future__ import annotations
 
 import json
-import math
-import os
 import re
 from pathlib import Path
 
@@ -22,6 +20,8 @@ import numpy as np
 import pandas as pd
 
 from ..analysis import cost
+from ..util.files import replacing
+from ..util.format import fmt_whole_pct
 from ..util.validation import RunError
 
 
@@ -59,21 +59,6 @@ def _read_meta(study: Path) -> dict:
     return meta
 
 
-def _temp(path: Path) -> Path:
-    return path.with_name(f".{path.name}.tmp-{os.getpid()}")
-
-
-def _commit(pairs: list[tuple[Path, Path]]) -> None:
-    """Rename every written temporary file onto its final name (after all were written)."""
-    for tmp, path in pairs:
-        os.replace(tmp, path)
-
-
-def _discard(pairs: list[tuple[Path, Path]]) -> None:
-    for tmp, _ in pairs:
-        tmp.unlink(missing_ok=True)
-
-
 def fit_command(study, out=None, target: str = "time_ms_median", counters=None, per_pass: bool = False,
                 device: str | None = None) -> tuple[cost.CostModel, Path]:
     """Fit and write a model (module docstring); returns it and its path."""
@@ -87,14 +72,9 @@ def fit_command(study, out=None, target: str = "time_ms_median", counters=None, 
         raise RunError(f"{study}: {exc}") from None
     out = Path(out) if out else (study if study.is_dir() else study.parent) / "cost_model.json"
     out.parent.mkdir(parents=True, exist_ok=True)
-    pairs = [(_temp(out), out), (_temp(out.with_name("cost_fit.png")), out.with_name("cost_fit.png"))]
-    try:  # both files written before either replaces an earlier one
-        model.save(pairs[0][0])
-        fit_plot(model, table, pairs[1][0])
-    except BaseException:
-        _discard(pairs)
-        raise
-    _commit(pairs)
+    with replacing(out, out.with_name("cost_fit.png")) as (model_tmp, plot_tmp):
+        model.save(model_tmp)  # both files written before either replaces an earlier one
+        fit_plot(model, table, plot_tmp)
     return model, out
 
 
@@ -123,17 +103,12 @@ def fit_plot(model: cost.CostModel, table: pd.DataFrame, path: Path) -> Path:
     ax.set_xlabel(f"measured {model.target} (ms)")
     ax.set_ylabel(f"{cost.PREDICTED_LABEL} (ms)")
     ax.set_title(f"cost model: {model.device[:60]}\nR² {model.r2:.3f}, "
-                 f"leave-one-scene-out median error {pct(model.cv_median_rel_error)}", fontsize=9)
+                 f"leave-one-scene-out median error {fmt_whole_pct(model.cv_median_rel_error)}", fontsize=9)
     ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
     fig.savefig(path, format="png", dpi=110)
     plt.close(fig)
     return path
-
-
-def pct(x: float) -> str:
-    """A fraction as a whole percentage ("n/a" when missing)."""
-    return "n/a" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{100 * x:.0f} %"
 
 
 def slug(text: str) -> str:
@@ -159,25 +134,17 @@ def predict_command(study, model_path) -> tuple[pd.DataFrame, Path, cost.CostMod
     folder = (study if study.is_dir() else study.parent) / "cost"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{slug(model.device)}.csv"
-    pairs = [(_temp(path), path)]
     page = study.is_dir() and _meta_path(study).is_file()
-    try:
-        table.to_csv(pairs[0][0], index=False)
+    with replacing(path, *([_meta_path(study), study / "study.html"] if page else [])) as tmps:
+        table.to_csv(tmps[0], index=False)
         if page:  # the record and the page: written before anything replaces the earlier files
             from ..study.report import write_study_html
 
             entries = [e for e in meta.get("cost_predictions", []) if e.get("device") != model.device]
             entries.append(prediction_entry(model, table, path.relative_to(study).as_posix()))
             meta["cost_predictions"] = entries
-            pairs.append((_temp(_meta_path(study)), _meta_path(study)))
-            pairs[-1][0].write_text(json.dumps(meta, indent=2, default=str))
-            html = study / "study.html"
-            pairs.append((_temp(html), html))
-            write_study_html(study, results, meta, out_name=pairs[-1][0].name)
-    except BaseException:
-        _discard(pairs)
-        raise
-    _commit(pairs)
+            tmps[1].write_text(json.dumps(meta, indent=2, default=str))
+            write_study_html(study, results, meta, out_name=tmps[2].name)
     return table, path, model
 
 

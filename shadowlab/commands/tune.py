@@ -38,6 +38,7 @@ from ..measurement.pipeline import Comparison, Evaluator, check_lights, compare_
 from ..techniques import from_spec
 from ..tuning import exact_bias
 from ..tuning.tuner import DEFAULT_BUDGET, TuneOutcome, find_best, plan_tune
+from ..util.sizes import COMPARE_SIZE
 from ..util.validation import RunError
 from ..util.validation import check_size
 from .compare import write_run
@@ -46,7 +47,7 @@ from .compare import write_run
 TOP_CANDIDATES = 15
 
 
-def tune(scene_ref, spec: str, params: list[str], objective: str = "error_rate", size=(800, 600),
+def tune(scene_ref, spec: str, params: list[str], objective: str = "error_rate", size=COMPARE_SIZE,
          out: Path | None = None, light: int = 0, budget: int = DEFAULT_BUDGET, time_budget_ms: float | None = None,
          repeat: int = 3, warmup: int = 1, cache_dir: Path | None = None,
          on_step: Callable[[str, int], None] | None = None) -> Path:

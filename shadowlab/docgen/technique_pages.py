@@ -15,7 +15,7 @@ Everything on a page comes from the technique's own declarations or from committ
   ``STATS`` with their combine rules, ``cpu``, and what it ``READS``, ``WRITES`` and ``PROVIDES``;
 - its GLSL programs — the file names its class and the classes it is built on pass to
   ``self.program(...)`` — and the files they ``#include``, found on the loader's search path
-  (:func:`shadowlab.gpu.gl.shader_files`);
+  (:func:`shadowlab.gpu.glsl.shader_files`);
 - the shipped suites that measure it and their scenes (linked to the hard-case catalogue), the
   catalogue entries that name it, and the documentation pages that discuss it;
 - measured figures only from committed results: its rows of the committed quick study
@@ -264,7 +264,7 @@ def programs(cls) -> list[str]:
 
 def includes(names: list[str]) -> list[str]:
     """Every file the programs ``names`` ``#include``, transitively, in first-seen order."""
-    from ..gpu.gl import shader_files
+    from ..gpu.glsl import shader_files
 
     files = shader_files()
     seen: list[str] = []
@@ -404,7 +404,7 @@ def evidence_rows(name: str) -> list[str]:
 
 def page(cls) -> str:
     """The reference page of one registered technique class."""
-    from ..gpu.gl import shader_files
+    from ..gpu.glsl import shader_files
     from ..techniques.base import LIGHT_SAMPLES
 
     name, family = cls.name, family_of(cls)

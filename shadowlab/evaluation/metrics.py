@@ -15,6 +15,8 @@ from typing import Any, Callable
 import numpy as np
 from scipy import ndimage
 
+from ..util.format import format_column
+
 THRESHOLD = 0.5
 
 
@@ -304,21 +306,8 @@ class Column:
     tolerance: tuple[float, float] | None = None
 
     def format(self, value) -> str:
-        """``value`` as shown in the report and the CLI."""
-        if value is None or (isinstance(value, float) and np.isnan(value)):
-            return ""
-        if self.fmt == "percent":
-            # three decimals, but never "0.000 %" for a rate that is not zero (one wrong pixel
-            # in 300k is 0.0003 %): small rates keep two significant digits
-            pct = 100 * value
-            return f"{pct:.3f} %" if pct == 0 or abs(pct) >= 0.1 else f"{pct:.2g} %"
-        if self.fmt in ("px", "ms"):
-            return f"{value:.3f}"
-        if self.fmt == "count":
-            return f"{int(value)}"
-        if self.fmt == "value" and isinstance(value, float):
-            return f"{value:.4g}"
-        return str(value)
+        """``value`` as shown in the report and the CLI (:func:`shadowlab.util.format.format_column`)."""
+        return format_column(value, self.fmt)
 
 
 #: Baseline tolerances (absolute, relative). Rates: 0.02 % of the pixels (61 pixels at 640x480)

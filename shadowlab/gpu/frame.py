@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import gl, glstate, heap
+from . import gl, glstate, heap, programs, targets
 from .glstate import PassState
 from ..geometry.frusta import Casters
 from ..geometry.triangles import triangle_normals
@@ -171,9 +171,9 @@ class Frame:
         self.tex_ids = ctx.texture(size, 2, dtype="i4")
         for tex in (self.tex_position, self.tex_normal, self.tex_ids):
             tex.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.target = gl.ScreenTarget.create(size, [self.tex_position, self.tex_normal, self.tex_ids])
-        self.gbuffer_program = gl.program("gbuffer.glsl")
-        self.gbuffer_program["u_view_proj"].write(gl.mat_bytes(self.view_projection))
+        self.target = targets.ScreenTarget.create(size, [self.tex_position, self.tex_normal, self.tex_ids])
+        self.gbuffer_program = programs.program("gbuffer.glsl")
+        self.gbuffer_program["u_view_proj"].write(programs.mat_bytes(self.view_projection))
         self.target.use()
         glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True))  # before the clears
         GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
@@ -183,7 +183,7 @@ class Frame:
         self.draw(self.gbuffer_program, "all")
         ctx.finish()
         gl.check_errors("G-buffer pass")
-        ids = gl.read_texture(self.tex_ids, 2, "i4")
+        ids = targets.read_texture(self.tex_ids, 2, "i4")
         self.object_id = ids[..., 0].copy()
         self.triangle_id = ids[..., 1].copy()
         self.covered = self.triangle_id >= 0
@@ -266,9 +266,9 @@ class Frame:
             raise KeyError(f"no G-buffer channel {channel!r} (the channels: {', '.join(GBUFFER_CHANNELS)})")
         return getattr(self, f"tex_{channel}")
 
-    def depth_stencil_for(self, technique) -> gl.ScreenTarget:
+    def depth_stencil_for(self, technique) -> targets.ScreenTarget:
         """The G-buffer's depth-stencil attachment, lent to ``technique`` (to share with its own
-        colour targets: ``gl.ScreenTarget.create(..., share_depth_stencil=...)``). Only techniques
+        colour targets: ``targets.ScreenTarget.create(..., share_depth_stencil=...)``). Only techniques
         that declare ``"depth_stencil"`` in ``WRITES`` may have it: its contents are
         theirs to clear and overwrite, and nothing after the G-buffer pass reads them."""
         if "depth_stencil" not in technique.WRITES:
@@ -327,10 +327,10 @@ class Frame:
 
     def release(self) -> None:
         """Free the frame's GL objects."""
-        gl.park()
+        targets.park()
         for _, vao in self._vaos.values():
             vao.release()
         self.target.release()
         for obj in (self.tex_position, self.tex_normal, self.tex_ids, self.vbo_position, self.vbo_normal,
-                    self.vbo_object):  # gbuffer_program: gl.program's cache keeps it
+                    self.vbo_object):  # gbuffer_program: programs.program's cache keeps it
             obj.release()

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import gl, glstate
+from . import gl, glstate, programs, targets
 from .glstate import PassState
 
 
@@ -17,8 +17,8 @@ class ShadingPass:
     def __init__(self, frame):
         self.frame = frame
         ctx = frame.ctx
-        self.prog = gl.program("shade.glsl")
-        self.quad = gl.fullscreen_quad(self.prog)
+        self.prog = programs.program("shade.glsl")
+        self.quad = targets.fullscreen_quad(self.prog)
         objs = frame.scene.objects
         mats = np.zeros((3, len(objs), 4), np.float32)  # rows: diffuse+receives, specular+shininess, ambient
         for i, o in enumerate(objs):
@@ -31,9 +31,9 @@ class ShadingPass:
         self.vis_tex = ctx.texture((frame.width, frame.height), 1, dtype="f4")
         self.vis_tex.filter = (ctx.NEAREST, ctx.NEAREST)
         self.out_tex = ctx.texture((frame.width, frame.height), 4, dtype="f4")
-        self.out_fbo = gl.framebuffer([self.out_tex])
+        self.out_fbo = targets.framebuffer([self.out_tex])
         sh = frame.scene.shading
-        # Set again by every shade(): the program is gl.program's shared one, and another ShadingPass
+        # Set again by every shade(): the program is programs.program's shared one, and another ShadingPass
         # made since (another frame) may have set its own values.
         self.uniforms = {
             "u_position": 0, "u_normal": 1, "u_ids": 2, "u_materials": 3, "u_visibility": 4,
@@ -56,16 +56,16 @@ class ShadingPass:
         for tex, unit in ((frame.tex_position, 0), (frame.tex_normal, 1), (frame.tex_ids, 2),
                           (self.materials, 3), (self.vis_tex, 4)):
             tex.use(unit)
-        gl.set_uniforms(self.prog, self.uniforms)
+        programs.set_uniforms(self.prog, self.uniforms)
         for light, vis in zip(frame.scene.lights, visibilities):
             self.vis_tex.write(np.ascontiguousarray(vis[::-1], dtype=np.float32).tobytes())
-            gl.set_uniforms(self.prog, light.uniforms())
+            programs.set_uniforms(self.prog, light.uniforms())
             self.quad.render()
         gl.check_errors("shading pass")
-        return gl.read_texture(self.out_tex, 4)[..., :3]
+        return targets.read_texture(self.out_tex, 4)[..., :3]
 
     def release(self) -> None:
-        """Free GL objects (gl.program's cache keeps the program)."""
-        gl.park()
+        """Free GL objects (programs.program's cache keeps the program)."""
+        targets.park()
         for obj in (self.quad, self.materials, self.vis_tex, self.out_fbo, self.out_tex):
             obj.release()

@@ -6,7 +6,8 @@ same on every device, and a device's cost model turns it into time
 (:mod:`shadowlab.analysis.cost`). The pipeline makes one counting render per measurement, after the timed
 renders (:func:`shadowlab.measurement.pipeline.measure`): a :class:`WorkCounter` is set on the technique,
 each :meth:`~shadowlab.techniques.Technique.timed_pass` of the render opens a pass in it, and
-for the length of the render the counter hooks the entry points every technique draws through:
+for the length of the render the counter hooks the entry points every technique draws through
+(one table, :data:`HOOKS`):
 
 - moderngl ``VertexArray.render``/``transform``: one draw each; the vertices it submits
   (``vertices`` × instances, as asked); a ``GL_SAMPLES_PASSED`` query around the draw; and the
@@ -32,7 +33,9 @@ The columns (:func:`columns`): ``work_<counter>`` (the render's total) and
 from __future__ import annotations
 
 import contextlib
+import importlib
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
@@ -360,129 +363,15 @@ class WorkCounter:
     @contextlib.contextmanager
     def counting(self):
         """Hook moderngl's and PyOpenGL's draw, dispatch, clear and transfer entry points for
-        the length of the block (restored after, whatever happens)."""
-        import moderngl
-        from OpenGL import GL
-
-        counter = self
+        the length of the block (restored after, whatever happens): every entry of
+        :data:`HOOKS`, in its order."""
         patches = []
-
-        def patch(owner, attr, make):
-            original = getattr(owner, attr)
-            patches.append((owner, attr, original))
-            setattr(owner, attr, make(original))
-
-        def draw(original):
-            def wrapped(vao, mode=None, vertices=-1, *args, **kwargs):
-                instances = kwargs.get("instances", args[1] if len(args) > 1 else -1)  # args: first, instances
-                n = vao.vertices if vertices is None or vertices < 0 else vertices
-                per_sample = _written_bytes_per_sample()
-                q = _Queries.name(_SAMPLES_PASSED)
-                GL.glBeginQuery(_SAMPLES_PASSED, q)
-                try:
-                    return original(vao, mode, vertices, *args, **kwargs)
-                finally:
-                    GL.glEndQuery(_SAMPLES_PASSED)
-                    samples = _Queries.result(q)
-                    counter.add("draws", 1)
-                    counter.add("vertices", int(n) * max(1, int(instances)))
-                    counter.add("samples_passed", samples)
-                    counter.add("bytes_written", samples * per_sample)
-            return wrapped
-
-        def transform(original):
-            def wrapped(vao, buffer, mode=None, vertices=-1, *args, **kwargs):
-                instances = kwargs.get("instances", args[1] if len(args) > 1 else -1)
-                n = vao.vertices if vertices is None or vertices < 0 else vertices
-                counter.add("draws", 1)
-                counter.add("vertices", int(n) * max(1, int(instances)))
-                return original(vao, buffer, mode, vertices, *args, **kwargs)
-            return wrapped
-
-        def dispatch(original):
-            def wrapped(cs, group_x=1, group_y=1, group_z=1):
-                counter.add("dispatches", 1)
-                counter.add("compute_invocations", int(group_x) * int(group_y) * int(group_z) * _local_size(cs))
-                return original(cs, group_x, group_y, group_z)
-            return wrapped
-
-        def gl_clear(original):
-            def wrapped(mask):
-                if not GL.glIsEnabled(GL.GL_RASTERIZER_DISCARD):
-                    counter.add("bytes_cleared", _clear_bytes(None if mask & GL.GL_COLOR_BUFFER_BIT else [],
-                                                              bool(mask & GL.GL_DEPTH_BUFFER_BIT),
-                                                              bool(mask & GL.GL_STENCIL_BUFFER_BIT)))
-                return original(mask)
-            return wrapped
-
-        def gl_clear_buffer(original):
-            def wrapped(buffer, drawbuffer, *args):
-                if GL.glIsEnabled(GL.GL_RASTERIZER_DISCARD):
-                    pass  # clears are ignored under rasterizer discard
-                elif buffer == GL.GL_COLOR:
-                    counter.add("bytes_cleared", _clear_bytes([int(drawbuffer)], False, False))
-                else:
-                    counter.add("bytes_cleared", _clear_bytes([], buffer in (GL.GL_DEPTH, GL.GL_DEPTH_STENCIL),
-                                                              buffer in (GL.GL_STENCIL, GL.GL_DEPTH_STENCIL)))
-                return original(buffer, drawbuffer, *args)
-            return wrapped
-
-        def fbo_clear(original):
-            def wrapped(fbo, *args, **kwargs):
-                result = original(fbo, *args, **kwargs)  # binds fbo (moderngl clears through it)
-                # the whole framebuffer, by the same rule as glClear (a ``viewport`` argument's
-                # smaller box is not seen: the lab's techniques clear whole targets)
-                counter.add("bytes_cleared", _clear_bytes(None, True, False))
-                return result
-            return wrapped
-
-        def context_clear(original):
-            def wrapped(ctx, *args, **kwargs):
-                result = original(ctx, *args, **kwargs)
-                counter.add("bytes_cleared", _clear_bytes(None, True, False))
-                return result
-            return wrapped
-
-        def buffer_clear(original):
-            def wrapped(buf, size=-1, *args, **kwargs):
-                counter.add("bytes_cleared", buf.size if size is None or size < 0 else int(size))
-                return original(buf, size, *args, **kwargs)
-            return wrapped
-
-        def upload(original):
-            def wrapped(obj, data, *args, **kwargs):
-                try:
-                    n = len(memoryview(data).cast("B"))
-                except TypeError:  # Texture.write from a moderngl Buffer: a GPU-side copy, no upload
-                    n = 0
-                counter.add("bytes_uploaded", n)
-                return original(obj, data, *args, **kwargs)
-            return wrapped
-
-        def download(original):
-            def wrapped(obj, *args, **kwargs):
-                data = original(obj, *args, **kwargs)
-                counter.add("bytes_read", len(data))
-                return data
-            return wrapped
-
-        patch(moderngl.VertexArray, "render", draw)
-        patch(moderngl.VertexArray, "transform", transform)
-        patch(moderngl.ComputeShader, "run", dispatch)
-        patch(GL, "glClear", gl_clear)
-        for name in ("glClearBufferfv", "glClearBufferiv", "glClearBufferuiv", "glClearBufferfi"):
-            patch(GL, name, gl_clear_buffer)
-        patch(moderngl.Framebuffer, "clear", fbo_clear)
-        patch(moderngl.Context, "clear", context_clear)
-        patch(moderngl.Buffer, "clear", buffer_clear)
-        for cls in (moderngl.Buffer, moderngl.Texture):
-            patch(cls, "write", upload)
-            patch(cls, "read", download)
-        if {(o, a) for o, a, _ in patches} != set(self.hooked()):  # the list tests hold must be the truth
-            for owner, attr, original in reversed(patches):
-                setattr(owner, attr, original)
-            raise RuntimeError("WorkCounter.hooked() does not list what counting() hooks")
         try:
+            for hook in HOOKS:
+                owner = hook.owner()
+                original = getattr(owner, hook.attr)
+                patches.append((owner, hook.attr, original))
+                setattr(owner, hook.attr, hook.wrap(self, original))
             yield self
         finally:
             for owner, attr, original in reversed(patches):
@@ -490,19 +379,173 @@ class WorkCounter:
 
     @staticmethod
     def hooked() -> list[tuple[object, str]]:
-        """The (owner, attribute) pairs :meth:`counting` replaces for its block."""
-        import moderngl
-        from OpenGL import GL
-
-        return ([(moderngl.VertexArray, "render"), (moderngl.VertexArray, "transform"),
-                 (moderngl.ComputeShader, "run"), (GL, "glClear")]
-                + [(GL, n) for n in ("glClearBufferfv", "glClearBufferiv", "glClearBufferuiv", "glClearBufferfi")]
-                + [(moderngl.Framebuffer, "clear"), (moderngl.Context, "clear"), (moderngl.Buffer, "clear")]
-                + [(cls, m) for cls in (moderngl.Buffer, moderngl.Texture) for m in ("write", "read")])
+        """The (owner, attribute) pairs :meth:`counting` replaces for its block (:data:`HOOKS`)."""
+        return [(hook.owner(), hook.attr) for hook in HOOKS]
 
     def passes(self) -> dict[str, dict[str, int]]:
         """{pass: {counter: value}} of what was counted (passes in the order first opened)."""
         return {p: dict(c) for p, c in self._passes.items()}
+
+
+# --------------------------------------------------------------------------- the hooks
+# Each wrapper takes the WorkCounter and the original entry point and returns the replacement
+# that books the call's work (module docstring) and then makes the call.
+
+def _draw(counter: "WorkCounter", original):
+    """``VertexArray.render``: a draw, its vertices × instances, the samples it passes (a
+    GL_SAMPLES_PASSED query around it) and the bytes they write."""
+    from OpenGL import GL
+
+    def wrapped(vao, mode=None, vertices=-1, *args, **kwargs):
+        instances = kwargs.get("instances", args[1] if len(args) > 1 else -1)  # args: first, instances
+        n = vao.vertices if vertices is None or vertices < 0 else vertices
+        per_sample = _written_bytes_per_sample()
+        q = _Queries.name(_SAMPLES_PASSED)
+        GL.glBeginQuery(_SAMPLES_PASSED, q)
+        try:
+            return original(vao, mode, vertices, *args, **kwargs)
+        finally:
+            GL.glEndQuery(_SAMPLES_PASSED)
+            samples = _Queries.result(q)
+            counter.add("draws", 1)
+            counter.add("vertices", int(n) * max(1, int(instances)))
+            counter.add("samples_passed", samples)
+            counter.add("bytes_written", samples * per_sample)
+    return wrapped
+
+
+def _transform(counter: "WorkCounter", original):
+    """``VertexArray.transform``: a draw and its vertices × instances."""
+    def wrapped(vao, buffer, mode=None, vertices=-1, *args, **kwargs):
+        instances = kwargs.get("instances", args[1] if len(args) > 1 else -1)
+        n = vao.vertices if vertices is None or vertices < 0 else vertices
+        counter.add("draws", 1)
+        counter.add("vertices", int(n) * max(1, int(instances)))
+        return original(vao, buffer, mode, vertices, *args, **kwargs)
+    return wrapped
+
+
+def _dispatch(counter: "WorkCounter", original):
+    """``ComputeShader.run``: a dispatch and its groups × local size invocations."""
+    def wrapped(cs, group_x=1, group_y=1, group_z=1):
+        counter.add("dispatches", 1)
+        counter.add("compute_invocations", int(group_x) * int(group_y) * int(group_z) * _local_size(cs))
+        return original(cs, group_x, group_y, group_z)
+    return wrapped
+
+
+def _gl_clear(counter: "WorkCounter", original):
+    """PyOpenGL ``glClear``: the bytes of the buffers its mask names."""
+    from OpenGL import GL
+
+    def wrapped(mask):
+        if not GL.glIsEnabled(GL.GL_RASTERIZER_DISCARD):
+            counter.add("bytes_cleared", _clear_bytes(None if mask & GL.GL_COLOR_BUFFER_BIT else [],
+                                                      bool(mask & GL.GL_DEPTH_BUFFER_BIT),
+                                                      bool(mask & GL.GL_STENCIL_BUFFER_BIT)))
+        return original(mask)
+    return wrapped
+
+
+def _gl_clear_buffer(counter: "WorkCounter", original):
+    """PyOpenGL ``glClearBuffer*``: the bytes of the one buffer it clears."""
+    from OpenGL import GL
+
+    def wrapped(buffer, drawbuffer, *args):
+        if GL.glIsEnabled(GL.GL_RASTERIZER_DISCARD):
+            pass  # clears are ignored under rasterizer discard
+        elif buffer == GL.GL_COLOR:
+            counter.add("bytes_cleared", _clear_bytes([int(drawbuffer)], False, False))
+        else:
+            counter.add("bytes_cleared", _clear_bytes([], buffer in (GL.GL_DEPTH, GL.GL_DEPTH_STENCIL),
+                                                      buffer in (GL.GL_STENCIL, GL.GL_DEPTH_STENCIL)))
+        return original(buffer, drawbuffer, *args)
+    return wrapped
+
+
+def _fbo_clear(counter: "WorkCounter", original):
+    """moderngl ``Framebuffer.clear``: the whole framebuffer, by the same rule as glClear."""
+    def wrapped(fbo, *args, **kwargs):
+        result = original(fbo, *args, **kwargs)  # binds fbo (moderngl clears through it)
+        # the whole framebuffer, by the same rule as glClear (a ``viewport`` argument's
+        # smaller box is not seen: the lab's techniques clear whole targets)
+        counter.add("bytes_cleared", _clear_bytes(None, True, False))
+        return result
+    return wrapped
+
+
+def _context_clear(counter: "WorkCounter", original):
+    """moderngl ``Context.clear``: the bound framebuffer, by the same rule as glClear."""
+    def wrapped(ctx, *args, **kwargs):
+        result = original(ctx, *args, **kwargs)
+        counter.add("bytes_cleared", _clear_bytes(None, True, False))
+        return result
+    return wrapped
+
+
+def _buffer_clear(counter: "WorkCounter", original):
+    """moderngl ``Buffer.clear``: the bytes it clears."""
+    def wrapped(buf, size=-1, *args, **kwargs):
+        counter.add("bytes_cleared", buf.size if size is None or size < 0 else int(size))
+        return original(buf, size, *args, **kwargs)
+    return wrapped
+
+
+def _upload(counter: "WorkCounter", original):
+    """``Buffer.write`` / ``Texture.write``: the bytes uploaded from the CPU."""
+    def wrapped(obj, data, *args, **kwargs):
+        try:
+            n = len(memoryview(data).cast("B"))
+        except TypeError:  # Texture.write from a moderngl Buffer: a GPU-side copy, no upload
+            n = 0
+        counter.add("bytes_uploaded", n)
+        return original(obj, data, *args, **kwargs)
+    return wrapped
+
+
+def _download(counter: "WorkCounter", original):
+    """``Buffer.read`` / ``Texture.read``: the bytes read back to the CPU."""
+    def wrapped(obj, *args, **kwargs):
+        data = original(obj, *args, **kwargs)
+        counter.add("bytes_read", len(data))
+        return data
+    return wrapped
+
+
+@dataclass(frozen=True)
+class Hook:
+    """One entry point :meth:`WorkCounter.counting` replaces for its block: the module and
+    (optionally) the class that own it, the attribute, the counters it books and ``wrap``,
+    which makes the replacement from the WorkCounter and the original."""
+
+    module: str
+    cls: str | None
+    attr: str
+    counters: tuple[str, ...]
+    wrap: Callable
+
+    def owner(self):
+        """The object whose attribute is replaced: the module, or its class ``cls``."""
+        module = importlib.import_module(self.module)
+        return module if self.cls is None else getattr(module, self.cls)
+
+
+#: Every hooked entry point, in the order :meth:`WorkCounter.counting` replaces them (restored
+#: in the reverse order): the one list of what the counting render hooks.
+HOOKS: tuple[Hook, ...] = (
+    Hook("moderngl", "VertexArray", "render", ("draws", "vertices", "samples_passed", "bytes_written"), _draw),
+    Hook("moderngl", "VertexArray", "transform", ("draws", "vertices"), _transform),
+    Hook("moderngl", "ComputeShader", "run", ("dispatches", "compute_invocations"), _dispatch),
+    Hook("OpenGL.GL", None, "glClear", ("bytes_cleared",), _gl_clear),
+    *(Hook("OpenGL.GL", None, name, ("bytes_cleared",), _gl_clear_buffer)
+      for name in ("glClearBufferfv", "glClearBufferiv", "glClearBufferuiv", "glClearBufferfi")),
+    Hook("moderngl", "Framebuffer", "clear", ("bytes_cleared",), _fbo_clear),
+    Hook("moderngl", "Context", "clear", ("bytes_cleared",), _context_clear),
+    Hook("moderngl", "Buffer", "clear", ("bytes_cleared",), _buffer_clear),
+    *(hook for cls in ("Buffer", "Texture")
+      for hook in (Hook("moderngl", cls, "write", ("bytes_uploaded",), _upload),
+                   Hook("moderngl", cls, "read", ("bytes_read",), _download))),
+)
 
 
 def merge(into: dict[str, dict], more: dict[str, dict]) -> dict[str, dict]:

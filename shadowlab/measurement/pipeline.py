@@ -37,6 +37,8 @@ from ..evaluation.occluder_layers import first_occluder_distance, occluder_layer
 from ..techniques import Technique, TechniqueError, from_spec
 from ..techniques.base import FIRST
 from ..techniques.rays.raytrace import RayTraced
+from ..util.format import fmt_table_pct
+from ..util.sizes import SWEEP_SIZE
 
 #: ``on_step(what, total)``: called after each render run (warm-up or timed).
 StepCallback = Callable[[str, int], None]
@@ -350,14 +352,13 @@ class Evaluator:
         if bias_over and not causes:
             causes = [f"the bias: it amounts to {bias_world:.3g} world units at the receivers (median), more than "
                       f"the casters' median height {height:.3g} above their shadows"]
-        pct = metrics.COLUMN_BY_NAME["error_rate"].format
         what = "draws almost no shadow" if degenerate else "has a bias above its casters' heights"
         kept = (f" (under {100 * metrics.DEGENERATE_KEPT_SHARE:g} % of the truth's shadowed pixels)" if degenerate
                 else "")
         cause = (f"likely cause{'s' if len(causes) > 1 else ''}: {'; '.join(causes)}" if causes
                  else "cause unknown")
-        return [f"{tech.short_label()} {what} on light {m.light}: the truth shadows {pct(truth_share)} of the "
-                f"evaluated pixels, this configuration {pct(share)} of them{kept}; {cause}"]
+        return [f"{tech.short_label()} {what} on light {m.light}: the truth shadows {fmt_table_pct(truth_share)} "
+                f"of the evaluated pixels, this configuration {fmt_table_pct(share)} of them{kept}; {cause}"]
 
     def row(self, m: Measurement, reference: bool = False) -> dict:
         """The metrics.csv row of a measurement (columns: :data:`shadowlab.evaluation.metrics.COLUMNS`, then
@@ -466,7 +467,7 @@ def build_techniques(specs: Sequence[str], truth: Technique | None = None) -> li
     return techs
 
 
-def measure_configs(scene_ref, specs: Sequence[str], size: tuple[int, int] = (640, 480), repeat: int = 1,
+def measure_configs(scene_ref, specs: Sequence[str], size: tuple[int, int] = SWEEP_SIZE, repeat: int = 1,
                     warmup: int = 0, light_index: int = 0, frame: Frame | None = None,
                     evaluator: Evaluator | None = None, on_step: StepCallback | None = None,
                     pass_timing: bool = False) -> pd.DataFrame:

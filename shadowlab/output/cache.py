@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..output import provenance
+from ..util.files import replacing
 from ..scene import PRIMITIVES
 
 #: Bumped when the layout or meaning of cached entries changes.
@@ -69,16 +70,11 @@ def run_key(scene_hash: str, spec: str, size: tuple[int, int], revision: str, re
 
 def _atomic_write(path: Path, write) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
+    with replacing(path) as (tmp,):
         with open(tmp, "wb") as fh:
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
 
 
 class Cache:

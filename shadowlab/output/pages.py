@@ -3,41 +3,23 @@ one base template (``templates/base.html``: style, heading, the timing banner, p
 footer) and a child template per page (compare, study, animate).
 
 Values reach the templates raw and are escaped by Jinja2; the few formatting filters
-(``pct``, ``ms``, ``num``) follow the metrics table's formats so every page reads alike.
+(``pct``, ``ms``, ``num``) are :mod:`shadowlab.util.format`'s, so every page reads alike.
 """
 from __future__ import annotations
 
 import functools
-import os
 from pathlib import Path
 
 import jinja2
 
-from ..analysis.aggregate import is_missing
+from ..util.files import write_text_atomic
+from ..util.format import fmt_ms, fmt_num, fmt_pct
 
 TEMPLATES = Path(__file__).parent / "templates"
 
 #: The sentence a page opens with when its times come from a CPU rasteriser.
 SOFTWARE_BANNER = ("Times on this page were measured on a software rasteriser ({renderer}): they are CPU "
                    "times, good for comparing techniques with each other, not for judging a GPU.")
-
-
-def fmt_pct(rate, digits: int = 2) -> str:
-    """A rate in [0, 1] as a percentage ("0.12 %"); '' when missing."""
-    return "" if is_missing(rate) else f"{100.0 * float(rate):.{digits}f} %"
-
-
-def fmt_ms(value) -> str:
-    """Milliseconds with sensible precision ("0.31", "12.4", "1250"); '' when missing."""
-    if is_missing(value):
-        return ""
-    v = float(value)
-    return f"{v:.2f}" if v < 10 else f"{v:.1f}" if v < 100 else f"{v:.0f}"
-
-
-def fmt_num(value, digits: int = 3) -> str:
-    """A number to ``digits`` significant digits; '' when missing."""
-    return "" if is_missing(value) else f"{float(value):.{digits}g}"
 
 
 @functools.lru_cache(maxsize=1)
@@ -82,7 +64,5 @@ def render_page(template: str, path: Path, **context) -> Path:
     path = Path(path)
     context.setdefault("banner", timing_banner(context.get("renderer")))
     text = environment().get_template(template).render(**context)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
+    write_text_atomic(path, text)
     return path

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from ..util.files import replacing
 from ..analysis.aggregate import (
     FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, as_text, fail_threshold, failed_runs, family_order, judged_metric,
     normalised, pareto_front, per_configuration, scenes_in_order, truthy,
@@ -481,7 +481,6 @@ def pareto_plot(results: pd.DataFrame, path) -> Path:
     that a reader never sees half a file. Returns ``path``."""
     path = Path(path)
     fig = pareto_figure(results)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    fig.savefig(tmp, format="png")
-    os.replace(tmp, path)
+    with replacing(path) as (tmp,):
+        fig.savefig(tmp, format="png")
     return path

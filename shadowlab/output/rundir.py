@@ -22,11 +22,15 @@ import pandas as pd
 
 from . import provenance
 from ..analysis.aggregate import DEGENERATE_MARK, is_true
+from ..util.files import temporary_path
 from ..util.validation import RunError
 from . import pictures
 from .insets import common_insets, wrong_pixels
-from .pages import fmt_ms, fmt_pct, provenance_items, render_page
+from ..util.format import fmt_ms, fmt_pct
+from .pages import provenance_items, render_page
 
+#: How a run names its ground truth: its key in masks.npz, the stem of its images
+#: (``ground_truth_shaded.png``) and the run record's field holding its spec.
 GROUND_TRUTH_KEY = "ground_truth"
 #: The picture kinds of a configuration, in the order the page offers them.
 PICTURE_KINDS = ("shaded", "visibility", "error", "signed", "footprint")
@@ -44,7 +48,7 @@ def staging_dir(out: Path) -> Path:
     if out.exists() and not out.is_dir():
         raise RunError(f"--out {out} exists and is not a directory")
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.parent / f".{out.name}.tmp-{os.getpid()}"
+    tmp = temporary_path(out)
     if tmp.exists():
         shutil.rmtree(tmp)
     tmp.mkdir(parents=True)
@@ -127,7 +131,7 @@ class ConfigImages:
     @property
     def stem(self) -> str:
         """File-name stem of its images."""
-        return "ground_truth" if self.reference else safe_name(self.title)
+        return GROUND_TRUTH_KEY if self.reference else safe_name(self.title)
 
 
 def write_comparison(rd: RunDirectory, rows: pd.DataFrame, configs: list[ConfigImages], record: dict,

@@ -19,6 +19,7 @@ import tempfile
 from pathlib import Path, PurePosixPath
 
 from ..output.cache import scene_content_hash, scene_mesh_files
+from ..util.validation import RunError
 
 #: Environment variable naming the folder where workers keep materialized bundles.
 BUNDLE_DIR_ENV = "SHADOWLAB_BUNDLE_DIR"
@@ -118,3 +119,22 @@ def materialize(bundle: dict, root: Path | None = None) -> Path:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
     return scene
+
+
+class SceneBundles:
+    """Each scene's bundle (:func:`shadowlab.study.bundle.scene_bundle`), built once per study and
+    attached to every task of the scene sent to Dask workers, which may share no disk with this
+    machine. A scene that cannot be bundled (an absolute mesh path) is a RunError."""
+
+    def __init__(self):
+        self._made: dict[str, dict] = {}
+
+    def of(self, path) -> dict:
+        """The bundle of the scene file at ``path``."""
+        key = str(path)
+        if key not in self._made:
+            try:
+                self._made[key] = scene_bundle(path)
+            except ValueError as exc:
+                raise RunError(str(exc)) from exc
+        return self._made[key]

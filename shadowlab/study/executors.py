@@ -22,6 +22,13 @@ def threads_per_worker(workers: int) -> int:
     return max(1, cores() // max(1, workers))
 
 
+def lost_result(exc: BaseException) -> dict:
+    """The result of a task whose worker died under it (a crash, the out-of-memory killer, a
+    lost Dask worker): a failed run, retried when the study is run again."""
+    return {"ok": False, "error": f"the worker process was lost ({type(exc).__name__}: {exc}); "
+                                  f"run the study again to retry", "meta": {}, "arrays": {}, "files": {}}
+
+
 class LocalExecutor:
     """``workers`` spawned processes (a fresh interpreter each: no GL state inherited from the
     parent), each with ``LP_NUM_THREADS`` = ``threads``."""

@@ -25,15 +25,14 @@ import pandas as pd
 
 from ..evaluation import perceptual
 from ..evaluation.metrics import COLUMN_BY_NAME
-from ..output.pages import fmt_ms as fmt_ms_short
-from ..output.pages import fmt_num
 from ..output.pareto import pareto_plot
 from ..analysis.aggregate import (
     DEGENERATE_MARK, FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, TIME_TIE, as_text, failed_runs,
-    family_order, family_table, fmt_limit, fmt_ms, fmt_pct, is_missing, judged_metric, names_text,
+    family_order, family_table, fmt_limit, judged_metric, names_text,
     normalised, per_configuration, scenes_in_order, summary_table, verdict_sentences, verdict_table,
-    write_text_atomic,
 )
+from ..util.files import write_text_atomic
+from ..util.format import fmt_ms, fmt_num, fmt_table_ms, fmt_table_pct, is_missing
 from .agreement import MIN_CONFIGURATIONS, agreement_sentences, rank_agreement
 
 
@@ -162,14 +161,14 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> P
               ""]
     if len(truth):
         lines += [f"Ground truth ({', '.join(dict.fromkeys(truth['short_label']))}): median "
-                  f"{fmt_ms(truth['time_ms'].median())} ms per frame over {len(truth)} scenes.", ""]
+                  f"{fmt_table_ms(truth['time_ms'].median())} ms per frame over {len(truth)} scenes.", ""]
     lines += ["## Configurations", ""]
     for tech, g in table.groupby("technique", sort=False):
         lines += [f"### {tech}", ""]
         lines.append(_md_table(["configuration", "median error", "median time ms", "setup ms", "scenes", "wins",
                                 "fails"],
-                               [[r["short_label"], fmt_pct(r["median_error_rate"]), fmt_ms(r["median_time_ms"]),
-                                 fmt_ms(r["median_setup_ms"]),
+                               [[r["short_label"], fmt_table_pct(r["median_error_rate"]),
+                                 fmt_table_ms(r["median_time_ms"]), fmt_table_ms(r["median_setup_ms"]),
                                  f"{r['scenes']}" + (f" (+{r['failed']} failed)" if r["failed"] else ""),
                                  _wins_count(r["wins"]), str(len(r["fails"]))] for _, r in g.iterrows()]))
         notes = []
@@ -190,8 +189,9 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> P
         lines.append(_md_table(
             ["scene family", "scenes", "coverage", "most accurate", "error", "fastest", "ms",
              f"fastest ≤ {100 * FAIL_ERROR_RATE:g} %", "ms"],
-            [[r["scene_family"], r["scenes"], r["coverage"], r["best"], fmt_pct(r["best_error_rate"]), r["fastest"],
-              fmt_ms(r["fastest_time_ms"]), r["fastest_ok"] or "(none)", fmt_ms(r["fastest_ok_time_ms"])]
+            [[r["scene_family"], r["scenes"], r["coverage"], r["best"], fmt_table_pct(r["best_error_rate"]),
+              r["fastest"], fmt_table_ms(r["fastest_time_ms"]), r["fastest_ok"] or "(none)",
+              fmt_table_ms(r["fastest_ok_time_ms"])]
              for _, r in fams.iterrows()]))
         lines.append("")
     lines += agreement_markdown(results)
@@ -203,9 +203,9 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> P
             best = g["error_rate"].min()
             winners = g[g["error_rate"] == best]
             fastest = g[g["time_ms"].notna()].sort_values(["time_ms", "error_rate"], kind="stable")
-            rows.append([scene, g["scene_family"].iloc[0], names_text(winners["short_label"]), fmt_pct(best),
+            rows.append([scene, g["scene_family"].iloc[0], names_text(winners["short_label"]), fmt_table_pct(best),
                          fastest["short_label"].iloc[0] if len(fastest) else "",
-                         fmt_ms(fastest["time_ms"].iloc[0]) if len(fastest) else "", len(g)])
+                         fmt_table_ms(fastest["time_ms"].iloc[0]) if len(fastest) else "", len(g)])
         lines.append(_md_table(["scene", "family", "most accurate", "error", "fastest", "ms", "configurations"], rows))
         lines.append("")
     if len(fails):
@@ -278,7 +278,7 @@ def _error_text(metric: str, value) -> str:
 
 
 def tuned_tables(meta: dict) -> list[dict]:
-    """study.json's ``tuned`` (:func:`shadowlab.study.runner.tuning_summary`) as the page and
+    """study.json's ``tuned`` (:func:`shadowlab.study.tuning_phase.tuning_summary`) as the page and
     summary.md show it: per ``[[tuned]]`` entry its name, objective, one row per scene (the
     objective as given and tuned, the regret of the default, the tuned parameters, the per-pixel
     oracle; or the failure) and, on the exact bias route, the sentence on one global bias."""
@@ -342,7 +342,7 @@ def verdict_grid(verdicts: pd.DataFrame, scenes_meta: dict) -> dict:
             cells[r["technique"]] = {
                 "config": "" if as_text(r["short_label"]) == r["technique"] else as_text(r["short_label"]),
                 "error": _error_text(r["metric"], r["error"]),
-                "time": fmt_ms_short(r["time_ms"]), "moving": fmt_ms_short(r["moving_ms"]),
+                "time": fmt_ms(r["time_ms"]), "moving": fmt_ms(r["moving_ms"]),
                 "moves_differ": not is_missing(r["moving_ms"]) and not is_missing(r["time_ms"])
                 and r["moving_ms"] > r["time_ms"] * 1.05,
                 "scene_metric": _metric_text(as_text(r["scene_metric"]), r["scene_metric_value"]),
@@ -370,7 +370,7 @@ def _scene_table(c: pd.DataFrame, metric: str, scene_metric: str) -> dict:
                _metric_text("boundary_error_px", r["boundary_error_px"]), fmt_num(r["visibility_mae"])]
         if scene_metric:
             row.append(_metric_text(scene_metric, r["scene_metric_value"]))
-        row += [fmt_ms_short(r["time_ms"]), fmt_ms_short(r["setup_ms"]), fmt_ms_short(r["moving_ms"])]
+        row += [fmt_ms(r["time_ms"]), fmt_ms(r["setup_ms"]), fmt_ms(r["moving_ms"])]
         rows.append(row)
     return {"columns": columns, "rows": rows}
 
@@ -398,7 +398,7 @@ def _scene_section(study_dir: Path, scene: str, c: pd.DataFrame, fails: pd.DataF
     for _, r in c.iterrows():
         lines = [] if r["reference"] else [f"{metric.replace('_', ' ')} {_error_text(metric, r[metric])}"
                                            + (f" {DEGENERATE_MARK}: almost no shadow drawn" if r["degenerate"] else "")]
-        lines.append(f"{fmt_ms_short(r['time_ms'])} ms per frame" + (f" · moving {fmt_ms_short(r['moving_ms'])} ms"
+        lines.append(f"{fmt_ms(r['time_ms'])} ms per frame" + (f" · moving {fmt_ms(r['moving_ms'])} ms"
                                                                if r["preprocess_ms"] else ""))
         if info.get("metric") and not r["reference"]:
             lines.append(f"{info['metric']} {_metric_text(info['metric'], r['scene_metric_value'])}")
@@ -419,8 +419,8 @@ def _summary_rows(results: pd.DataFrame) -> list[list[str]]:
     rows = []
     for _, r in table.iterrows():
         n = int(r["scenes"]) + int(r["failed"])
-        rows.append([r["technique"], r["short_label"], fmt_pct(r["median_error_rate"]),
-                     fmt_pct(r["worst_error_rate"]), fmt_ms_short(r["median_time_ms"]), fmt_ms_short(r["median_setup_ms"]),
+        rows.append([r["technique"], r["short_label"], fmt_table_pct(r["median_error_rate"]),
+                     fmt_table_pct(r["worst_error_rate"]), fmt_ms(r["median_time_ms"]), fmt_ms(r["median_setup_ms"]),
                      f"{len(r['fails'])} of {n}" if r["fails"] else f"0 of {n}",
                      ", ".join(f"{s} ({why})" for s, why in r["fails"]), _wins_text(r["wins"]) or "—"])
     return rows
@@ -508,9 +508,9 @@ def prediction_tables(meta: dict) -> list[dict]:
         what = (f"a cost model fitted on {entry.get('model_rows')} rows of {entry.get('model_scenes')} scenes "
                 f"(R² {float(entry.get('r2', float('nan'))):.3f}; {cv_text}) turns this study's work counters "
                 f"into {entry.get('target')} on that device. Rows: {entry.get('csv')}.")
-        rows = [[as_text(r.get("technique")), as_text(r.get("label")), fmt_ms_short(r.get("measured_here_ms")),
-                 (fmt_ms_short(r.get("predicted_ms")) + (" (extrapolated: no such technique in the fitted rows)"
-                                                         if r.get("extrapolated") else ""))
+        rows = [[as_text(r.get("technique")), as_text(r.get("label")), fmt_ms(r.get("measured_here_ms")),
+                 (fmt_ms(r.get("predicted_ms")) + (" (extrapolated: no such technique in the fitted rows)"
+                                                   if r.get("extrapolated") else ""))
                  if r.get("predicted_ms") is not None
                  else f"— (no cost for {as_text(r.get('unmodelled')) or 'its work'})"]
                 for r in entry.get("rows", [])]

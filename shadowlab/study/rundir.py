@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 
 from ..evaluation import metrics
-from ..output.rundir import ConfigImages, RunDirectory, safe_name, write_comparison
+from ..output.rundir import GROUND_TRUTH_KEY, ConfigImages, RunDirectory, safe_name, write_comparison
 from ..measurement.pipeline import pass_order
 
 MANIFEST = ".study-inputs.json"
@@ -66,7 +66,7 @@ def _write(rd: RunDirectory, scene: SceneRuns, df: pd.DataFrame, record: dict) -
     from .tasks import STUDY_SIGNED_LIMIT
 
     truth = scene.truth
-    configs = [_config_images(record["ground_truth"], truth, True)]
+    configs = [_config_images(record[GROUND_TRUTH_KEY], truth, True)]
     configs += [_config_images(spec, res, False) for spec, res in scene.configs.items()]
     notes = list(truth["meta"]["notes"])
     judgement = [n for res in scene.configs.values() for n in res["meta"].get("judgement", [])]

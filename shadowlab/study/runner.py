@@ -9,6 +9,9 @@ Two phases, so that timings stay honest:
    rendered ``warmup`` + ``repeat`` times alone, in one worker process with every core's
    llvmpipe threads, so no other work of the study overlaps a timed section on this host.
 
+A suite with ``[[tuned]]`` entries first has a tuning phase (:mod:`shadowlab.study.tuning_phase`):
+each entry's optimum on each scene joins that scene's configurations for both phases.
+
 Every finished task is stored in the study's cache (:mod:`shadowlab.output.cache`) as soon as it
 returns, so Ctrl-C loses only the tasks in flight and the next run resumes. Then, without GL,
 the results are assembled: per scene a run directory, ``results.csv``, ``study.json`` and the
@@ -18,7 +21,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
-import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -31,15 +33,17 @@ import pandas as pd
 from ..evaluation import perceptual
 from ..output import provenance
 from ..gpu import timing
-from ..output.rundir import safe_name
+from ..output.rundir import GROUND_TRUTH_KEY, safe_name
+from ..util.files import replacing, write_text_atomic
 from ..util.validation import RunError
 from ..techniques import from_spec
 from . import rundir
-from .bundle import scene_bundle
+from .bundle import SceneBundles
 from ..output.cache import Cache, run_key, scene_content_hash
-from .executors import DaskExecutor, LocalExecutor, cores
+from .executors import DaskExecutor, LocalExecutor, cores, lost_result
 from ..scene import scene_purpose
 from .suite import Suite, load_suite
+from .tuning_phase import run_tuning_phase, tuned_rows_under_their_name, tuning_summary, with_tuned
 
 #: Columns a study adds to every metrics row in results.csv (docs/contracts.md#study-directory).
 STUDY_COLUMNS = ("config", "scene_family", "status", "error", "run_dir", "revision", "renderer", "shaded_image",
@@ -127,9 +131,9 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
         renderer = device["renderer"]
         tuned = []
         if suite.tuned:  # each [[tuned]] entry's per-scene optimum joins the scene's configurations
-            tuned = _tuning_phase(executor, suite, cache, revision, device["device"], force, workers, log,
-                                  bundles)
-            suite = _with_tuned(suite, tuned)
+            tuned = run_tuning_phase(executor, suite, cache, revision, device["device"], force, workers, log,
+                                     bundles)
+            suite = with_tuned(suite, tuned)
         runs = _plan(suite, revision, device["device"])
         todo_truth = [r for r in runs if r.reference and (force or not cache.has_result(r.acc_key))]
         todo_config = [r for r in runs if not r.reference and (force or not cache.has_result(r.acc_key))]
@@ -183,13 +187,13 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
             executor.close()
 
     timing_text = _timing_sentence(suite, renderer, dask)
-    record = {"renderer": renderer, "device": device["device"], "gl": device["gl"], "ground_truth": suite.truth,
+    record = {"renderer": renderer, "device": device["device"], "gl": device["gl"], GROUND_TRUTH_KEY: suite.truth,
               "timing_method": timing_text, "timing_phase": "separate",
               "pass_timing": timing.pass_timing_method_for(renderer) if suite.pass_timing else None,
               "repeat": suite.repeat, "warmup": suite.warmup, "study": suite.name, "size": list(suite.size),
               **provenance.record(gl_info=False)}
     results, problems = _assemble(suite, runs, cache, failed, timing_failed, out, record)
-    results = _tuned_rows_under_their_name(suite, tuned, results)
+    results = tuned_rows_under_their_name(suite, tuned, results)
     elapsed = time.perf_counter() - t_start
     meta = {"name": suite.name, "description": suite.description, "size": list(suite.size), "repeat": suite.repeat,
             "warmup": suite.warmup, "device": device["device"], "renderer": renderer,
@@ -205,172 +209,6 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
     phases["report_s"] = time.perf_counter() - t_start - elapsed
     return StudyOutcome(out, results, n_tasks, 2 * len(runs) - n_tasks, failures, time.perf_counter() - t_start,
                         report_files, phases)
-
-
-@dataclass
-class _Tuned:
-    """One ``[[tuned]]`` entry on one scene: its cache key and the tune task's result (None
-    until run; ``ok`` False with ``error`` when it failed)."""
-
-    entry: object   # TunedEntry
-    scene: object   # SceneEntry
-    scene_hash: str
-    key: str
-    result: dict | None = None
-
-
-def _tuning_phase(executor, suite: Suite, cache: Cache, revision: str, device: str, force: bool, workers: int,
-                  log, bundles: SceneBundles | None = None) -> list[_Tuned]:
-    """Run (or take from the cache) every ``[[tuned]]`` entry on each of its scenes, in parallel:
-    before the accuracy phase, which then runs the tuned configurations like any other
-    (``bundles``: on Dask, the scenes' bundles the tasks carry)."""
-    from .tasks import run_task
-
-    jobs = []
-    for entry in suite.tuned:
-        for scene in suite.scenes:
-            if entry.applies_to(scene.name):
-                h = scene_content_hash(scene.path)
-                key = run_key(h, f"tune:{entry.spec}", suite.size, revision, device, params=list(entry.params),
-                              objective=entry.objective, budget=entry.budget, truth=suite.truth)
-                job = _Tuned(entry, scene, h, key)
-                job.result = None if force else cache.load_result(key)
-                jobs.append(job)
-    todo = [j for j in jobs if j.result is None]
-    if not todo:
-        return jobs
-    ex = executor or LocalExecutor(min(workers, len(todo)))
-    log(f"tuning phase: {len(todo)} tune task(s) ({len(jobs) - len(todo)} cached) on {ex.description}")
-    try:
-        pending = {}
-        for j in todo:
-            task = {"kind": "tune", "scene_path": str(j.scene.path), "scene_hash": j.scene_hash,
-                    "size": list(suite.size), "spec": j.entry.spec, "params": list(j.entry.params),
-                    "objective": j.entry.objective, "budget": j.entry.budget, "truth_spec": suite.truth}
-            if bundles is not None:
-                task["scene_bundle"] = bundles.of(j.scene.path)
-            pending[ex.submit(run_task, task)] = j
-        while pending:
-            for fut in ex.wait_first(pending.keys()):
-                j = pending.pop(fut)
-                try:
-                    j.result = fut.result()
-                except Exception as exc:  # noqa: BLE001 - run_task never raises: the worker died
-                    j.result = _lost(exc)
-                if j.result["ok"]:
-                    cache.store_result(j.key, j.result)
-                    found = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}"
-                                      for k, v in j.result["meta"]["params"].items())
-                    log(f"  tuned {j.entry.name} on {j.scene.name}: {found}")
-                else:
-                    log(f"  tuning {j.entry.name} on {j.scene.name} FAILED: {j.result['error']}")
-    except BaseException:
-        if hasattr(ex, "kill"):
-            ex.kill()
-        raise
-    finally:
-        if ex is not executor:
-            ex.close()
-    return jobs
-
-
-def _with_tuned(suite: Suite, tuned: list[_Tuned]) -> Suite:
-    """The suite with each tuned optimum added to its scene's configurations, named
-    ``<spec> [tuned <params>]`` (a spec the suite already runs keeps its own name)."""
-    import dataclasses
-
-    configurations = {k: list(v) for k, v in suite.configurations.items()}
-    written = dict(suite.written)
-    for j in tuned:
-        if j.result is None or not j.result.get("ok", True) or "best" not in j.result.get("meta", {}):
-            continue
-        spec = from_spec(j.result["meta"]["best"]).spec()
-        written.setdefault(spec, j.entry.name)
-        if spec not in configurations[j.scene.name]:
-            configurations[j.scene.name].append(spec)
-    return dataclasses.replace(suite, configurations=configurations, written=written)
-
-
-def _tuned_rows_under_their_name(suite: Suite, tuned: list, results: pd.DataFrame) -> pd.DataFrame:
-    """``results`` with, for each scene whose tuned optimum is a spec the suite runs anyway (no
-    gain over the spec as given, say), a copy of that spec's rows under the tuned entry's name:
-    a tuned entry then has rows on every scene it ran on, whatever spec each scene got."""
-    extra = []
-    for j in tuned or []:
-        r = j.result
-        if r is None or not r.get("ok", True) or "best" not in r.get("meta", {}):
-            continue
-        best = from_spec(r["meta"]["best"]).spec()
-        rows = results[(results["scene"] == j.scene.name) & (results["label"] == best)
-                       & (results["config"] != j.entry.name)]
-        if len(rows) and not ((results["scene"] == j.scene.name) & (results["config"] == j.entry.name)).any():
-            extra.append(rows.assign(config=j.entry.name))
-    return pd.concat([results, *extra], ignore_index=True) if extra else results
-
-
-def tuning_summary(suite: Suite, tuned: list, results: pd.DataFrame) -> list[dict]:
-    """study.json's ``tuned``: per ``[[tuned]]`` entry and scene, the spec as given and its
-    optimum, each with its objective as the study measured it (light 0), the regret of the
-    default, the per-pixel oracle (exact route); per entry, on the exact route, one global bias
-    tuned leave-one-out (:func:`shadowlab.tuning.global_setting.leave_one_out`)."""
-    from ..tuning.global_setting import SceneCurve, leave_one_out
-
-    def measured(scene: str, spec: str, objective: str):
-        rows = results[(results["scene"] == scene) & (results["label"] == spec) & (results["light"] == 0)]
-        if not len(rows) or objective not in rows or rows.iloc[0].get("status") != "ok":
-            return None
-        return float(rows.iloc[0][objective])
-
-    out = []
-    for entry in suite.tuned:
-        scenes, curves, held = [], {}, {}
-        for j in (j for j in tuned if j.entry is entry):
-            r = j.result or {"ok": False, "error": "not run"}
-            item = {"scene": j.scene.name, "status": "ok" if r.get("ok", True) and "best" in r.get("meta", {})
-                    else "failed", "error": r.get("error", "")}
-            if item["status"] == "ok":
-                m = r["meta"]
-                best = from_spec(m["best"]).spec()
-                default_value, value = measured(j.scene.name, entry.spec, entry.objective), \
-                    measured(j.scene.name, best, entry.objective)
-                item.update(best=best, best_name=suite.config_name(best), params=m["params"], route=m["route"],
-                            oracle=m.get("oracle"), default_value=default_value, value=value,
-                            regret=(default_value - value) if None not in (default_value, value) else None,
-                            renders=m.get("renders"))
-                own = _own_grid_point(m, entry.spec)
-                if own is not None and np.isfinite(r["arrays"][f"{own}_values"]).all():
-                    held = (m.get("grid") or [{}])[own]
-                    curves[j.scene.name] = SceneCurve(j.scene.name, r["arrays"][f"{own}_breaks"],
-                                                      r["arrays"][f"{own}_values"], float(m["bias_range"][1]))
-            scenes.append(item)
-        summary = {"name": entry.name, "spec": entry.spec, "written": entry.written, "params": list(entry.params),
-                   "objective": entry.objective, "scenes": scenes, "global": None}
-        if len(curves) >= 2 and len(curves) == len(scenes):
-            default_bias = float(from_spec(entry.spec).bias)
-            loo = leave_one_out(curves, default_bias)
-            summary["global"] = {
-                "held_out": [{"scene": h.test[0], "bias": h.bias, "value": h.test_values[h.test[0]],
-                              "own_optimum": h.test_optima[h.test[0]], "regret": h.regret[h.test[0]],
-                              "default_value": h.default_values[h.test[0]],
-                              "default_regret": h.default_regret[h.test[0]]} for h in loo],
-                "optima": {s: [c.optimum().lo, c.optimum().hi] for s, c in curves.items()},
-                "default_bias": default_bias,
-                # the grid parameters the global bias is chosen at: the spec's own values
-                "held": {k: v for k, v in held.items()}}
-        out.append(summary)
-    return out
-
-
-def _own_grid_point(meta: dict, spec: str) -> int | None:
-    """Index of the grid point holding the spec's own value of the grid parameter (0 without a grid)."""
-    grid = meta.get("grid") or []
-    if not grid:
-        return None
-    tech = from_spec(spec)
-    for k, params in enumerate(grid):
-        if all(getattr(tech, name) == value for name, value in params.items()):
-            return k
-    return None
 
 
 def _probe(executor) -> dict:
@@ -410,32 +248,6 @@ def _task(run: _Run, suite: Suite, kind: str, bundles: SceneBundles | None = Non
     return task
 
 
-class SceneBundles:
-    """Each scene's bundle (:func:`shadowlab.study.bundle.scene_bundle`), built once per study and
-    attached to every task of the scene sent to Dask workers, which may share no disk with this
-    machine. A scene that cannot be bundled (an absolute mesh path) is a RunError."""
-
-    def __init__(self):
-        self._made: dict[str, dict] = {}
-
-    def of(self, path) -> dict:
-        """The bundle of the scene file at ``path``."""
-        key = str(path)
-        if key not in self._made:
-            try:
-                self._made[key] = scene_bundle(path)
-            except ValueError as exc:
-                raise RunError(str(exc)) from exc
-        return self._made[key]
-
-
-def _lost(exc: BaseException) -> dict:
-    """The result of a task whose worker died under it (a crash, the out-of-memory killer, a
-    lost Dask worker): a failed run, retried when the study is run again."""
-    return {"ok": False, "error": f"the worker process was lost ({type(exc).__name__}: {exc}); "
-                                  f"run the study again to retry", "meta": {}, "arrays": {}, "files": {}}
-
-
 def _truth_arrays(result: dict) -> list[np.ndarray]:
     n = result["meta"]["lights"]
     return [result["arrays"][f"truth_{li}"] for li in range(n)]
@@ -456,7 +268,7 @@ def _accuracy_phase(executor, suite, todo_truth, todo_config, known_truths: dict
         try:
             pending[executor.submit(run_task, task)] = r
         except Exception as exc:  # noqa: BLE001 - a pool broken by a lost worker takes no more tasks
-            failed[(r.scene.name, r.spec)] = _lost(exc)["error"]
+            failed[(r.scene.name, r.spec)] = lost_result(exc)["error"]
             progress.step(f"{r.scene.name}: lost")
 
     def submit_configs(scene_name: str, truth_result: dict) -> None:
@@ -477,7 +289,7 @@ def _accuracy_phase(executor, suite, todo_truth, todo_config, known_truths: dict
                 try:
                     result = fut.result()
                 except Exception as exc:  # noqa: BLE001 - run_task never raises: the worker died
-                    result = _lost(exc)
+                    result = lost_result(exc)
                 progress.step(f"{r.scene.name}: {'truth' if r.reference else from_spec(r.spec).short_label()}")
                 if not result["ok"]:
                     failed[(r.scene.name, r.spec)] = result["error"]
@@ -508,7 +320,7 @@ def _timing_phase(executor, suite, todo_time, cache: Cache, timing_failed: dict,
                 result = executor.submit(run_task, _task(r, suite, "timing", bundles, repeat=suite.repeat, warmup=suite.warmup,
                                                          pass_timing=suite.pass_timing)).result()
             except Exception as exc:  # noqa: BLE001 - run_task never raises: the worker died
-                result = _lost(exc)
+                result = lost_result(exc)
                 if restart is not None:
                     executor.kill()
                     executor = restart()
@@ -575,7 +387,7 @@ def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, timing
             if not r.reference:
                 sr.configs[r.spec] = res
             sr.keys += [r.acc_key, r.time_key if tim is not None else "untimed"]
-            stem = "ground_truth" if r.reference else rundir.image_stem(res["meta"]["rows"][0]["short_label"])
+            stem = GROUND_TRUTH_KEY if r.reference else rundir.image_stem(res["meta"]["rows"][0]["short_label"])
             columns = tim["columns"] if tim is not None else [{}] * len(res["meta"]["rows"])
             for li, (row, cols) in enumerate(zip(res["meta"]["rows"], columns)):
                 row = {**row, **cols}
@@ -607,13 +419,10 @@ def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, timing
 def _write_study_files(out: Path, results: pd.DataFrame, meta: dict, record: dict) -> dict:
     """results.csv, study.json and the report, each written to a temporary name and renamed."""
     out.mkdir(parents=True, exist_ok=True)
-    tmp = out / f".results.csv.tmp-{os.getpid()}"
-    results.to_csv(tmp, index=False)
-    os.replace(tmp, out / "results.csv")
+    with replacing(out / "results.csv") as (tmp,):
+        results.to_csv(tmp, index=False)
     study = {**meta, "record": record, "date_finished": _dt.datetime.now().astimezone().isoformat(timespec="seconds")}
-    tmp = out / f".study.json.tmp-{os.getpid()}"
-    tmp.write_text(json.dumps(study, indent=2, default=str))
-    os.replace(tmp, out / "study.json")
+    write_text_atomic(out / "study.json", json.dumps(study, indent=2, default=str))
     from . import report as study_report
 
     return study_report.write_study_report(out, results, meta)

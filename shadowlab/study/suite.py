@@ -36,6 +36,7 @@ from ..evaluation.scene_metric import judged_columns
 from ..techniques import TechniqueError, from_spec
 from ..techniques.base import format_value
 from ..techniques.rays.raytrace import RayTraced
+from ..util.sizes import COMPARE_SIZE
 from ..util.validation import SceneError, TableReader, did_you_mean
 from ..analysis.aggregate import TUNED_MARK
 
@@ -300,7 +301,7 @@ def parse_suite(data: dict, file: str = "<suite>", base: Path | None = None) -> 
     rd = TableReader(data, "", file)
     name = rd.string("name", default=Path(file).stem)
     description = rd.string("description", default="")
-    size = rd.raw("size", [800, 600])
+    size = rd.raw("size", list(COMPARE_SIZE))
     if not (isinstance(size, list) and len(size) == 2 and all(isinstance(v, int) and not isinstance(v, bool)
                                                                for v in size)):
         raise rd.error("size", f"must be [width, height] in pixels, got {size!r}")

@@ -73,7 +73,7 @@ from typing import Any
 
 import numpy as np
 
-from ..gpu import gl
+from ..gpu import gl, programs, targets
 from ..gpu.frame import FRAME_WRITABLE, GBUFFER_CHANNELS
 from ..util.validation import did_you_mean
 
@@ -237,7 +237,7 @@ class PlotStyle:
     marker: str
 
 
-#: A program's cache key (:func:`shadowlab.gpu.gl.program_key`) → the technique that holds it
+#: A program's cache key (:func:`shadowlab.gpu.programs.program_key`) → the technique that holds it
 #: (:meth:`Technique.program`).
 _HOLDERS: dict = {}
 
@@ -422,7 +422,7 @@ class Technique:
         if self._visibility_texture is None:
             raise NotImplementedError(f"{self.name}: no visibility target was made and visibility() "
                                       f"is not overridden")
-        return gl.read_texture(self._visibility_texture, 1)[..., 0]
+        return targets.read_texture(self._visibility_texture, 1)[..., 0]
 
     def timed_pass(self, name: str, cpu: bool = False):
         """Context manager around one pass of :meth:`render` (``name`` from :attr:`PASSES`;
@@ -472,16 +472,16 @@ class Technique:
     # -- resources ---------------------------------------------------------------
     def program(self, name: str, defines: dict | None = None, varyings: tuple[str, ...] = ()):
         """The cached program of the GLSL file ``name``, found by its file name on the loader's
-        search path (:func:`shadowlab.gpu.gl.program`, :func:`shadowlab.gpu.gl.shader_path`), held
+        search path (:func:`shadowlab.gpu.programs.program`, :func:`shadowlab.gpu.glsl.shader_path`), held
         by this technique until :meth:`release`. Programs are shared within a process, and a technique
         sets their uniforms in :meth:`setup`: a program another live technique holds is an error
         (RuntimeError), never a render with someone else's uniforms."""
-        key = gl.program_key(name, defines, varyings)
+        key = programs.program_key(name, defines, varyings)
         holder = _HOLDERS.get(key)
-        if holder is not None and holder is not self:  # asked before gl.program resets its uniforms
+        if holder is not None and holder is not self:  # asked before programs.program resets its uniforms
             raise RuntimeError(f"{self.name}: program {name} {defines or ''} is held by {holder.name}, which is "
                                f"still set up; release it first (programs are shared, their uniforms are not)")
-        prog = gl.program(name, defines, varyings)
+        prog = programs.program(name, defines, varyings)
         _HOLDERS[key] = self
         self._programs.append(key)
         return prog
@@ -518,7 +518,7 @@ class Technique:
         """Free what :meth:`keep` holds (the end of an animation; :meth:`release` otherwise)."""
         kept, self._kept = self._kept, {}
         if kept:
-            gl.park()
+            targets.park()
         for obj in kept.values():
             obj.release()
 
@@ -536,7 +536,7 @@ class Technique:
         memory figure every technique has, whether or not its :meth:`stats` reports one."""
         total = 0
         for obj in self._owned + list(self._kept.values()):  # kept objects (page caches) count too
-            if isinstance(getattr(obj, "nbytes", None), int):  # the lab's own wrappers (gl.DepthTexture)
+            if isinstance(getattr(obj, "nbytes", None), int):  # the lab's own wrappers (targets.DepthTexture)
                 total += obj.nbytes
             elif hasattr(obj, "components"):  # a texture or renderbuffer
                 total += obj.width * obj.height * obj.components * _DTYPE_BYTES.get(obj.dtype, 4)
@@ -549,13 +549,13 @@ class Technique:
         and a framebuffer drawing into it, as (texture, framebuffer); :meth:`visibility` reads
         the texture. With ``share_depth_stencil`` (the frame's, lent by
         :meth:`~shadowlab.gpu.frame.Frame.depth_stencil_for`) the framebuffer is a
-        :class:`~shadowlab.gpu.gl.ScreenTarget` drawing with that depth-stencil attachment."""
+        :class:`~shadowlab.gpu.targets.ScreenTarget` drawing with that depth-stencil attachment."""
         if share_depth_stencil is None:
-            tex, fbo = gl.visibility_target(size)
+            tex, fbo = targets.visibility_target(size)
             self.own(tex)
         else:
             tex = self.own(gl.context().texture(tuple(size), 1, dtype="f4"))
-            fbo = gl.ScreenTarget.create(tuple(size), [tex], share_depth_stencil=share_depth_stencil)
+            fbo = targets.ScreenTarget.create(tuple(size), [tex], share_depth_stencil=share_depth_stencil)
         self.own(fbo)
         self._visibility_texture = tex
         return tex, fbo
@@ -593,8 +593,8 @@ class Technique:
             self.frame.gbuffer_texture(channel).use(unit)
 
     def fullscreen_quad(self, prog):
-        """An owned full-screen quad VertexArray for ``prog`` (:func:`shadowlab.gpu.gl.fullscreen_quad`)."""
-        return self.own(gl.fullscreen_quad(prog))
+        """An owned full-screen quad VertexArray for ``prog`` (:func:`shadowlab.gpu.targets.fullscreen_quad`)."""
+        return self.own(targets.fullscreen_quad(prog))
 
     def release(self) -> None:
         """Free every GL object registered with :meth:`own` (newest first), so a technique can
@@ -606,7 +606,7 @@ class Technique:
                 del _HOLDERS[key]
         self._programs = []
         if owned:
-            gl.park()
+            targets.park()
         for obj in reversed(owned):
             obj.release()
         if not self.keep_across_frames:

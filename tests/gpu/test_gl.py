@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from OpenGL import GL
 
-from shadowlab.gpu import gl
+from shadowlab.gpu import gl, glsl, programs, targets
 
 
 
@@ -22,9 +22,9 @@ def test_context_and_renderer(ctx):
 
 
 def test_include_expands_and_stages_compile(ctx):
-    src = gl.shader_source("shade.glsl")
+    src = glsl.shader_source("shade.glsl")
     assert "light_footprint" in src and "#include" not in src
-    prog = gl.program("shade.glsl")
+    prog = programs.program("shade.glsl")
     assert "u_visibility" in prog
 
 
@@ -32,13 +32,13 @@ def test_stencil_round_trip(ctx):
     """Write the stencil with INCR_WRAP from two overlapping quads, then test EQUAL against it."""
     w, h = 64, 32
     color = ctx.texture((w, h), 4, dtype="f4")
-    target = gl.ScreenTarget.create((w, h), [color])
+    target = targets.ScreenTarget.create((w, h), [color])
     target.use()
     target.clear_depth_stencil()
     prog = ctx.program(vertex_shader="#version 330\nin vec2 in_pos; uniform float u_off; uniform float u_scale;"
                                      "void main(){gl_Position=vec4(in_pos.x*u_scale+u_off,in_pos.y,0.0,1.0);}",
                        fragment_shader="#version 330\nuniform vec4 u_col; out vec4 c; void main(){c=u_col;}")
-    quad = gl.fullscreen_quad(prog)
+    quad = targets.fullscreen_quad(prog)
     prog["u_col"].value = (0, 0, 0, 0)
     GL.glDisable(GL.GL_DEPTH_TEST)  # whatever an earlier test left: both quads must reach the stencil op
     GL.glStencilMask(0xFF)
@@ -57,7 +57,7 @@ def test_stencil_round_trip(ctx):
     prog["u_scale"].value, prog["u_off"].value, prog["u_col"].value = 1.0, 0.0, (1, 0, 0, 1)
     quad.render()
     GL.glDisable(GL.GL_STENCIL_TEST)
-    img = gl.read_texture(color, 4)
+    img = targets.read_texture(color, 4)
     assert (img[:, : w // 4, 0] == 1).all() and (img[:, w // 4:, 0] == 0).all()
     quad.release(); prog.release(); target.release(); color.release()
 
@@ -66,7 +66,7 @@ def test_stencil_round_trip(ctx):
 def test_depth_formats_quantise(ctx, bits, step):
     """A cleared depth texture stores the clear value rounded to its format (16-bit: a
     visible step; 24-bit: within a step; 32-bit float: the float32 value)."""
-    tex = gl.DepthTexture.create((8, 8), bits)
+    tex = targets.DepthTexture.create((8, 8), bits)
     tex.use_as_target()
     value = 0.123456789
     GL.glClearDepth(value)
@@ -101,7 +101,7 @@ def test_releasing_the_current_framebuffer_leaves_moderngl_usable(ctx):
     gl.check_errors("new framebuffer after releases")
     fbo.color_attachments[0].release()
     fbo.release()
-    gl.park()
+    targets.park()
 
 
 # --------------------------------------------------------------------------- shader files
@@ -124,8 +124,8 @@ float helper(float x) {
 @pytest.fixture
 def shader_files(tmp_path, monkeypatch):
     """Write test-only GLSL files (name → text) into a temporary folder that is then the
-    loader's whole search path (gl.shader_path()); fullscreen.glsl and helper.glsl are always there."""
-    monkeypatch.setattr(gl, "shader_path", lambda: (tmp_path,))
+    loader's whole search path (glsl.shader_path()); fullscreen.glsl and helper.glsl are always there."""
+    monkeypatch.setattr(glsl, "shader_path", lambda: (tmp_path,))
 
     def write(**files):
         for name, text in {"fullscreen": FULLSCREEN, "helper": HELPER, **files}.items():
@@ -135,8 +135,8 @@ def shader_files(tmp_path, monkeypatch):
 
 
 def build_error(name: str, defines=None) -> str:
-    with pytest.raises(gl.ShaderError) as exc:
-        gl.program(name, defines)
+    with pytest.raises(glsl.ShaderError) as exc:
+        programs.program(name, defines)
     return str(exc.value)
 
 
@@ -212,7 +212,7 @@ out float out_value;
 void main() { out_value = user_fn(shared_fn(1.0)) + undeclared_after_guard; }
 #endif
 """)
-    src = gl.shader_source("twice.glsl")
+    src = glsl.shader_source("twice.glsl")
     assert src.count("float shared_fn(") == 1 and "#include" not in src
     message = build_error("twice.glsl")  # compiles but for the deliberate error: no redefinition
     assert "redefin" not in message and _names_location(message, "twice.glsl:8"), message
@@ -228,17 +228,17 @@ def test_include_cycles_and_conflicting_guards_are_errors(ctx, shader_files):
 #include "helper.glsl"
 #endif
 """)
-    with pytest.raises(gl.ShaderError, match="cycle: cycle_a.glsl -> cycle_b.glsl -> cycle_a.glsl"):
-        gl.shader_source("cycle_a.glsl")
+    with pytest.raises(glsl.ShaderError, match="cycle: cycle_a.glsl -> cycle_b.glsl -> cycle_a.glsl"):
+        glsl.shader_source("cycle_a.glsl")
     # the guard would drop the #else branch's copy: an error rather than a silently missing file
-    with pytest.raises(gl.ShaderError, match="branches.glsl:6: helper.glsl was first included under other"):
-        gl.shader_source("branches.glsl")
-    with pytest.raises(gl.ShaderError, match="not found.*nowhere.glsl.*at top_missing.glsl:2"):
+    with pytest.raises(glsl.ShaderError, match="branches.glsl:6: helper.glsl was first included under other"):
+        glsl.shader_source("branches.glsl")
+    with pytest.raises(glsl.ShaderError, match="not found.*nowhere.glsl.*at top_missing.glsl:2"):
         shader_files(top_missing='// test\n#include "nowhere.glsl"\n')
-        gl.shader_source("top_missing.glsl")
-    with pytest.raises(gl.ShaderError, match="malformed.glsl:2: an #include line must read"):
+        glsl.shader_source("top_missing.glsl")
+    with pytest.raises(glsl.ShaderError, match="malformed.glsl:2: an #include line must read"):
         shader_files(malformed='// test\n#include <helper.glsl>\n')
-        gl.shader_source("malformed.glsl")
+        glsl.shader_source("malformed.glsl")
 
 
 def test_stages_come_from_ifdef_lines_not_mentions(ctx, shader_files):
@@ -253,7 +253,7 @@ out float out_value;
 void main() { out_value = 1.0; }
 #endif
 """)
-    prog = gl.program("mentions.glsl")
+    prog = programs.program("mentions.glsl")
     assert GL.glGetProgramiv(prog.glo, GL.GL_ATTACHED_SHADERS) == 2  # vertex and fragment only
 
 
@@ -271,23 +271,23 @@ out float out_value;
 void main() { out_value = u_used + u_array[2].x; }
 #endif
 """)
-    prog = gl.program("uniforms.glsl")
-    info = gl.program_info(prog)
+    prog = programs.program("uniforms.glsl")
+    info = programs.program_info(prog)
     assert {"u_used", "u_unused", "u_also_unused", "u_array"} <= info.uniforms and "u_fancy" not in info.uniforms
-    gl.set_uniforms(prog, {"u_used": 0.5, "u_unused": 1.0, "u_also_unused": 2.0,
-                           "u_array": np.ones((3, 4), np.float32)})  # unused ones: skipped
+    programs.set_uniforms(prog, {"u_used": 0.5, "u_unused": 1.0, "u_also_unused": 2.0,
+                                 "u_array": np.ones((3, 4), np.float32)})  # unused ones: skipped
     assert prog["u_used"].value == 0.5
     with pytest.raises(KeyError) as exc:
-        gl.set_uniforms(prog, {"u_usde": 1.0})
+        programs.set_uniforms(prog, {"u_usde": 1.0})
     assert "uniforms.glsl" in str(exc.value) and "did you mean 'u_used'" in str(exc.value), str(exc.value)
-    with pytest.raises(gl.UnknownUniformError, match="'u_fancy'"):
-        gl.set_uniforms(prog, {"u_fancy": 1.0})
-    gl.set_uniforms(gl.program("uniforms.glsl", {"FANCY": 1}), {"u_fancy": 1.0})  # declared there
+    with pytest.raises(programs.UnknownUniformError, match="'u_fancy'"):
+        programs.set_uniforms(prog, {"u_fancy": 1.0})
+    programs.set_uniforms(programs.program("uniforms.glsl", {"FANCY": 1}), {"u_fancy": 1.0})  # declared there
 
 
 def test_a_misspelt_uniform_of_a_shipped_program_names_the_right_one(ctx):
-    with pytest.raises(gl.UnknownUniformError, match=r"shade.glsl \{\} declares no uniform 'u_densty'; did you mean 'u_density'"):
-        gl.set_uniforms(gl.program("shade.glsl"), {"u_densty": 0.5})
+    with pytest.raises(programs.UnknownUniformError, match=r"shade.glsl \{\} declares no uniform 'u_densty'; did you mean 'u_density'"):
+        programs.set_uniforms(programs.program("shade.glsl"), {"u_densty": 0.5})
 
 
 def test_programs_are_cached_per_file_defines_and_varyings(ctx, shader_files):
@@ -306,15 +306,15 @@ out float out_value;
 void main() { out_value = 1.0; }
 #endif
 """)
-    a = gl.program("cached.glsl", {"SIDE": 1, "OTHER": 2})
-    assert gl.program("cached.glsl", {"OTHER": "2", "SIDE": 1}) is a  # defines in canonical form
-    assert gl.program("cached.glsl", {"SIDE": 2, "OTHER": 2}) is not a
-    assert gl.program("cached.glsl", {"SIDE": 1, "OTHER": 2}, varyings=("out_scaled",)) is not a
+    a = programs.program("cached.glsl", {"SIDE": 1, "OTHER": 2})
+    assert programs.program("cached.glsl", {"OTHER": "2", "SIDE": 1}) is a  # defines in canonical form
+    assert programs.program("cached.glsl", {"SIDE": 2, "OTHER": 2}) is not a
+    assert programs.program("cached.glsl", {"SIDE": 1, "OTHER": 2}, varyings=("out_scaled",)) is not a
     # handed back as freshly linked: uniforms a previous user set are back at 0
     a["u_scale"].value = 3.0
-    assert gl.program("cached.glsl", {"SIDE": 1, "OTHER": 2})["u_scale"].value == 0.0
-    gl.release_programs()
-    b = gl.program("cached.glsl", {"SIDE": 1, "OTHER": 2})
+    assert programs.program("cached.glsl", {"SIDE": 1, "OTHER": 2})["u_scale"].value == 0.0
+    programs.release_programs()
+    b = programs.program("cached.glsl", {"SIDE": 1, "OTHER": 2})
     assert b is not a and b["u_scale"].value == 0.0
 
 
@@ -323,23 +323,23 @@ def test_real_programs_are_shared_and_frames_keep_drawing(ctx):
     from shadowlab.gpu.frame import Frame
     from shadowlab.scene import load_scene
 
-    prog = gl.program("shadow_depth.glsl")
-    assert gl.program("shadow_depth.glsl") is prog and gl.program("shadow_depth.glsl", {"PEEL": 1}) is not prog
+    prog = programs.program("shadow_depth.glsl")
+    assert programs.program("shadow_depth.glsl") is prog and programs.program("shadow_depth.glsl", {"PEEL": 1}) is not prog
     frames = [Frame(load_scene("box_on_plane"), 16, 12) for _ in range(2)]
     try:
         vaos = [f.vertex_array(prog) for f in frames]
-        assert vaos[0] is not vaos[1] and frames[0].vertex_array(gl.program("shadow_depth.glsl")) is vaos[0]
+        assert vaos[0] is not vaos[1] and frames[0].vertex_array(programs.program("shadow_depth.glsl")) is vaos[0]
     finally:
         for f in frames:
             f.release()
-    assert gl.program("shadow_depth.glsl") is prog  # releasing the frames left the program alone
+    assert programs.program("shadow_depth.glsl") is prog  # releasing the frames left the program alone
 
 
 def test_log_locations_of_other_drivers_are_rewritten():
     """Info-log formats of drivers this machine lacks: NVIDIA 'S(L) : error', AMD 'ERROR: S:L:';
     the file comes from the line number (Mesa reports every compiler error as string 0)."""
-    exp = gl.Expansion("", (gl.PRELUDE, "main.glsl", "inc.glsl"))
-    stride = gl.LINE_STRIDE
+    exp = glsl.Expansion("", (glsl.PRELUDE, "main.glsl", "inc.glsl"))
+    stride = glsl.LINE_STRIDE
     log = (f"0({2 * stride + 7}) : error C1008: undefined variable \"x\"\n"
            f"ERROR: 0:{stride + 12}: 'y' : undeclared identifier\n"
            f"0:{stride + 3}(9): error: `z' undeclared\n"
@@ -360,8 +360,8 @@ def test_expansions_end_every_line_and_markers_name_no_source_string():
     failing every program — and each marker is ``#line N``."""
     import re
 
-    for path in sorted(gl.shader_files().values()):
-        text = gl.shader_source(path.name)
+    for path in sorted(glsl.shader_files().values()):
+        text = glsl.shader_source(path.name)
         assert not text.strip().splitlines()[-1].lstrip().startswith("#"), path.name
         markers = [line for line in text.splitlines() if line.lstrip().startswith("#line")]
         assert markers, path.name

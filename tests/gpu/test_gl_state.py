@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from OpenGL import GL
 
-from shadowlab.gpu import gl, glstate
+from shadowlab.gpu import glstate, programs, targets
 from shadowlab.measurement.pipeline import measure, measure_configs
 from shadowlab.techniques import REGISTRY, from_spec
 
@@ -88,19 +88,19 @@ def test_draw_checker_sees_what_llvmpipe_forgives(ctx):
     """A program that writes clip distances drawn without the enables, and enables without a
     writer, are both reported; a depth texture read through a plain sampler with a compare
     mode is reported."""
-    prog = gl.program("planar.glsl", defines={"CLIP_LIGHT": 1})
-    written = gl.program_info(prog).clip_distances
+    prog = programs.program("planar.glsl", defines={"CLIP_LIGHT": 1})
+    written = programs.program_info(prog).clip_distances
     assert written == {0, 1}
-    gl.park()
+    targets.park()
     glstate.apply(glstate.PassState(clip_distances=0))
     assert len(glstate.draw_problems(written, {})) == 2
     glstate.apply(glstate.PassState(clip_distances=3))
     assert any("GL_CLIP_DISTANCE2 is enabled" in p for p in glstate.draw_problems(written, {}))
     glstate.apply(glstate.PassState(clip_distances=2))
     assert glstate.draw_problems(written, {}) == []
-    depth = gl.DepthTexture.create((8, 8), 24)
+    depth = targets.DepthTexture.create((8, 8), 24)
     sampler = ctx.sampler(texture=depth.texture, compare_func="<=")
-    gl.park()
+    targets.park()
     glstate.apply(glstate.PassState(samplers=(3,)))
     sampler.use(3)
     depth.texture.use(3)

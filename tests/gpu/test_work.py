@@ -46,6 +46,15 @@ def test_every_counter_says_whether_it_is_exact_and_why():
     assert {"draws", "vertices", "samples_passed", "primitives_generated", "compute_invocations"} <= exact
 
 
+def test_every_hook_counter_has_a_hook():
+    """work.HOOKS is the one table of what the counting render hooks: each entry books counters
+    whose source is "hook", and every such counter is booked by some entry."""
+    booked = {c for hook in work.HOOKS for c in hook.counters}
+    assert booked == {k for k, c in work.COUNTERS.items() if c.source == "hook"}
+    assert work.WorkCounter.hooked() == [(hook.owner(), hook.attr) for hook in work.HOOKS]
+    assert len(set(work.WorkCounter.hooked())) == len(work.HOOKS)
+
+
 def test_shadow_map_counts_match_the_scene(lab):
     """A 2048² single-face 24-bit map: the depth pass clears 2048²·3 bytes and draws every caster
     and receiver triangle once; the lookup draws one full-screen quad whose every pixel passes."""

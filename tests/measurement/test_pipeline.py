@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from shadowlab.gpu import gl
+from shadowlab.gpu import gl, targets
 from shadowlab.evaluation.metrics import COLUMNS, CONTRACT_COLUMNS, compare
 from shadowlab.measurement.pipeline import compare_frame, measure
 from shadowlab.techniques import REGISTRY, from_spec
@@ -94,7 +94,7 @@ def test_a_setup_that_fails_half_way_is_released(lab, registry_snapshot):
     tech = from_spec("failing_shadow_map_test")
     with pytest.raises(RuntimeError, match="boom"):
         measure(tech, frame, 0, repeat=1, warmup=0)
-    depth = [o for o in made if isinstance(o, gl.DepthTexture)]
+    depth = [o for o in made if isinstance(o, targets.DepthTexture)]
     assert depth and not any(GL.glIsTexture(o.glo) for o in depth)
     assert tech._owned == [] and len(made) >= 4
     m = measure(from_spec("shadow_map"), frame, 0, repeat=1, warmup=0)

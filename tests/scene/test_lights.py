@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from shadowlab.gpu import gl
+from shadowlab.gpu import glsl, programs, targets
 from shadowlab.geometry.frusta import Casters
 from shadowlab.scene.area_lights import AREA_SHAPES, DiscLight, RectLight, SphereLight
 from shadowlab.scene import parse_light
@@ -29,15 +29,15 @@ LIGHTS = [
 
 
 def glsl_eval(ctx, light, points):
-    prog = gl.program("light_probe.glsl", varyings=("out_footprint", "out_dir"))
-    gl.set_uniforms(prog, light.uniforms())
+    prog = programs.program("light_probe.glsl", varyings=("out_footprint", "out_dir"))
+    programs.set_uniforms(prog, light.uniforms())
     vbo = ctx.buffer(points.astype("f4").tobytes())
     out = ctx.buffer(reserve=len(points) * 16)
     vao = ctx.vertex_array(prog, [(vbo, "3f", "in_pos")])
-    gl.park()  # EGL standalone contexts have no default framebuffer
+    targets.park()  # EGL standalone contexts have no default framebuffer
     vao.transform(out, vertices=len(points))
     res = np.frombuffer(out.read(), "f4").reshape(-1, 4)
-    for obj in (vao, vbo, out):  # prog: gl.program's cache keeps it
+    for obj in (vao, vbo, out):  # prog: programs.program's cache keeps it
         obj.release()
     return res[:, 0], res[:, 1:]
 
@@ -56,7 +56,7 @@ def test_glsl_and_numpy_agree(ctx, light, rng):
 
 
 def test_type_ids_match_glsl():
-    src = gl.shader_source("lights.glsl")
+    src = glsl.shader_source("lights.glsl")
     assert set(LIGHT_TYPE_IDS) == {"point", "directional", "spot", "target_direct", "area"}
     for name, idx in LIGHT_TYPE_IDS.items():
         assert re.search(rf"#define LIGHT_{name.upper()} {idx}\b", src), name

@@ -11,7 +11,7 @@ import moderngl
 import pytest
 
 import shadowlab.techniques as techniques_package
-from shadowlab.gpu import gl
+from shadowlab.gpu import targets
 from shadowlab.gpu.frame import GBUFFER_CHANNELS, Frame
 from shadowlab.techniques import REGISTRY, Technique
 from shadowlab.techniques.base import CAPABILITIES
@@ -112,7 +112,7 @@ class _Watch:
         self.sampled: set[str] = set()
         self.lent = False
         channels = {id(frame.gbuffer_texture(c)): c for c in GBUFFER_CHANNELS}
-        use, lend, create, program = (moderngl.Texture.use, Frame.depth_stencil_for, gl.ScreenTarget.create.__func__,
+        use, lend, create, program = (moderngl.Texture.use, Frame.depth_stencil_for, targets.ScreenTarget.create.__func__,
                                       Technique.program)
         watch = self
 
@@ -137,7 +137,7 @@ class _Watch:
 
         monkeypatch.setattr(moderngl.Texture, "use", texture_use)
         monkeypatch.setattr(Frame, "depth_stencil_for", depth_stencil_for)
-        monkeypatch.setattr(gl.ScreenTarget, "create", classmethod(target_create))
+        monkeypatch.setattr(targets.ScreenTarget, "create", classmethod(target_create))
         monkeypatch.setattr(Technique, "program", take_program)
 
 

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...gpu import gl, glstate
+from ...gpu import glstate, programs
 from ...gpu.glstate import PassState, Stencil
 from ..base import FIRST, SUM, Param, PlotStyle, Technique
 
@@ -120,10 +120,10 @@ class PlanarShadow(Technique):
         self.preprocess_ms = 1e3 * (time.perf_counter() - t0)
         defines = {"CLIP_LIGHT": 1} if self.clip_light else None
         self.prog = self.program("planar.glsl", defines=defines)
-        self.prog["u_view_proj"].write(gl.mat_bytes(frame.view_projection))
+        self.prog["u_view_proj"].write(programs.mat_bytes(frame.view_projection))
         self.prog["u_keep"].value = 1.0 - float(self.opacity)
         self.depth_prog = self.program("depth_only.glsl")
-        self.depth_prog["u_view_proj"].write(gl.mat_bytes(frame.view_projection))
+        self.depth_prog["u_view_proj"].write(programs.mat_bytes(frame.view_projection))
         self.vis_tex, self.target = self.visibility_target((frame.width, frame.height),
                                                            share_depth_stencil=frame.depth_stencil_for(self))
         self.target.use()
@@ -166,9 +166,9 @@ class PlanarShadow(Technique):
                     polygon_offset=(float(self.offset_factor), float(self.offset_units)) if self.offset else None,
                     stencil=stencil,
                     clip_distances=2 if self.clip_light else 0))  # the light's and the receiver's planes
-                gl.set_uniforms(self.prog, {"u_light_plane": tuple(map(float, rec.light_plane)),
-                                            "u_receiver_plane": tuple(map(float, rec.plane))})
-                self.prog["u_plane_projection"].write(gl.mat_bytes(rec.projection))
+                programs.set_uniforms(self.prog, {"u_light_plane": tuple(map(float, rec.light_plane)),
+                                                  "u_receiver_plane": tuple(map(float, rec.plane))})
+                self.prog["u_plane_projection"].write(programs.mat_bytes(rec.projection))
                 for i in casters:
                     if i != rec.index:
                         self._draw_object(self.prog, i)

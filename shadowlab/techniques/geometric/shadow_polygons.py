@@ -34,7 +34,7 @@ from typing import Callable
 
 import numpy as np
 
-from ...gpu import gl, glstate, memory
+from ...gpu import glstate, memory, programs
 from ...geometry import adjacency as adj
 from ...geometry.clipping import CLIPPERS, FragmentMemoryError, fragment_triangles  # noqa: F401  (CLIPPERS: the back-ends)
 from ...geometry.triangles import triangle_normals
@@ -91,8 +91,8 @@ class ShadowPolygons(Technique):
         self.preprocess_ms = 1e3 * (time.perf_counter() - t0)
         ctx = frame.ctx
         self.prog = self.program("shadow_fragments.glsl")
-        self.prog["u_view_proj"].write(gl.mat_bytes(frame.view_projection))
-        gl.set_uniforms(self.prog, {"u_shadowed": 0.0})
+        self.prog["u_view_proj"].write(programs.mat_bytes(frame.view_projection))
+        programs.set_uniforms(self.prog, {"u_shadowed": 0.0})
         self.count = len(vertices)
         self.vbo = self.own(ctx.buffer(vertices.tobytes() if len(vertices) else b"\0" * 12))
         self.ibo_ids = self.own(ctx.buffer(triangle_ids.tobytes() if len(triangle_ids) else b"\0" * 4))

@@ -64,7 +64,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...gpu import gl, glstate
+from ...gpu import glstate, programs, targets
 from ...gpu.glstate import PassState
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
 from .toolkit import ATLAS_DEFINES, Atlas, TexelMapping, fit_light_views
@@ -271,26 +271,26 @@ class FilteredShadowMap(TexelMapping, Technique):
             tex.filter = (ctx.LINEAR, ctx.LINEAR)
             tex.repeat_x = tex.repeat_y = False
         self.depth_rb = self.own(ctx.depth_renderbuffer(size))
-        self.moments_fbo = self.own(gl.framebuffer([self.moments[0]], self.depth_rb))
-        self.blur_fbos = [self.own(gl.framebuffer([tex])) for tex in self.moments]
+        self.moments_fbo = self.own(targets.framebuffer([self.moments[0]], self.depth_rb))
+        self.blur_fbos = [self.own(targets.framebuffer([tex])) for tex in self.moments]
         # Clear value: the moments of z = 1 (the far plane) — nothing casts there.
         self.clear = self._far_moments()
 
         self.depth_prog = self.program("filtered_depth.glsl", defines=VARIANT_DEFINES)
-        gl.set_uniforms(self.depth_prog, {"u_near": self.near, "u_far": self.far,
-                                          "u_exponent": float(self.exponent),
-                                          "u_derivative_weight": DERIVATIVE_WEIGHT,
-                                          "u_moment_max": FORMAT_MAX[self.precision]})
+        programs.set_uniforms(self.depth_prog, {"u_near": self.near, "u_far": self.far,
+                                                "u_exponent": float(self.exponent),
+                                                "u_derivative_weight": DERIVATIVE_WEIGHT,
+                                                "u_moment_max": FORMAT_MAX[self.precision]})
         self._set_variant_uniforms(self.depth_prog)
         self.blur_prog = self.program("filtered_blur.glsl")
-        gl.set_uniforms(self.blur_prog, {"u_moments": 0, "u_radius": self.kernel // 2})
+        programs.set_uniforms(self.blur_prog, {"u_moments": 0, "u_radius": self.kernel // 2})
         self.blur_quad = self.fullscreen_quad(self.blur_prog)
 
         self.lookup_prog = self.program("filtered_lookup.glsl", defines={**VARIANT_DEFINES, **ATLAS_DEFINES})
         self.atlas.write_uniforms(self.lookup_prog)
         self.lookup_prog["u_light_view"].write(self.atlas.view_matrices())
-        gl.set_uniforms(self.lookup_prog, self.light.uniforms())
-        gl.set_uniforms(self.lookup_prog, {
+        programs.set_uniforms(self.lookup_prog, self.light.uniforms())
+        programs.set_uniforms(self.lookup_prog, {
             "u_moments": 1, "u_near": self.near, "u_far": self.far,
             "u_exponent": float(self.exponent),
             "u_min_variance": float(self.min_variance), "u_bleed_reduction": float(self.bleed_reduction),
@@ -329,10 +329,10 @@ class FilteredShadowMap(TexelMapping, Technique):
             "u_exponents": (float(self.positive_exponent), float(self.negative_exponent)),
             "u_quantize_offset": tuple(float(v) for v in (MSM_QUANTIZE_OFFSET if quantize else np.zeros(4))),
         }
-        gl.set_uniforms(prog, values)
+        programs.set_uniforms(prog, values)
         for key, matrix in (("u_quantize", MSM_QUANTIZE), ("u_dequantize", MSM_DEQUANTIZE)):
             if key in prog:
-                prog[key].write(gl.mat_bytes(matrix if quantize else np.eye(4)))
+                prog[key].write(programs.mat_bytes(matrix if quantize else np.eye(4)))
 
     # ------------------------------------------------------------------ passes
     def render(self) -> None:
@@ -347,8 +347,8 @@ class FilteredShadowMap(TexelMapping, Technique):
             GL.glClearBufferfv(GL.GL_DEPTH, 0, (1.0,))
             for face, rect in zip(self.atlas.faces, self.atlas.rects):
                 self.frame.ctx.viewport = rect
-                self.depth_prog["u_light_view_proj"].write(gl.mat_bytes(face.view_proj))
-                self.depth_prog["u_light_view"].write(gl.mat_bytes(face.view))
+                self.depth_prog["u_light_view_proj"].write(programs.mat_bytes(face.view_proj))
+                self.depth_prog["u_light_view"].write(programs.mat_bytes(face.view))
                 self.frame.draw(self.depth_prog, "casters")
         if self.kernel > 1:
             with self.timed_pass("blur"):

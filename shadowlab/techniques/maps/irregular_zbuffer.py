@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...gpu import gl, glstate
+from ...gpu import glstate, programs
 from ...gpu.glstate import PassState
 from ...scene.lights import T_LIGHT
 from ...truth.tracing import offset_origins
@@ -177,17 +177,17 @@ class IrregularZBuffer(Technique):
         self.pair_capacity = self.capacity if self.capacity > 0 else PAIRS_PER_RAY * max(1, self.ray_count)
         self.buffers["pairs"] = self.own(ctx.buffer(reserve=PAIR_BYTES * self.pair_capacity))
         self.insert_prog = self.program("izb_insert.glsl", defines={**ATLAS_DEFINES, "LOCAL_SIZE": LOCAL_SIZE})
-        gl.set_uniforms(self.insert_prog, self.light.uniforms())
+        programs.set_uniforms(self.insert_prog, self.light.uniforms())
         self.atlas.write_uniforms(self.insert_prog)
-        gl.set_uniforms(self.insert_prog, {"u_rays": self.ray_count, "u_samples_per_pixel": self.samples,
-                                           "u_node_capacity": self.pool})
+        programs.set_uniforms(self.insert_prog, {"u_rays": self.ray_count, "u_samples_per_pixel": self.samples,
+                                                 "u_node_capacity": self.pool})
         self.raster_prog = self.program("izb_raster.glsl",
                                         defines={"COVERAGE_POLYGON": 1} if self.coverage == "polygon" else None)
         self.test_prog = self.program("izb_test.glsl", defines={"LOCAL_SIZE": LOCAL_SIZE})
         for prog in (self.raster_prog, self.test_prog):
-            gl.set_uniforms(prog, {"u_samples_per_pixel": self.samples,
-                                   "u_atlas_size": tuple(map(float, self.atlas.size))})
-        gl.set_uniforms(self.raster_prog, {"u_edge_pad": EDGE_PAD, "u_edge_test_limit": EDGE_TEST_LIMIT})
+            programs.set_uniforms(prog, {"u_samples_per_pixel": self.samples,
+                                         "u_atlas_size": tuple(map(float, self.atlas.size))})
+        programs.set_uniforms(self.raster_prog, {"u_edge_pad": EDGE_PAD, "u_edge_test_limit": EDGE_TEST_LIMIT})
         tri_vbo = self.own(ctx.buffer(np.ascontiguousarray(corners[:, :3]).tobytes()))
         self.caster_vao = self.own(ctx.vertex_array(self.raster_prog, [(tri_vbo, "3f", "in_position")]))
         self.target = self.own(ctx.framebuffer(color_attachments=[self.own(ctx.renderbuffer(self.atlas.size, 1,
@@ -290,10 +290,10 @@ class IrregularZBuffer(Technique):
             self.raster_prog["u_pair_capacity"].value = self.pair_capacity
             for face, rect, w_min in zip(self.atlas.faces, self.atlas.rects, self.w_min):
                 ctx.viewport = rect
-                self.raster_prog["u_face_view_proj"].write(gl.mat_bytes(face.view_proj))
+                self.raster_prog["u_face_view_proj"].write(programs.mat_bytes(face.view_proj))
                 margin = 2.0 * COVERAGE_MARGIN / np.array(rect[2:], np.float64)
-                gl.set_uniforms(self.raster_prog, {"u_w_min": w_min, "u_margin_ndc": tuple(map(float, margin)),
-                                                   "u_viewport": tuple(map(float, rect))})
+                programs.set_uniforms(self.raster_prog, {"u_w_min": w_min, "u_margin_ndc": tuple(map(float, margin)),
+                                                         "u_viewport": tuple(map(float, rect))})
                 self.caster_vao.render(ctx.TRIANGLES)
             ctx.memory_barrier()
             asked = int(np.frombuffer(b["counters"].read(4, offset=4 * COUNTERS.index("pairs")), np.uint32)[0])

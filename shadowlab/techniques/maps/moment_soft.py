@@ -66,7 +66,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...gpu import gl, glstate
+from ...gpu import glstate, programs, targets
 from ...geometry import frusta
 from ...geometry.frusta import LightView
 from ...geometry.transforms import BIAS, look_along, look_at
@@ -306,7 +306,7 @@ class MomentSoftShadows(TexelMapping, Technique):
         # Textures: the moments (with a depth buffer), the SAT.
         self.moments = self.own(ctx.texture((res, res), 4, dtype="f4"))
         self.depth_rb = self.own(ctx.depth_renderbuffer((res, res)))
-        self.moments_fbo = self.own(gl.framebuffer([self.moments], self.depth_rb))
+        self.moments_fbo = self.own(targets.framebuffer([self.moments], self.depth_rb))
         self.sat = self.own(ctx.texture((res, res), 4, dtype="u4" if fixed else "f4"))
         for tex in (self.moments, self.sat):
             tex.filter = (ctx.NEAREST, ctx.NEAREST)  # read texel by texel (an integer texture must not filter)
@@ -314,24 +314,24 @@ class MomentSoftShadows(TexelMapping, Technique):
         self.clear = tuple(float(v) for v in msm_quantize(np.ones(4)))  # the moments of z = 1: nothing casts
 
         self.depth_prog = self.program("filtered_depth.glsl", defines={**VARIANT_DEFINES, "HEIGHT_DEPTH": 1})
-        self.depth_prog["u_light_view_proj"].write(gl.mat_bytes(face.view_proj))
-        self.depth_prog["u_quantize"].write(gl.mat_bytes(MSM_QUANTIZE))
-        gl.set_uniforms(self.depth_prog, {"u_near": self.h_lo, "u_far": self.h_hi, "u_variant": VARIANT_ID["msm"],
-                                          "u_quantize_offset": tuple(map(float, MSM_QUANTIZE_OFFSET)),
-                                          "u_height_origin": tuple(map(float, centre)),
-                                          "u_height_axis": tuple(map(float, axis))})
+        self.depth_prog["u_light_view_proj"].write(programs.mat_bytes(face.view_proj))
+        self.depth_prog["u_quantize"].write(programs.mat_bytes(MSM_QUANTIZE))
+        programs.set_uniforms(self.depth_prog, {"u_near": self.h_lo, "u_far": self.h_hi, "u_variant": VARIANT_ID["msm"],
+                                                "u_quantize_offset": tuple(map(float, MSM_QUANTIZE_OFFSET)),
+                                                "u_height_origin": tuple(map(float, centre)),
+                                                "u_height_axis": tuple(map(float, axis))})
         sat_defines = {"LOCAL_SIZE": LOCAL_SIZE, **({"SAT_FIXED": 1} if fixed else {})}
         self.sat_prog = self.program("moment_soft_sat.glsl", defines=sat_defines)
-        gl.set_uniforms(self.sat_prog, {"u_moments": 0, "u_sat": 0, "u_size": (res, res),
-                                        **({"u_fixed_scale": float(self.scale)} if fixed else {})})
+        programs.set_uniforms(self.sat_prog, {"u_moments": 0, "u_sat": 0, "u_size": (res, res),
+                                              **({"u_fixed_scale": float(self.scale)} if fixed else {})})
 
         self.lookup_prog = self.program("moment_soft.glsl", defines={"SAT_FIXED": 1} if fixed else {})
-        gl.set_uniforms(self.lookup_prog, light.uniforms())
-        self.lookup_prog["u_light_matrix"].write(gl.mat_bytes(light_matrix))
+        programs.set_uniforms(self.lookup_prog, light.uniforms())
+        self.lookup_prog["u_light_matrix"].write(programs.mat_bytes(light_matrix))
         self.lookup_prog["u_light_extents"].write(np.ascontiguousarray(extents.T, dtype="f4").tobytes())
-        self.lookup_prog["u_dequantize"].write(gl.mat_bytes(MSM_DEQUANTIZE))
+        self.lookup_prog["u_dequantize"].write(programs.mat_bytes(MSM_DEQUANTIZE))
         normal = light.normal if light.one_sided else np.zeros(3)
-        gl.set_uniforms(self.lookup_prog, {
+        programs.set_uniforms(self.lookup_prog, {
             "u_sat": 2,
             "u_sat_step": 1.0 / self.scale if fixed else 1.0,
             "u_height_axis": tuple(map(float, axis)), "u_search_height": self.search_height,

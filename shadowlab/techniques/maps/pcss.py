@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...gpu import gl
+from ...gpu import programs, targets
 from ...scene.area_lights import RectLight, concentric_disc, strata
 from ...geometry.transforms import BIAS
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TuneRange
@@ -130,7 +130,7 @@ class PCSS(TexelMapping, Technique):
         self.notes.extend(notes)
         self.atlas = Atlas.grid(faces[:1], self.resolution, self.name)  # the one face fills the map
         face = self.atlas.faces[0]
-        self.map = self.own(gl.DepthTexture.create(self.atlas.size, DEPTH_BITS))
+        self.map = self.own(targets.DepthTexture.create(self.atlas.size, DEPTH_BITS))
         self.depth_prog = self.program("shadow_depth.glsl")
         self.lookup_prog = self.program("pcss.glsl", defines={"BLOCKER_SAMPLES": self.blocker_samples,
                                                             "FILTER_SAMPLES": self.filter_samples})
@@ -142,14 +142,14 @@ class PCSS(TexelMapping, Technique):
         self.light_uv = light_uv(extents, view, proj)
         disc = not isinstance(light, RectLight)
         extent_texels = self.resolution * float(np.linalg.norm(self.light_uv, axis=0).max())
-        gl.set_uniforms(self.lookup_prog, light.uniforms())
-        self.lookup_prog["u_light_matrix"].write(gl.mat_bytes(BIAS @ face.view_proj))
+        programs.set_uniforms(self.lookup_prog, light.uniforms())
+        self.lookup_prog["u_light_matrix"].write(programs.mat_bytes(BIAS @ face.view_proj))
         # mat2 is column-major: write the transpose of the row-major (2, 2) matrix
         self.lookup_prog["u_light_uv"].write(np.ascontiguousarray(self.light_uv.T, dtype="f4").tobytes())
         # mat2x3: two vec3 columns, the extents
         self.lookup_prog["u_light_extents"].write(np.ascontiguousarray(extents.T, dtype="f4").tobytes())
         normal = light.normal if light.one_sided else np.zeros(3)
-        gl.set_uniforms(self.lookup_prog, {
+        programs.set_uniforms(self.lookup_prog, {
             "u_map": 2,
             "u_near": near, "u_far": far, "u_bias": float(self.bias), "u_empty_depth": float(CLEAR_DEPTH),
             "u_basis_switch": BASIS_SWITCH, "u_basis_helper_a": BASIS_HELPERS[0],

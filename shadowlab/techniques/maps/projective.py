@@ -56,7 +56,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...gpu import gl, glstate
+from ...gpu import glstate, programs, targets
 from ...geometry import frusta
 from ...geometry.bounds import box_corners, box_distance
 from ...geometry.frusta import LightView
@@ -175,13 +175,13 @@ class ProjectiveShadow(Technique):
             tex = self.own(ctx.texture(size, 1, dtype="f1"))
             tex.filter = (filt, filt)
             tex.repeat_x = tex.repeat_y = False
-            self.masks.append((tex, self.own(gl.framebuffer([tex]))))
+            self.masks.append((tex, self.own(targets.framebuffer([tex]))))
 
         self.mask_prog = self.program("projective_mask.glsl")
-        gl.set_uniforms(self.mask_prog, {"u_covered": COVERED})
+        programs.set_uniforms(self.mask_prog, {"u_covered": COVERED})
         self.lookup_prog = self.program("projective_lookup.glsl")
         light_h = self.light.homogeneous()
-        gl.set_uniforms(self.lookup_prog, {
+        programs.set_uniforms(self.lookup_prog, {
             "u_receives": 2, "u_mask": 3,
             "u_clip": 1 if self.clip else 0, "u_light": tuple(map(float, light_h)),
             "u_segment_end": 1.0 if light_h[3] != 0 else float(T_INFINITE),
@@ -207,7 +207,7 @@ class ProjectiveShadow(Technique):
                 glstate.apply(PassState())
                 ctx.viewport = (0, 0, self.resolution, self.resolution)
                 GL.glClearBufferfv(GL.GL_COLOR, 0, (0.0, 0.0, 0.0, 0.0))
-                self.mask_prog["u_light_view_proj"].write(gl.mat_bytes(view.view_proj))
+                self.mask_prog["u_light_view_proj"].write(programs.mat_bytes(view.view_proj))
                 rng = frame.object_ranges[index]
                 vao.render(vertices=rng.count, first=rng.first)
             with self.timed_pass("lookup"):
@@ -217,9 +217,9 @@ class ProjectiveShadow(Technique):
                 self.bind_gbuffer(self.lookup_prog)
                 self.flags.use(2)
                 tex.use(3)
-                self.lookup_prog["u_light_matrix"].write(gl.mat_bytes(BIAS @ view.view_proj))
-                gl.set_uniforms(self.lookup_prog, {"u_caster": index, "u_box_min": tuple(map(float, bounds[0])),
-                                                   "u_box_max": tuple(map(float, bounds[1]))})
+                self.lookup_prog["u_light_matrix"].write(programs.mat_bytes(BIAS @ view.view_proj))
+                programs.set_uniforms(self.lookup_prog, {"u_caster": index, "u_box_min": tuple(map(float, bounds[0])),
+                                                         "u_box_max": tuple(map(float, bounds[1]))})
                 self.quad.render()
 
     def work(self, counted: dict, stats: dict) -> dict:

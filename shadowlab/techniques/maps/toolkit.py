@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...gpu import gl, glstate
+from ...gpu import gl, glstate, programs, targets
 from ...geometry.bounds import segments_hit_boxes
 from ...geometry.frusta import LightView
 from ...geometry.transforms import BIAS
@@ -143,7 +143,7 @@ class Atlas:
     def _padded(self, matrices: list[np.ndarray]) -> bytes:
         """``matrices`` (4x4 each) then identities up to :data:`MAX_FACES`, as GLSL mat4[] bytes."""
         mats = list(matrices) + [np.eye(4)] * (MAX_FACES - len(matrices))
-        return b"".join(gl.mat_bytes(m) for m in mats)
+        return b"".join(programs.mat_bytes(m) for m in mats)
 
     def light_matrices(self) -> bytes:
         """Per face BIAS · projection · view (world → map uv and window depth), padded: the
@@ -177,13 +177,13 @@ class Atlas:
         """Set the atlas uniforms of a lookup program: ``u_light_matrix``, ``u_faces``,
         ``u_face_rect`` and ``u_atlas_size``."""
         prog["u_light_matrix"].write(self.light_matrices())
-        gl.set_uniforms(prog, {"u_faces": len(self.faces), "u_face_rect": self.rect_array(),
-                               "u_atlas_size": tuple(map(float, self.size))})
+        programs.set_uniforms(prog, {"u_faces": len(self.faces), "u_face_rect": self.rect_array(),
+                                     "u_atlas_size": tuple(map(float, self.size))})
 
 
 # --------------------------------------------------------------------------- passes
 
-def depth_pass(frame, layer: gl.DepthTexture, prog, atlas: Atlas, cull_front: bool = False,
+def depth_pass(frame, layer: targets.DepthTexture, prog, atlas: Atlas, cull_front: bool = False,
                polygon_offset: tuple[float, float] | None = None) -> None:
     """Clear ``layer`` and render the frame's casters into it through each face of ``atlas``, in
     its rect. ``prog`` is a ``shadow_depth.glsl`` program; ``polygon_offset`` = (factor, units)
@@ -196,7 +196,7 @@ def depth_pass(frame, layer: gl.DepthTexture, prog, atlas: Atlas, cull_front: bo
     GL.glClearBufferfv(GL.GL_DEPTH, 0, (CLEAR_DEPTH,))
     for face, rect in zip(atlas.faces, atlas.rects):
         frame.ctx.viewport = rect
-        prog["u_light_view_proj"].write(gl.mat_bytes(face.view_proj))
+        prog["u_light_view_proj"].write(programs.mat_bytes(face.view_proj))
         frame.draw(prog, "casters")
 
 
@@ -368,7 +368,7 @@ class DepthMapTechnique(TexelMapping, Technique):
         layout = Atlas.grid if self.ATLAS_LAYOUT == "grid" else Atlas.row
         self.atlas = layout(faces, self.resolution, self.name)
         two = self.two_layer()
-        self.layers = [self.own(gl.DepthTexture.create(self.atlas.size, self.depth_bits))
+        self.layers = [self.own(targets.DepthTexture.create(self.atlas.size, self.depth_bits))
                        for _ in range(3 if two else 1)]
         self.map = self.layers[-1]  # the layer the lookup compares with
         self.depth_prog = self.program("shadow_depth.glsl")
@@ -376,8 +376,9 @@ class DepthMapTechnique(TexelMapping, Technique):
             self.peel_prog = self.program("shadow_depth.glsl", defines={"PEEL": 1})
             self.resolve_prog = self.program("shadow_resolve.glsl")
             self.resolve_quad = self.fullscreen_quad(self.resolve_prog)
-            gl.set_uniforms(self.peel_prog, {"u_first_layer": 0, "u_peel_epsilon": DEPTH_STEP[self.depth_bits]})
-            gl.set_uniforms(self.resolve_prog, {"u_first_layer": 0, "u_second_layer": 1, **self.resolve_uniforms()})
+            programs.set_uniforms(self.peel_prog, {"u_first_layer": 0, "u_peel_epsilon": DEPTH_STEP[self.depth_bits]})
+            programs.set_uniforms(self.resolve_prog, {"u_first_layer": 0, "u_second_layer": 1,
+                                                      **self.resolve_uniforms()})
         hw = FILTERS[self.filter] is None
         defines = {**ATLAS_DEFINES, **self.lookup_defines(), **({"FILTER_HW": 1} if hw else {})}
         self.lookup_prog = self.program("shadow_lookup.glsl", defines=defines)
@@ -386,13 +387,13 @@ class DepthMapTechnique(TexelMapping, Technique):
             ctx = frame.ctx
             self.sampler = self.own(ctx.sampler(texture=self.map.texture, filter=(ctx.LINEAR, ctx.LINEAR),
                                                 compare_func="<=", repeat_x=False, repeat_y=False))
-        gl.set_uniforms(self.lookup_prog, self.light.uniforms())
+        programs.set_uniforms(self.lookup_prog, self.light.uniforms())
         self.atlas.write_uniforms(self.lookup_prog)
-        gl.set_uniforms(self.lookup_prog, {"u_map": 2, **self.comparison_uniforms()})
+        programs.set_uniforms(self.lookup_prog, {"u_map": 2, **self.comparison_uniforms()})
         self.quad = self.fullscreen_quad(self.lookup_prog)
         self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
 
-    def _depth_pass(self, layer: gl.DepthTexture, prog, name: str) -> None:
+    def _depth_pass(self, layer: targets.DepthTexture, prog, name: str) -> None:
         """Render the casters into every face of ``layer`` (pass ``name``: depth or peel)."""
         with self.timed_pass(name):
             cull_front, offset = self.depth_state()
@@ -440,9 +441,9 @@ class DepthMapTechnique(TexelMapping, Technique):
             raise TechniqueError(f"{self.name}: the {self.filter} lookup has no per-tap comparison terms")
         ctx = self.frame.ctx
         prog = self.program("shadow_lookup.glsl", defines={**ATLAS_DEFINES, **self.lookup_defines(), "THRESHOLDS": 1})
-        gl.set_uniforms(prog, self.light.uniforms())
+        programs.set_uniforms(prog, self.light.uniforms())
         self.atlas.write_uniforms(prog)
-        gl.set_uniforms(prog, {"u_map": 2, **self.comparison_uniforms(), **(uniforms or {})})
+        programs.set_uniforms(prog, {"u_map": 2, **self.comparison_uniforms(), **(uniforms or {})})
         quad = self.fullscreen_quad(prog)
         size = (self.frame.width, self.frame.height)
         tex = self.own(ctx.texture(size, 4, dtype="f4"))
@@ -455,7 +456,7 @@ class DepthMapTechnique(TexelMapping, Technique):
             self.bind_gbuffer(prog)
             self.map.texture.use(2)
             quad.render()
-            out[k] = gl.read_texture(tex, 4)
+            out[k] = targets.read_texture(tex, 4)
         return out
 
     def work(self, counted: dict, stats: dict) -> dict:

@@ -99,7 +99,7 @@ import hashlib
 
 import numpy as np
 
-from ...gpu import gl, glstate
+from ...gpu import glstate, programs, targets
 from ...geometry.bounds import box_corners
 from ...geometry.frusta import LightView
 from ...geometry.transforms import BIAS
@@ -276,12 +276,12 @@ class VirtualMap(TexelMapping, Technique):
         caching = self.cache and self.keep_across_frames
         if caching:
             key = ("pool", slot.index, pool_size, self.depth_bits)
-            self.pool = self.keep(key, lambda: gl.DepthTexture.create(pool_size, self.depth_bits))
+            self.pool = self.keep(key, lambda: targets.DepthTexture.create(pool_size, self.depth_bits))
             self.page_cache = self.keep(("pages", slot.index), PageCache)
             if self.page_cache.pool is not self.pool:
                 self.page_cache.reset(self.pool, self.pool_pages)
         else:
-            self.pool = self.own(gl.DepthTexture.create(pool_size, self.depth_bits))
+            self.pool = self.own(targets.DepthTexture.create(pool_size, self.depth_bits))
             self.page_cache = PageCache()
             self.page_cache.reset(self.pool, self.pool_pages)
         # Every render of this frame starts from the cache as the frame found it: repeated timed
@@ -310,12 +310,12 @@ class VirtualMap(TexelMapping, Technique):
                                                   "BINDING_REQUESTS": BINDING_REQUESTS})
         self.lookup_prog = self.program("virtual_lookup.glsl", defines=defines)
         for prog in (self.request_prog, self.lookup_prog):
-            gl.set_uniforms(prog, common)
-            prog["u_light_matrix"].write(b"".join(gl.mat_bytes(m) for m in matrices))
-        gl.set_uniforms(self.request_prog, {"u_evaluated": 1,
+            programs.set_uniforms(prog, common)
+            prog["u_light_matrix"].write(b"".join(programs.mat_bytes(m) for m in matrices))
+        programs.set_uniforms(self.request_prog, {"u_evaluated": 1,
                                             "u_mask_offset": self._padded_levels(self.mask_offset),
                                             "u_face_words": self.face_words})
-        gl.set_uniforms(self.lookup_prog, {
+        programs.set_uniforms(self.lookup_prog, {
             "u_pool": 2, "u_page_table": 3,
             "u_table_row": self._padded_levels(self.table_row), "u_face_rows": self.face_rows,
             "u_pool_side": self.pool_side,
@@ -323,7 +323,7 @@ class VirtualMap(TexelMapping, Technique):
             **self._bias_uniforms(), "u_slope_scale": float(self.slope_scale)})
         self.depth_prog = self.program("shadow_depth.glsl")
         self.clear_prog = self.program("page_clear.glsl")
-        gl.set_uniforms(self.clear_prog, {"u_depth": CLEAR_DEPTH})
+        programs.set_uniforms(self.clear_prog, {"u_depth": CLEAR_DEPTH})
         self.clear_quad = self.fullscreen_quad(self.clear_prog)
         self.quad = self.fullscreen_quad(self.lookup_prog)
         self.vis_tex, self.vis_fbo = self.visibility_target((frame.width, frame.height))
@@ -544,7 +544,7 @@ class VirtualMap(TexelMapping, Technique):
                 continue
             frame.ctx.viewport = self._slot_viewport(slot_index)
             matrix = self._page_view_proj(int(face), int(level), int(x), int(y))
-            self.depth_prog["u_light_view_proj"].write(gl.mat_bytes(matrix))
+            self.depth_prog["u_light_view_proj"].write(programs.mat_bytes(matrix))
             for k in np.flatnonzero(visible):
                 r = self.caster_ranges[k]
                 vao.render(vertices=r.count, first=r.first)

@@ -48,7 +48,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from ...gpu import gl, glstate
+from ...gpu import gl, glstate, programs, targets
 from ...geometry import adjacency as adj
 from ...gpu.glstate import PassState, Stencil
 from ...scene.area_lights import RectLight
@@ -215,13 +215,13 @@ class PenumbraWedges(ShadowVolume):
         self.corners = light.corners()
         du, dv = light_dual_basis(light)
         self.wedge_prog = self.program("penumbra_wedges.glsl")
-        self.wedge_prog["u_view"].write(gl.mat_bytes(frame.view))
-        self.wedge_prog["u_proj"].write(gl.mat_bytes(self.proj))  # the depth pre-pass's projection
+        self.wedge_prog["u_view"].write(programs.mat_bytes(frame.view))
+        self.wedge_prog["u_proj"].write(programs.mat_bytes(self.proj))  # the depth pre-pass's projection
         common = {"u_light_centre": tuple(self.centre), "u_light_normal": tuple(self.normal)}
-        gl.set_uniforms(self.wedge_prog, {**common, "u_light_du": tuple(du), "u_light_dv": tuple(dv),
+        programs.set_uniforms(self.wedge_prog, {**common, "u_light_du": tuple(du), "u_light_dv": tuple(dv),
                                           "u_slab_margin": SLAB_MARGIN, "u_coplanar": COPLANAR_TOLERANCE})
         self.combine_prog = self.program("penumbra_wedges_combine.glsl")
-        gl.set_uniforms(self.combine_prog, {**common, "u_wedges": 2, "u_clamp": bool(self.clamp),
+        programs.set_uniforms(self.combine_prog, {**common, "u_wedges": 2, "u_clamp": bool(self.clamp),
                                             "u_horizon": bool(self.horizon), "u_light_u": tuple(map(float, light.u)),
                                             "u_light_v": tuple(map(float, light.v)),
                                             "u_eye": tuple(map(float, frame.camera.eye))})
@@ -229,8 +229,8 @@ class PenumbraWedges(ShadowVolume):
         # The wedges' sum, drawn with the hard volume's depth pre-pass as its depth buffer.
         size = (frame.width, frame.height)
         self.acc_tex = self.own(frame.ctx.texture(size, 1, dtype="f4"))
-        self.acc_fbo = self.own(gl.ScreenTarget.create(size, [self.acc_tex],
-                                                       share_depth_stencil=frame.depth_stencil_for(self)))
+        self.acc_fbo = self.own(targets.ScreenTarget.create(size, [self.acc_tex],
+                                                            share_depth_stencil=frame.depth_stencil_for(self)))
         self.wedge_buffers: dict = {}
         self.extent = frame.scene.extent()
         corners = np.stack(np.meshgrid(*frame.scene.bounds().T, indexing="ij"), -1).reshape(-1, 3)

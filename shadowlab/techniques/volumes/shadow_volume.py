@@ -48,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...gpu import gl, glstate
+from ...gpu import gl, glstate, programs
 from ...geometry import adjacency as adj
 from ...geometry import transforms as tf
 from ...gpu.glstate import PassState, Stencil
@@ -108,7 +108,7 @@ class ShadowVolume(Technique):
             self.proj = tf.perspective_infinite(cam.fov_y, frame.width / frame.height, cam.near, INFINITE_EPSILON)
         else:
             self.proj = frame.projection
-        self.matrices = {"u_view": gl.mat_bytes(frame.view), "u_proj": gl.mat_bytes(self.proj)}
+        self.matrices = {"u_view": programs.mat_bytes(frame.view), "u_proj": programs.mat_bytes(self.proj)}
         starts = np.cumsum([0] + [len(o.faces) for o in frame.scene.objects])
         self.plans: list[CasterPlan] = []
         for i, obj in enumerate(frame.scene.objects):
@@ -135,7 +135,7 @@ class ShadowVolume(Technique):
         self.vs_prog = self.program("shadow_volume.glsl", defines=self.defines)
         for key, val in self.matrices.items():
             self.vs_prog[key].write(val)
-        gl.set_uniforms(self.vs_prog, self.light.uniforms())
+        programs.set_uniforms(self.vs_prog, self.light.uniforms())
         # The scene's triangles twice: as surface points (pre-pass, near caps) and extruded to
         # infinity (far caps); caps are then drawn by index, with no per-frame vertex copies.
         corners = frame.triangles.reshape(-1, 3)
@@ -147,11 +147,11 @@ class ShadowVolume(Technique):
         self.gpu, self.gs_prog = {}, None
         if any(p.path == "gpu" for p in self.plans):
             self.gs_prog = self.program("shadow_volume_gs.glsl", defines=self.defines)
-            gl.set_uniforms(self.gs_prog, self.light.uniforms())
+            programs.set_uniforms(self.gs_prog, self.light.uniforms())
             for key, val in self.matrices.items():
                 self.gs_prog[key].write(val)
-            gl.set_uniforms(self.gs_prog, {"u_two_sided": False, "u_caps": True,
-                                           "u_far_cap": not self.light.at_infinity})
+            programs.set_uniforms(self.gs_prog, {"u_two_sided": False, "u_caps": True,
+                                                 "u_far_cap": not self.light.at_infinity})
             for p in self.plans:
                 if p.path == "gpu":
                     vbo = self.own(ctx.buffer(p.table.vertices.astype("f4").tobytes()))

@@ -33,7 +33,7 @@ import pytest
 
 from helpers import SMALL, make_scene
 from shadowlab.techniques import TechniqueError, from_spec
-from shadowlab.techniques.geometric.exact_soft import disc_error_bound, disc_polygon
+from shadowlab.geometry.soft_visibility import disc_error_bound, disc_polygon
 
 import soft_oracle
 from soft_oracle import exact_visibility, scene_triangles
@@ -43,7 +43,7 @@ from soft_scenes import build as build_truth_scene
 #: Two boxes sunk into the floor between it and a light that the floor's plane cuts (the truth's
 #: "below_horizon" light): from a floor point, both boxes' cuts by its tangent plane project onto
 #: the horizon line and overlap there — the coincidence the horizon rule decides (module
-#: docstring of shadowlab.techniques.geometric.exact_soft); without the rule the culling test below fails.
+#: docstring of shadowlab.geometry.soft_visibility); without the rule the culling test below fails.
 SUNK = ([{"name": "floor", "mesh": "plane", "size": [10.0, 10.0]},
          {"name": "a", "mesh": "box", "size": [0.4, 0.5, 1.2], "translate": [-1.0, 0.15, 0.2], "rotate": [0, 10, 0]},
          {"name": "b", "mesh": "box", "size": [0.3, 0.6, 0.8], "translate": [-1.6, 0.2, -0.2], "rotate": [0, 35, 0]}],

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from shadowlab.gpu import gl
+from shadowlab.gpu import targets
 from shadowlab.techniques import TechniqueError, from_spec
 from shadowlab.techniques.maps.filtered_map import (
     MAX_EXPONENT, MSM_DEQUANTIZE, MSM_QUANTIZE, max_esm_exponent, max_evsm_exponent,
@@ -184,7 +184,7 @@ def test_msm_stored_moments_read_back(lab, precision):
     t.prepare(lab.frame("box_on_plane", SIZE), 0)
     try:
         t.render()
-        raw = gl.read_texture(t.moments[0], 4, "f4" if precision == 32 else "u2").astype(np.float64)
+        raw = targets.read_texture(t.moments[0], 4, "f4" if precision == 32 else "u2").astype(np.float64)
     finally:
         t.release()
     b = raw.reshape(-1, 4) if precision == 32 else msm_dequantize(raw.reshape(-1, 4) / np.iinfo(np.uint16).max)

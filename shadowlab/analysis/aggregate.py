@@ -165,7 +165,7 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
     column, a study older than issue 35); and from the first light's row
     (the one with images): ``run_dir, shaded_image, error_image, signed_image, footprint_image``
     ('' where absent; ``signed_image``: the signed difference
-    map V − G of a soft configuration, :func:`shadowlab.report.signed_picture`).
+    map V − G of a soft configuration, :func:`shadowlab.output.pictures.signed_picture`).
     """
     if results is None or len(results) == 0:
         return pd.DataFrame(columns=CONFIG_COLUMNS)
@@ -349,7 +349,7 @@ def judged_metric(scene_family: str) -> str:
     the answer there, a threshold at 0.5 would hide it), else the thresholded ``error_rate``.
     The one place soft is decided from a family: the verdicts, the Pareto panels, the report and
     the rank agreement all ask here."""
-    # imported here: the scene package loads its file reader (trimesh), which tables do not need
+    # imported on first use: importing the scene package loads its file reader (trimesh)
     from ..scene.model import SOFT_FAMILY
 
     return "visibility_mae" if scene_family == SOFT_FAMILY else "error_rate"

@@ -115,9 +115,11 @@ def footprint_image(frame, slot, technique) -> np.ndarray:
     mapping (:func:`has_texel_mapping`): a shadow-map technique between ``setup`` and
     ``release``; TechniqueError for one without."""
     if not has_texel_mapping(technique):
+        from ..techniques import REGISTRY  # late: the registry loads every technique
+
+        having = [name for name, cls in REGISTRY.items() if "texel_mapping" in cls.PROVIDES]
         raise TechniqueError(f"{technique.name} has no shadow map, so no texel footprint (texel_coordinates): "
-                             f"shadow_map, filtered_map, pcss and the map techniques built on the map toolkit "
-                             f"have one")
+                             f"the techniques that provide texel_mapping have one ({', '.join(having)})")
     evaluated = frame.as_slot(slot).evaluated
     idx = frame.pixel_index[evaluated]
     rows, cols = np.divmod(idx, frame.width)

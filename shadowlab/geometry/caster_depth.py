@@ -17,7 +17,7 @@ shadows nothing the map covers). Each triangle is clipped against the four side 
 far plane (Sutherland–Hodgman); its nearest depth is the smallest depth among the clipped
 polygon's vertices (depth is linear, so a convex polygon's minimum lies at a vertex).
 
-Compiled with numba (``cache=True``, as :mod:`.compiled_clipping`); :func:`nearest_depths_reference`
+Compiled with numba (``cache=True``, as :mod:`.compiled`); :func:`nearest_depths_reference`
 is the same computation in plain Python, the oracle of ``tests/geometry/test_caster_depth.py``.
 """
 from __future__ import annotations

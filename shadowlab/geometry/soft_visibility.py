@@ -29,8 +29,8 @@ over the cores like :mod:`shadowlab.truth.compiled`):
    projections already cover the back faces'. For points on the mesh itself only when it is
    convex and the G-buffer saw the face's outer side: the exact point is the pixel's ray on the
    plane of the triangle the G-buffer saw, which at a concave edge can lie just beyond it,
-   inside the solid (measured: a 512-triangle torus, 1 point in 12,590 off by 0.43 when its own
-   back faces were culled).
+   inside the solid (seen on a torus: a few of its own points went wrong when its back faces
+   were culled).
 2. **Clip** each candidate (Sutherland & Hodgman 1974) to the slab 0 ≤ d ≤ d_P(1 − 1e-9) (d the
    height above the light's plane: the oracle's slab, same margin) and to P's upper half-space
    (X − P)·N ≥ 0 (what lies below P's tangent plane projects below the horizon line, which is

@@ -75,7 +75,7 @@ def _build_primitive(kind: str, rd: TableReader) -> trimesh.Trimesh:
                                           radius=rd.number("radius", 0.5, min=0, min_open=True))
     if kind == "plane":
         size = rd.vector("size", 2, default=[10.0, 10.0], positive=True)
-        divisions = rd.number("divisions", 1, min=1, max=2048, integer=True)
+        divisions = rd.number("divisions", 1, min=1, integer=True)
         _bounded(rd, kind, "divisions", 2 * divisions * divisions, f"divisions = {divisions} (2 × divisions²)")
         return _plane(size, divisions)
     if kind == "cylinder":
@@ -291,7 +291,10 @@ def resolve_scene_path(ref: str | Path) -> Path:
 
 
 def load_scene(ref: str | Path) -> Scene:
-    """Load and validate a scene by shipped name or path; raises SceneError on any problem."""
+    """Load and validate a scene by shipped name or path; raises SceneError on any problem. The
+    ``metric`` key is kept as read: commands and studies load through
+    :func:`shadowlab.measurement.scenes.load_measured_scene`, which also checks that it names a
+    metrics column."""
     path = resolve_scene_path(ref)
     try:
         data = tomllib.loads(path.read_text())

@@ -344,8 +344,11 @@ def check_spec(tech: Technique, grid_param: str | None = None) -> None:
     declares the ``depth_bias`` capability (``PROVIDES``), asked of the declaration rather than
     guessed from its class and attributes."""
     if "depth_bias" not in tech.PROVIDES:
-        raise ExactBiasError(f"{tech.name}: the exact bias optimiser handles shadow_map and lispsm; "
-                             f"tune {tech.name}'s bias by rendering")
+        from ..techniques import REGISTRY
+
+        having = [name for name, cls in REGISTRY.items() if "depth_bias" in cls.PROVIDES]
+        raise ExactBiasError(f"{tech.name}: the exact bias optimiser handles the techniques that provide depth_bias "
+                             f"({', '.join(having)}); tune {tech.name}'s bias by rendering")
     if tech.variant not in BIAS_VARIANTS:
         raise ExactBiasError(f"{tech.spec()}: variant={tech.variant} has no constant bias to sweep; "
                              f"use one of {', '.join(BIAS_VARIANTS)}")

@@ -12,7 +12,7 @@ trap 'rm -rf "$work"' EXIT
 echo "install check in $work"
 mkdir "$work/src"
 (cd "$repo" && git ls-files -z | xargs -0 -I{} cp --parents {} "$work/src/")
-"$python" -m pip wheel --quiet --no-deps -w "$work/dist" "$work/src" 2>/dev/null
+"$python" -m pip wheel --quiet --no-deps -w "$work/dist" "$work/src"
 "$python" -m venv "$work/venv"
 "$work/venv/bin/python" -m pip install --quiet --upgrade pip
 "$work/venv/bin/python" -m pip install --quiet -c "$repo/constraints.txt" "$work"/dist/shadowlab-*.whl

@@ -77,8 +77,8 @@ def _unit(module: str) -> str:
 def _family(module: str) -> str | None:
     """The technique family folder of a module (``techniques.<family>``), None outside one."""
     parts = module.split(".")
-    if len(parts) > 3 and parts[1] == "techniques":
-        return parts[2]
+    if len(parts) >= 3 and parts[1] == "techniques" and (PACKAGE / "techniques" / parts[2]).is_dir():
+        return parts[2]  # a family folder itself counts: ``from .. import maps`` reaches into maps
     return None
 
 

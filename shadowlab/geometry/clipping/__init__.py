@@ -121,12 +121,12 @@ def fragment_triangles(rec: np.ndarray, cas: np.ndarray, light_h: np.ndarray, ep
     the fragments are fan-triangulated in pair order.
 
     ``clipper='compiled'`` (the default) culls and clips each run of casters in one call of
-    :func:`shadowlab.geometry.compiled_clipping.fragment_run`; ``'batch'`` uses
-    :func:`candidate_pairs` and :func:`shadowlab.geometry.batch_clipping.shadow_fragments`;
+    :func:`shadowlab.geometry.clipping.compiled.fragment_run`; ``'batch'`` uses
+    :func:`candidate_pairs` and :func:`shadowlab.geometry.clipping.batch.shadow_fragments`;
     both share the runs of casters among ``threads`` threads (default: the cores this process
     may use; numpy and the compiled kernel work outside the GIL) — the result does not depend
     on how many; ``'scalar'``
-    runs the one-pair :func:`~shadowlab.geometry.polygon_clipping.shadow_fragment` in a Python
+    runs the one-pair :func:`~shadowlab.geometry.clipping.scalar.shadow_fragment` in a Python
     loop, on one thread (the reference: kept for tests and before/after experiments).
     ``progress(done, total)`` is called as the casters are done. The fragments may take at most
     ``memory_limit`` bytes (None: no limit; the technique passes a share of the memory
@@ -176,7 +176,7 @@ def fragment_triangles(rec: np.ndarray, cas: np.ndarray, light_h: np.ndarray, ep
 
 
 class _CompiledCulling:
-    """What the compiled kernel (:func:`shadowlab.geometry.compiled_clipping.fragment_run`)
+    """What the compiled kernel (:func:`shadowlab.geometry.clipping.compiled.fragment_run`)
     needs once per light: the casters' planes and frusta, the receivers' spheres."""
 
     def __init__(self, rec, cas, light_h, eps):

@@ -3,7 +3,7 @@
 
 The clipper is a fixed sequence of at most ``3 + K`` half-space splits, so it vectorises over
 pairs with padded arrays. It is the numpy back-end of the preprocessing (the compiled one,
-:mod:`.compiled_clipping`, is the default and several times faster; this one needs no compile
+:mod:`.compiled`, is the default and several times faster; this one needs no compile
 step and is a second, independent implementation the tests hold the first to). Every
 arithmetic result is formed by the same operation on the same operands as in the one-pair
 clipper (:func:`~shadowlab.geometry.vectors.dot3` for every plane distance,
@@ -81,7 +81,7 @@ def _compact(cand: np.ndarray, keep: np.ndarray) -> PaddedPolygons:
 
 
 def areas(polys: PaddedPolygons) -> np.ndarray:
-    """Areas (P,) of planar padded polygons, as :func:`polygon_clipping.area` computes each one:
+    """Areas (P,) of planar padded polygons, as :func:`scalar.area` computes each one:
     half the norm of the summed cross products of consecutive vertices."""
     v, count = polys.verts, polys.count
     k = v.shape[1]
@@ -95,7 +95,7 @@ def areas(polys: PaddedPolygons) -> np.ndarray:
 
 def split_part(polys: PaddedPolygons, planes: np.ndarray, eps: float, outside: bool = False) -> PaddedPolygons:
     """One part of each polygon split by its plane (``planes`` (P, 4)), as
-    :func:`polygon_clipping.split` gives it: the part with signed distance ≥ −ε (inside), or,
+    :func:`scalar.split` gives it: the part with signed distance ≥ −ε (inside), or,
     with ``outside``, ≤ ε. As there, a polygon with no vertex outside (every vertex within ε
     of the plane included) is wholly inside and not outside; one with no vertex inside is wholly
     outside; the others get their vertices on that side and the crossing points, in order, then
@@ -139,7 +139,7 @@ def split_part(polys: PaddedPolygons, planes: np.ndarray, eps: float, outside: b
 
 
 def _tidy(polys: PaddedPolygons, eps: float) -> PaddedPolygons:
-    """:func:`polygon_clipping._tidy` per row: drop vertices within ε of their predecessor
+    """:func:`scalar._tidy` per row: drop vertices within ε of their predecessor
     (cyclically, in the untidied order); fewer than 3 left → empty."""
     v, count = polys.verts, polys.count
     k = v.shape[1]
@@ -152,7 +152,7 @@ def _tidy(polys: PaddedPolygons, eps: float) -> PaddedPolygons:
 
 
 def planes_of(polys: PaddedPolygons) -> np.ndarray:
-    """Planes (P, 4) (n, d), unit n, of padded polygons, as :func:`polygon_clipping.plane_of`
+    """Planes (P, 4) (n, d), unit n, of padded polygons, as :func:`scalar.plane_of`
     computes them (Newell's method; zero for a degenerate polygon)."""
     v, count = polys.verts, polys.count
     k = v.shape[1]
@@ -196,7 +196,7 @@ def _oriented_to_light(planes: np.ndarray, light_h: np.ndarray) -> tuple[np.ndar
 def shadow_fragments(receivers: PaddedPolygons, casters: PaddedPolygons, light_h: np.ndarray,
                      eps: float) -> PaddedPolygons:
     """For each row p, the part of convex ``receivers`` p in the shadow of convex ``casters`` p
-    from the homogeneous light ``light_h`` — :func:`polygon_clipping.shadow_fragment`'s
+    from the homogeneous light ``light_h`` — :func:`scalar.shadow_fragment`'s
     fragment, row by row (count 0: no shadow). The lit pieces are not produced."""
     light_h = np.asarray(light_h, np.float64)
     n_pairs = len(receivers)
@@ -235,7 +235,7 @@ def shadow_fragments(receivers: PaddedPolygons, casters: PaddedPolygons, light_h
 
 
 def fan_triangles(polys: PaddedPolygons) -> tuple[np.ndarray, np.ndarray]:
-    """Fan triangulation of every polygon, as :func:`polygon_clipping.triangulate` does each:
+    """Fan triangulation of every polygon, as :func:`scalar.triangulate` does each:
     triangles (T, 3, 3) in polygon order, and the row (T,) each came from."""
     v, count = polys.verts, polys.count
     k = v.shape[1]

@@ -3,7 +3,7 @@
 :func:`shadowlab.geometry.clipping.scalar.shadow_fragment`, for a run of casters against every
 receiver, in one pass that never holds the pairs.
 
-Why numba here, after the numpy batch clipper (:mod:`.batch_clipping`): the padded-array
+Why numba here, after the numpy batch clipper (:mod:`.batch`): the padded-array
 clipper spends most of its time building temporaries for tens of thousands of pairs, and the
 bulk culling tests every (receiver, caster) pair — millions — as dense matrices. A compiled loop
 touches each pair once with early exits and keeps a polygon in a few registers, which is what
@@ -91,7 +91,7 @@ def _area(poly, k):
 @njit(cache=True, nogil=True)
 def _split(poly, k, plane, eps, outside, out, d, side, scratch):
     """The part of poly[:k] with distance ≥ −ε (or, with ``outside``, ≤ ε) to ``plane`` into
-    out; returns its vertex count (0: empty). polygon_clipping.split, one part."""
+    out; returns its vertex count (0: empty). scalar.split, one part."""
     any_in = False
     any_out = False
     for i in range(k):
@@ -336,7 +336,7 @@ def fragment_run(rec, cas, front, sides, centre, reach, light_h, eps, c0, c1):
                 grown_owner = np.empty(cap, np.int64)
                 grown_owner[:n_tris] = owner[:n_tris]
                 owner = grown_owner
-            for i in range(1, k - 1):  # fan triangulation (polygon_clipping.triangulate)
+            for i in range(1, k - 1):  # fan triangulation (scalar.triangulate)
                 for cc in range(3):
                     tris[n_tris, 0, cc] = frag[0, cc]
                     tris[n_tris, 1, cc] = frag[i, cc]

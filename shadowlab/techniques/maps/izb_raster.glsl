@@ -2,9 +2,9 @@
 // the light's atlas, and every fragment whose texel holds samples appends the pair (triangle,
 // texel) to the work list that izb_test.glsl tests exactly (Johnson et al. 2005 §3; Wyman,
 // Hoetzlein & Lefohn 2015 rasterise the same way with hardware conservative rasterisation). The
-// fragment stage only appends: on llvmpipe a fragment shader that walks a list costs about 1000×
-// what a compute shader does per step (measured: 3.5 µs against 2 ns), so the walk is a compute
-// pass. A full work list is counted (the pairs asked for), never dropped silently.
+// fragment stage only appends: on llvmpipe a fragment shader that walks a list costs orders of
+// magnitude more per step than a compute shader (docs/irregular-zbuffer.md), so the walk is a
+// compute pass. A full work list is counted (the pairs asked for), never dropped silently.
 //
 // Conservative coverage without GL_NV_conservative_raster (llvmpipe has none): the geometry
 // stage emits the triangle's light-space bounding box grown by u_margin_ndc (COVERAGE_MARGIN

@@ -33,8 +33,8 @@ vec4 extruded_clip(vec3 p) {
 // drawn without depth clamp, its triangles were clipped at the near plane, while the same
 // triangles as caps under depth clamp were not: one plane rasterised from differently clipped
 // polygons rounds differently in the last bit, a cap came out nearer than its surface, the −1
-// was lost, and false shadow appeared in scanline streaks — 1.8 % on sv_camera_in_shadow on an
-// NVIDIA H100, and (reproduced here) 10.6 % on sv_near_plane_cut on llvmpipe. So under
+// was lost, and false shadow appeared in scanline streaks (sv_camera_in_shadow on an NVIDIA
+// H100, sv_near_plane_cut on llvmpipe; docs/hard-cases.md). So under
 // far=clamp the pre-pass and every volume pass run with the same depth clamp and the same near
 // plane, restored as clip distance 0 (z_c + w_c ≥ 0): geometry in front of the near plane, which
 // the G-buffer never saw, is clipped in every pass alike. The technique enables

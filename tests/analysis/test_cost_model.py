@@ -141,6 +141,7 @@ def test_per_pass_fit_shares_coefficients():
     assert model.coefficients["samples_passed"] == pytest.approx(TRUE["samples_passed"], rel=1e-6)
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_cli_fit_and_predict_write_their_files(tmp_path, capsys):
     study = tmp_path / "study"
     study.mkdir()

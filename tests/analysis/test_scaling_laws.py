@@ -88,6 +88,7 @@ def test_crossovers_are_found_where_the_laws_meet():
     assert crossovers(fits, ranges, "pixels", 1e5) == []
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_the_scaling_suite_parses_and_its_scenes_count_their_triangles():
     """The shipped suite: six tori of 10k … 4M triangles under one sun at 640x480, every family
     (shadow polygons on the three smallest only); each scene's count from its file, and (below

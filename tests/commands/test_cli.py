@@ -14,6 +14,7 @@ from shadowlab.cli import main
 from shadowlab.commands.compare import CONTRACT_COLUMNS
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_compare_writes_every_contract_file(tmp_path, capsys):
     out = tmp_path / "run"
     code = main(["compare", "box_on_plane", "--technique", "shadow_map:resolution=512,bias=0.002",
@@ -55,6 +56,7 @@ def test_compare_writes_every_contract_file(tmp_path, capsys):
     assert "Signed map" not in (out / "report.html").read_text()
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_soft_run_report_has_the_signed_map(tmp_path):
     """An area light: each configuration gets a signed difference map V − G (diverging, centred
     at 0) in the report, with the colour bar and its caption; run.json records the limit and,

@@ -50,6 +50,7 @@ def test_exact_route_writes_the_contract(exact_run):
     assert "equal, bit for bit" in page and "frontier.png" in page
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_best_spec_runs_as_is_in_compare_with_the_same_value(exact_run, tmp_path):
     """best.json's ``value`` is what ``compare`` reports for its ``spec``, bit for bit."""
     best = json.loads((exact_run / "best.json").read_text())

@@ -103,6 +103,7 @@ def test_light_bleeding_tells_filtered_maps_apart(lab):
     assert sm == 0.0 and sv == 0.0
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_over_darkening_at_contacts(lab):
     """sm_contact (320x240): exact and hard techniques do not darken lit contacts; filtered maps
     do, blob shadows far more. Measured: shadow_map 0, shadow_volume 0, VSM 0.54 px, ESM 0.19 px,

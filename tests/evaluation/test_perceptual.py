@@ -76,6 +76,7 @@ def test_a_run_without_the_packages_has_no_perceptual_columns_and_says_why(tmp_p
     assert any("shadowlab[perceptual]" in n for n in notes)
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 @needs_packages
 def test_a_run_has_perceptual_columns_on_every_configuration_row(tmp_path):
     from shadowlab.commands.compare import compare

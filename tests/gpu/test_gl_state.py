@@ -44,6 +44,7 @@ def test_every_other_technique_ignores_inherited_state(lab, ctx, name):
         assert np.array_equal(clean, polluted), (name, light, int(np.sum(clean != polluted)))
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 @pytest.mark.parametrize("spec", SPECS)
 def test_output_does_not_depend_on_inherited_state(lab, ctx, spec):
     """Each configuration renders the same visibility, bit for bit, after the GL state was left
@@ -134,6 +135,7 @@ def test_the_preprocessor_follows_ifdefs():
     ("projective", {"mask", "lookup"}),
     ("blob", {"blob"}),
 ])
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_pass_timings_name_the_techniques_passes(lab, spec, expected):
     """With pass timing asked for, a configuration reports a time for exactly the passes it runs
     (declared in its PASSES); without, no pass columns."""

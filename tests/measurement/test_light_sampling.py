@@ -236,6 +236,7 @@ def test_combined_timing_and_stats():
         combined_timing([])
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 @pytest.mark.parametrize("name", SAMPLED)
 def test_every_stat_has_a_rule_and_a_cube_map_keeps_six_faces(frame, name):
     """Every sampled technique's stats combine by declared rules; four samples of a cube map

@@ -19,6 +19,7 @@ def gbuffer_bytes(frame):
     return [t.read() for t in (frame.tex_position, frame.tex_normal, frame.tex_ids)]
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 @pytest.mark.parametrize("name", list(REGISTRY))
 def test_techniques_leave_the_gbuffer_untouched(lab, name):
     """Every registered technique, run on a frame, leaves its G-buffer textures, exact points

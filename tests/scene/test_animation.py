@@ -221,6 +221,7 @@ def test_shipped_animated_scenes_load():
     assert np.linalg.norm(scene_at(dolly, 1.0).camera.eye - scene_at(dolly, 0.0).camera.eye) == pytest.approx(20.0)
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_animate_end_to_end_writes_every_file(tmp_path, capsys):
     out = tmp_path / "anim"
     code = main(["animate", "tm_rotating_sun", "-t", "shadow_map:resolution=128", "-t", "shadow_volume",

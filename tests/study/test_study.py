@@ -49,6 +49,7 @@ def metrics_of(results: pd.DataFrame) -> pd.DataFrame:
 
 # ----------------------------------------------------------------------------- suites
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_shipped_suites_load_and_cover_every_family():
     from shadowlab.techniques import REGISTRY
 

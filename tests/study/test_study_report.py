@@ -251,6 +251,7 @@ def _filtered_family_rows(scene):
     return rows
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_pareto_figure_tells_configurations_of_a_family_apart():
     """Three filtered_map variants at the same spot were three identical glyphs: now each
     configuration of a family has its own marker, in the family's colour (its declared STYLE),
@@ -393,6 +394,7 @@ def test_summary_md(tmp_path):
 
 # ----------------------------------------------------------------------------- study.html
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_study_html(tmp_path):
     res = synthetic(tmp_path)
     out = sr.write_study_report(tmp_path, res, META)

@@ -207,6 +207,7 @@ def _recorded_samples(frame, monkeypatch, **params):
 N_DETERMINISM = 64
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 @pytest.mark.parametrize("key", ["rect", "disc"])
 def test_decorrelation_and_determinism(key, monkeypatch):
     """decorrelate=false: every pixel gets the same sample points (planar lights: the same world

@@ -112,6 +112,7 @@ def sunk_scene():
     return make_scene(*SUNK, eye=(3.0, 5.0, 6.0), target=(-0.3, 0.0, 0.0), fov_y=55.0, name="sunk")
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_equals_the_oracle_with_casters_cut_by_the_horizon(lab):
     scene = sunk_scene()
     tech = run(lab.frame(scene, SMALL))

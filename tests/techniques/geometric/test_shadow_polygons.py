@@ -48,6 +48,7 @@ def test_fragments_lie_on_their_own_receiver_triangles(lab):
     assert min(v.min(), w.min(), (1 - v - w).min()) > -1e-5
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_every_technique_handles_several_lights(lab):
     specs = ["shadow_map", "shadow_volume", "planar", "shadow_polygons", "shadow_polygons:max_lights=1"]
     frame = lab.frame("multi_light", SIZE)

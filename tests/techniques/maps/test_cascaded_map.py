@@ -81,6 +81,7 @@ def test_cascades_beat_one_big_map_on_the_long_view(lab):
     assert (rows["memory_bytes"].iloc[0] == rows["memory_bytes"].iloc[1])  # the same texels: 4 x 1024² = 2048²
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_sdsm_fits_tighter_than_the_frustum(lab):
     """pa_long_view 320x240: SDSM's near/far come from the evaluated points (the nearest
     evaluated depth, far beyond the camera's near 0.3) and its first cascade's texels are smaller
@@ -161,6 +162,7 @@ def test_focused_boxes_are_smaller_and_cover_the_shadowable_points(lab, scene, o
         assert np.all((m[:, 2] >= 0) & (m[:, 2] <= 1)), (m[:, 2].min(), m[:, 2].max())
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_focused_cascades_beat_unfocused_on_the_long_view(lab):
     """pa_long_view 320x240 (issue 26). Measured boundary_error_px focused / unfocused: λ 0.9
     0.021 / 0.100, SDSM 0.052 / 0.088, λ 0.5 (defaults) 0.075 / 0.078 (cascade 2's slice holds
@@ -182,6 +184,7 @@ def _view_depth(frame):
     return frame.to_image(-tf.transform_points(frame.view, frame.compact_position)[:, 2], dtype=np.float64)
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_blending_is_fractional_only_in_blend_regions(lab):
     """pa_long_view 320x240, blend_width 0.2: every pixel with 0 < V < 1 lies (to 1e-4 of its
     depth: the shader's float32 depth) in some cascade's blend region (blend_start_i, z_i+1];

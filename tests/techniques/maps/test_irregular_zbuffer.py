@@ -179,6 +179,7 @@ def test_edge_distances_by_hand():
     assert d[3] == np.inf  # the plane lies behind the ray
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_polygon_coverage_keeps_fewer_pairs_on_wires(lab):
     """Long thin triangles across the grid: their boxes cover far more texels than they do."""
     box = lab.measure("sm_wires", "irregular_zbuffer", SMALL).stats["izb_pairs"]

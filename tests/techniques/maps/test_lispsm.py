@@ -139,6 +139,7 @@ def test_n_opt_and_gamma(lab):
 #: short view the warp is weak (n_opt 26, near texels 0.74 of the uniform's); pa_long_view
 #: lispsm 0.147 %, shadow_map 0.430 % (LiSPSM better, ratio 0.34); at resolution 1024 lispsm
 #: 0.263 % against shadow_map variant=slope 0.970 % (ratio 0.27).
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_accuracy_against_truth(lab):
     sun = lab.rows("sun_scene", ["lispsm", "shadow_map"], SIZE)["error_rate"]
     assert sun["lispsm"] < 0.0003, sun["lispsm"]  # 3.8x the measured (a few pixels: noisy)
@@ -160,6 +161,7 @@ def looking_down(light_direction):
     return parse_scene(data, "<looking_down>")
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_light_along_the_view_falls_back_to_the_uniform_map(lab):
     """γ = 0 (sun straight down, camera straight down): a note, n_used = None (unbounded), the uniform map,
     error_rate measured 0 (bound 0.05 %). Just above the threshold (sin γ = 0.02, γ 1.15°) the

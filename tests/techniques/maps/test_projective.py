@@ -168,6 +168,7 @@ def many_objects_scene():
                       target=(0.0, 0.0, 0.0), fov_y=50.0, name="many_pairs")
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_more_than_32_objects(lab):
     """The receiver flags are per object id (a texture, not a 32-bit mask): the slabs with ids
     ≥ 32 take their box's shadow with receivers=others (measured 0 % of 534 pixels false lit)

@@ -13,12 +13,14 @@ def metrics(lab, scene, spec, size=(640, 480)):
     return lab.rows(scene, [spec], size).iloc[0]
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_box_on_plane_2048_sensible_bias_under_1_percent(lab):
     m = metrics(lab, "box_on_plane", "shadow_map:resolution=2048,bias=0.002", size=(800, 600))
     assert m["evaluated_pixels"] > 100_000 and m["truth_shadowed_pixels"] > 2_000
     assert m["error_rate"] < 0.01
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_zero_bias_on_sloped_receiver_shows_acne(lab):
     """sun_scene has a ramp (a receiver sloped to the light): without bias, self-shadowing acne."""
     m = metrics(lab, "sun_scene", "shadow_map:resolution=2048,bias=0")
@@ -27,6 +29,7 @@ def test_zero_bias_on_sloped_receiver_shows_acne(lab):
     assert fixed["false_shadow_rate"] < 0.01
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 @pytest.mark.parametrize("scene", ["spot_scene", "sun_scene", "target_direct_scene"])
 def test_standard_scenes_within_tolerance(lab, scene):
     """Every light type on its standard scene: error rate under 1 % at 2048² with the default bias."""
@@ -35,6 +38,7 @@ def test_standard_scenes_within_tolerance(lab, scene):
     assert m["error_rate"] < 0.01
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_lower_resolution_is_worse_on_boundary(lab):
     hi = metrics(lab, "box_on_plane", "shadow_map:resolution=2048")
     lo = metrics(lab, "box_on_plane", "shadow_map:resolution=128")

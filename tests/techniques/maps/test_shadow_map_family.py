@@ -25,6 +25,7 @@ def test_grazing_acne_and_slope_scaled_bias(lab):
     assert df.loc["shadow_map:variant=slope,hardware_offset=true,fit=receivers", "false_shadow_rate"] < 0.02
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_bias_that_removes_grazing_acne_opens_a_contact_gap(lab):
     """SM2: the smallest constant bias that removes the grazing acne, carried to the contact
     scene as the same world-space offset, opens a lit gap at the cube's contact; second-depth
@@ -46,6 +47,7 @@ def test_bias_that_removes_grazing_acne_opens_a_contact_gap(lab):
         assert contact.loc[spec, "contact_gap_px"] < gap / 10
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_second_depth_no_acne_on_convex_but_fails_on_thin_casters(lab):
     """Wang & Molnar: no bias needed on closed convex casters; a single-sided quad vanishes."""
     for scene in ("box_on_plane", "sm_contact"):
@@ -57,6 +59,7 @@ def test_second_depth_no_acne_on_convex_but_fails_on_thin_casters(lab):
     assert thin.loc["shadow_map:variant=second_depth", "false_lit_rate"] > 5 * thin.loc[classic, "false_lit_rate"]
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_boundary_error_falls_with_resolution_on_the_aliasing_case(lab):
     res = [128, 256, 512, 1024, 2048]
     df = lab.rows("sm_aliasing", [f"shadow_map:resolution={r},variant=slope" for r in res], SIZE)
@@ -64,6 +67,7 @@ def test_boundary_error_falls_with_resolution_on_the_aliasing_case(lab):
     assert np.all(np.diff(errors) < 0), errors
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_cube_map_point_light_with_casters_all_around(lab):
     df = lab.rows("sm_point_cube", ["shadow_map:projection=cube,resolution=1024,variant=slope",
                                 "shadow_map:projection=frustum,resolution=1024,variant=slope"], SIZE)
@@ -84,6 +88,7 @@ def test_filters_give_fractional_visibility(lab, filt):
     assert m["error_rate"] < 0.01 and 0 < m["visibility_mae"] < 0.01
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_two_layer_variants_need_no_bias_on_nonconvex_casters(lab):
     """Midpoint and dual need no bias on non-convex casters (a torus, an L prism: concavities)."""
     df = lab.rows("sm_nonconvex", ["shadow_map:variant=midpoint", "shadow_map:variant=dual"], SIZE)
@@ -91,6 +96,7 @@ def test_two_layer_variants_need_no_bias_on_nonconvex_casters(lab):
         assert df.loc[spec, "error_rate"] < 0.005
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_depth_precision_near_plane_too_close(lab):
     """A near plane at 1e-3 squeezes depth towards 1: 16-bit depth shows acne, 24-bit far less;
     with the fitted near plane both are clean."""

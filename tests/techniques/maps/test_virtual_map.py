@@ -14,6 +14,7 @@ from shadowlab.techniques import TechniqueError, from_spec
 SHADOW_MAP = "shadow_map"
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_long_view_beats_a_2048_map_with_a_fraction_of_the_dense_memory(lab):
     """pa_long_view: texels matched to pixels near the camera. Measured: boundary_error_px 0.051
     against 0.185, texel footprint p95 1.07 against 4.81 px, error_rate 0.14 % against 0.43 %;
@@ -57,6 +58,7 @@ def test_tiny_pool_drops_pages_and_falls_back_to_coarse_levels(lab):
     assert tiny["error_rate"] > full["error_rate"]  # coarser texels than wanted
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_requested_pages_follow_the_view(lab):
     """More pixels want finer levels, and a negative lod_bias finer still: more pages either way
     (pa_long_view: 19 pages at 160x120 and 90 at 320x240, measured; 237 with lod_bias=-1)."""
@@ -161,6 +163,7 @@ def test_cached_pages_give_the_same_frames_with_fewer_renders(tmp_path):
     assert (cached["pages_cached"].iloc[1:] > 0).all()
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_a_moving_light_invalidates_every_page(tmp_path):
     df = _animated(tmp_path, "tm_rotating_sun", ["virtual_map:fit=scene"])
     vm = df[df["technique"] == "virtual_map"]
@@ -182,6 +185,7 @@ def test_page_cache_keeps_valid_pages_and_evicts_the_least_recently_used():
     assert cache.assign([(0, 0, 0, 0)], ["a"])[1] == [0]       # evicted for (0, 0, 3, 0): rendered again
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_a_moving_caster_re_renders_only_the_pages_it_touches(tmp_path):
     """tm_moving_caster: a crate slides under a fixed sun; cached pages away from it stay
     (measured at 320x240 over 24 frames: 121 pages rendered against 744), frames unchanged."""

@@ -256,6 +256,7 @@ def test_horizon_on_a_slab_the_light_crosses(lab):
     assert err["penumbra_wedges:horizon=true"][ev].mean() < 0.012
 
 
+@pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it
 def test_per_pixel_silhouette_on_a_large_close_light(lab):
     """The other known error: the silhouette taken from the light's centre. soft_large_close's
     3 x 3 light 1.2 above a box sees the box's sides from its rim, not from its centre; with

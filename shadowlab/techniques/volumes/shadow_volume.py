@@ -96,7 +96,7 @@ class ShadowVolume(Technique):
     STYLE = PlotStyle("#d62728", "s")
     STATS = {"silhouette_edges": SUM, "stencil_peak_count": MAX, "zpass_casters": SUM, "zfail_casters": SUM,
              "zpass_caster_triangles": SUM, "zfail_caster_triangles": SUM, "volume_fragments": SUM,
-             "stencil_updates": SUM, "fill_per_pixel": SUM, "volume_triangles": SUM}
+             "stencil_updates": SUM, "fill_per_pixel": SUM, "volume_triangles": SUM, "pixel_ops": SUM}
     LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.measurement.light_sampling)
 
     # ------------------------------------------------------------------ setup
@@ -386,6 +386,9 @@ class ShadowVolume(Technique):
         out["volume_fragments"] = int(fragments)
         out["stencil_updates"] = int(updates)
         out["fill_per_pixel"] = out["volume_fragments"] / (self.frame.width * self.frame.height)
+        # The volume family's common footing (docs/shadow-volumes.md): per-pixel operations of
+        # the per-pixel stage; here every volume fragment meets the depth and stencil tests.
+        out["pixel_ops"] = out["volume_fragments"]
         out["volume_triangles"] = int(prims)  # primitives generated (geometry shader output included)
         return out
 

@@ -92,9 +92,10 @@ from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError
 
 #: Storage-buffer bindings (``per_triangle_volume_common.glsl``).
 BINDING = {"origins": 0, "directions": 1, "clusters": 2, "blocked": 3, "counters": 4, "triangles": 5,
-           "nodes": 6, "flags": 7, "list_in": 8, "list_out": 9, "result": 10}
-#: Levels the shaders take at most (MAX_LEVELS), and child tiles per node and axis (FANOUT).
-MAX_LEVELS, FANOUT = 4, 4
+           "nodes": 6, "flags": 7, "list_in": 8, "list_out": 9, "result": 10, "volumes": 11, "order": 12}
+#: Levels the shaders take at most (MAX_LEVELS: four of tiles, one of depth clusters), and child
+#: tiles per tile and axis (FANOUT).
+MAX_LEVELS, FANOUT = 5, 4
 #: Counter slots: per level (tests, accepted, rejected, descended), then sample tests and hits.
 PER_LEVEL = ("tests", "accepted", "rejected", "descended")
 COUNTER_SLOTS = 4 * MAX_LEVELS + 2
@@ -112,9 +113,10 @@ BAND = 2.0 ** -12
 LIGHT_KIND = {"point": 0, "spot": 0, "directional": 1, "target_direct": 2}
 #: Retries of an overflowing pair list before the run fails (each sizes it to what was asked).
 MAX_RETRIES = 3
-#: Bytes of one sample slot (origin+tfar vec4, direction vec4, cluster, hit bits, result), one
-#: node (two vec4 and a flag) and one (triangle, node) pair.
-SLOT_BYTES, NODE_BYTES, PAIR_BYTES = 44, 36, 8
+#: Bytes of one sample slot (origin+tfar vec4, direction vec4, cluster, hit bits, result, its
+#: place in its tile's order), one node (two vec4 and a flag), one triangle's volume (five vec4:
+#: four planes, margins and flags) and one (triangle, node) pair.
+SLOT_BYTES, NODE_BYTES, VOLUME_BYTES, PAIR_BYTES = 48, 36, 80, 8
 #: Lights the technique renders for (area lights through light sampling, as point lights).
 LIGHTS = frozenset({"point", "directional", "spot", "target_direct", "area"})
 
@@ -133,7 +135,7 @@ class PerTriangleVolume(Technique):
     PARAMS = {
         "tile": Param(8, "leaf tile side in pixels (a work group per leaf tile builds its boxes)", choices=(4, 8, 16)),
         "levels": Param(3, f"levels of the tile hierarchy, each {FANOUT}x{FANOUT} tiles of the one below "
-                           f"(3 with tile=8: 8, 32, 128 pixels)", min=1, max=MAX_LEVELS),
+                           f"(3 with tile=8: 8, 32, 128 pixels)", min=1, max=MAX_LEVELS - 1),
         "depth_clusters": Param(4, "depth clusters per leaf tile (logarithmic slices of its depth range, "
                                    "Sintorn et al. 2014); 0 = off (one box per tile)", min=0, max=8),
         "accept": Param(True, "accept tiles wholly inside a volume at once (one tile-level set); false: every "
@@ -157,11 +159,17 @@ class PerTriangleVolume(Technique):
         tile, clusters = self.tile, max(1, self.depth_clusters)
         self.clusters = clusters
         tiles = (-(-frame.width // tile), -(-frame.height // tile))
-        sizes = [tiles]
+        # levels from the leaves up: (tiles across and down, nodes per tile, child tiles per axis)
+        sizes, per_tile, fanout = [tiles], [clusters], [1]
+        if clusters > 1:  # the depth clusters under the leaf tiles: a level of their own
+            sizes, per_tile, fanout = sizes + [tiles], per_tile + [1], fanout + [1]
         for _ in range(1, self.levels):
             w, h = sizes[-1]
             sizes.append((-(-w // FANOUT), -(-h // FANOUT)))
-        counts = [sizes[0][0] * sizes[0][1] * clusters] + [w * h for w, h in sizes[1:]]
+            per_tile.append(1)
+            fanout.append(FANOUT)
+        self.level_count = len(sizes)
+        counts = [w * h * k for (w, h), k in zip(sizes, per_tile)]
         self.level_sizes, self.level_counts = sizes, counts
         self.level_offsets = [int(x) for x in np.cumsum([0] + counts[:-1])]
         self.node_count = int(sum(counts))
@@ -199,6 +207,8 @@ class PerTriangleVolume(Technique):
             "triangles": self.own(ctx.buffer(corners.tobytes())),
             "nodes": self.own(ctx.buffer(reserve=32 * self.node_count)),
             "flags": self.own(ctx.buffer(reserve=4 * self.node_count)),
+            "volumes": self.own(ctx.buffer(reserve=VOLUME_BYTES * max(1, self.triangle_count))),
+            "order": self.own(ctx.buffer(reserve=4 * self.slot_count)),
         }
         # one pair list per level (level l: the pairs that descended at level l)
         self.capacities = [self.capacity if self.capacity > 0 else 2 * max(self.triangle_count, 1) + 4 * n
@@ -212,16 +222,17 @@ class PerTriangleVolume(Technique):
         self.descend_prog = self.program("per_triangle_volume_traverse.glsl", defines=defines)
         self.samples_prog = self.program("per_triangle_volume_samples.glsl", defines=defines)
         self.resolve_prog = self.program("per_triangle_volume_resolve.glsl", defines=defines)
-        offsets = np.zeros(MAX_LEVELS, np.int32)
-        offsets[:self.levels] = self.level_offsets
-        level_size = np.zeros((MAX_LEVELS, 2), np.int32)
-        level_size[:self.levels] = sizes
+        layout = {"u_level_offset": self.level_offsets, "u_level_size": sizes, "u_level_per_tile": per_tile,
+                  "u_level_fanout": fanout}
         for prog in (self.leaves_prog, self.union_prog, self.top_prog, self.descend_prog, self.samples_prog,
                      self.resolve_prog):
-            programs.set_uniforms(prog, {"u_tiles": tiles, "u_levels": self.levels})
-            for key, val in (("u_level_offset", offsets), ("u_level_size", level_size)):
+            programs.set_uniforms(prog, {"u_tiles": tiles, "u_levels": self.level_count})
+            for key, val in layout.items():
                 if key in prog:  # the compiler trims an array to the elements a program reads
-                    programs.set_uniforms(prog, {key: val[:prog[key].array_length]})
+                    n = prog[key].array_length
+                    padded = np.zeros((MAX_LEVELS,) + np.shape(val)[1:], np.int32)
+                    padded[:len(val)] = val
+                    programs.set_uniforms(prog, {key: padded[:n]})
         programs.set_uniforms(self.leaves_prog, {"u_eye": tuple(map(float, frame.camera.eye))})
         kind = LIGHT_KIND[light.type_name]
         if kind == 0:
@@ -258,7 +269,7 @@ class PerTriangleVolume(Technique):
         b = self.buffers
         for name, buf in b.items():
             buf.bind_to_storage_buffer(BINDING[name])
-        top = self.levels - 1
+        top = self.level_count - 1
         with self.timed_pass("bounds"):
             b["counters"].clear()
             w, h = self.level_sizes[0]
@@ -266,7 +277,7 @@ class PerTriangleVolume(Technique):
             rows = -(-tiles // programs.MAX_GROUPS_X)
             self.leaves_prog.run(-(-tiles // rows), rows)  # one work group per leaf tile
             ctx.memory_barrier()
-            for level in range(1, self.levels):
+            for level in range(1, self.level_count):
                 self.union_prog["u_level"].value = level
                 programs.dispatch(self.union_prog, self.level_counts[level], LOCAL_SIZE)
                 ctx.memory_barrier()
@@ -339,7 +350,7 @@ class PerTriangleVolume(Technique):
     def level_counts_of(self) -> list[dict]:
         """Per level (0 = the leaves) the counters of the last render: node tests, accepted,
         rejected, descended."""
-        return [dict(zip(PER_LEVEL, map(int, self.counts[4 * level:4 * level + 4]))) for level in range(self.levels)]
+        return [dict(zip(PER_LEVEL, map(int, self.counts[4 * level:4 * level + 4]))) for level in range(self.level_count)]
 
     def work(self, counted: dict, stats: dict) -> dict:
         """The leaves' segment tests, as rays tested (the per-sample work)."""
@@ -352,7 +363,7 @@ class PerTriangleVolume(Technique):
         accepted = sum(p["accepted"] for p in per)
         sample_tests = int(self.counts[SAMPLE_TESTS])
         memory = (self.slot_count * SLOT_BYTES + self.node_count * NODE_BYTES + self.buffers["triangles"].size
-                  + 4 * COUNTER_SLOTS + PAIR_BYTES * sum(self.capacities))
+                  + VOLUME_BYTES * self.triangle_count + 4 * COUNTER_SLOTS + PAIR_BYTES * sum(self.capacities))
         return {"triangles": self.triangle_count, "tile_tests": sum(p["tests"] for p in per),
                 "tiles_accepted": accepted, "tiles_rejected": sum(p["rejected"] for p in per),
                 "tiles_descended": sum(p["descended"] for p in per), "sample_tests": sample_tests,

@@ -2,9 +2,10 @@
 // LEAVES, one work group per leaf tile (TILE × TILE invocations, one per sample slot) splits its
 // samples into CLUSTERS depth clusters — logarithmic slices of the tile's own range of distances
 // from the eye, as the view-sample clusters of Sintorn et al. 2014 (§4) — and writes each
-// cluster's bounding box of the ray origins; it also clears the slots' hit bits and the leaves'
+// cluster's bounding box of the ray origins and lists its slots together in tile_order (in
+// whatever order the atomics give: the samples pass tests them all); it also clears the slots' hit bits and the leaves'
 // flags. Without LEAVES, one invocation per tile of level u_level (≥ 1) unites the boxes of its
-// FANOUT × FANOUT child tiles (every cluster of a leaf tile). Min and max are taken exactly, by
+// child tiles (the clusters of a leaf tile, or 4 × 4 tiles of the level below: u_level_fanout). Min and max are taken exactly, by
 // atomics on order-preserving integer keys of the float32 coordinates.
 #include "per_triangle_volume_common.glsl"
 
@@ -13,7 +14,7 @@
 layout(local_size_x = TILE_SLOTS) in;   // TILE², a define: GLSL 4.30 takes no expression here
 uniform vec3 u_eye;                      // the camera's eye, world (the depth used for clusters)
 shared uint s_depth_lo, s_depth_hi;
-shared uint s_lo[3 * CLUSTERS], s_hi[3 * CLUSTERS], s_count[CLUSTERS];
+shared uint s_lo[3 * CLUSTERS], s_hi[3 * CLUSTERS], s_count[CLUSTERS], s_first[CLUSTERS], s_fill[CLUSTERS];
 
 // Order-preserving key of a float (negative floats reversed below the positive ones).
 uint key_of(float f) {
@@ -39,6 +40,7 @@ void main() {
             s_hi[3 * i + a] = 0u;
         }
         s_count[i] = 0u;
+        s_fill[i] = 0u;
         node_flag[u_level_offset[0] + tile * CLUSTERS + i] = 0u;
     }
     blocked[s] = 0u;
@@ -69,6 +71,16 @@ void main() {
     }
     memoryBarrierShared();
     barrier();
+    if (i == 0) {  // each cluster's first place in the tile's order
+        uint first = 0u;
+        for (int c = 0; c < CLUSTERS; ++c) {
+            s_first[c] = first;
+            first += s_count[c];
+        }
+    }
+    memoryBarrierShared();
+    barrier();
+    if (valid) tile_order[tile * TILE * TILE + int(s_first[k] + atomicAdd(s_fill[k], 1u))] = s;
     if (i < CLUSTERS) {
         int n = u_level_offset[0] + tile * CLUSTERS + i;
         uint count = s_count[i];
@@ -78,7 +90,7 @@ void main() {
             hi3 = vec3(float_of(s_hi[3 * i]), float_of(s_hi[3 * i + 1]), float_of(s_hi[3 * i + 2]));
         }
         node_box[2 * n] = vec4(lo3, float(count));
-        node_box[2 * n + 1] = vec4(hi3, 0.0);
+        node_box[2 * n + 1] = vec4(hi3, float(s_first[i]));
     }
 }
 #else
@@ -94,11 +106,12 @@ void main() {
     ivec2 child_size = u_level_size[below];
     vec3 lo = vec3(0.0), hi = vec3(0.0);
     float count = 0.0;
-    for (int j = 0; j < FANOUT; ++j) {
-        for (int i = 0; i < FANOUT; ++i) {
-            ivec2 c = tile * FANOUT + ivec2(i, j);
+    int fanout = u_level_fanout[u_level];
+    for (int j = 0; j < fanout; ++j) {
+        for (int i = 0; i < fanout; ++i) {
+            ivec2 c = tile * fanout + ivec2(i, j);
             if (c.x >= child_size.x || c.y >= child_size.y) continue;
-            for (int k = 0; k < level_nodes_per_tile(below); ++k) {
+            for (int k = 0; k < u_level_per_tile[below]; ++k) {
                 int n = node_index(below, c, k);
                 vec4 clo = node_box[2 * n];
                 if (clo.w == 0.0) continue;  // empty

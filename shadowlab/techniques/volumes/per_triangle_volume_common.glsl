@@ -9,8 +9,7 @@
 //! glsl 430
 #define NO_RAY (-1.0)                    // ray_origin[s].w of a sample slot without a ray
 #define NO_CLUSTER (-1)                  // sample_cluster[s] of a slot without a ray
-#define FANOUT 4                         // children per node and axis (FANOUT² tiles below a tile)
-#define MAX_LEVELS 4
+#define MAX_LEVELS 5                     // four levels of tiles and the depth clusters
 // Counter slots (uint each), per level l (0 = the leaves): node tests, accepted, rejected,
 // descended (= pairs appended to level l's list, counted even past its capacity); then the
 // leaves' sample tests and hits.
@@ -29,25 +28,31 @@ layout(std430, binding = 3) buffer Blocked { uint blocked[]; };                 
 layout(std430, binding = 4) buffer Counters { uint counter[]; };
 layout(std430, binding = 5) readonly buffer Triangles { vec4 triangle_vertex[]; };   // 3 per caster triangle
 // Node n (every level, level l from u_level_offset[l]): node_box[2n] = (min corner of its
-// samples' origins, samples), node_box[2n + 1] = (max corner, 0); samples = 0: an empty node.
+// samples' origins, samples), node_box[2n + 1] = (max corner, first: the leaves' place in
+// tile_order, else 0); samples = 0: an empty node.
 layout(std430, binding = 6) buffer NodeBoxes { vec4 node_box[]; };
 layout(std430, binding = 7) buffer NodeFlags { uint node_flag[]; };                  // 1: inside some volume
 layout(std430, binding = 8) buffer ListIn { ivec2 list_in[]; };                      // (triangle, node) to descend
 layout(std430, binding = 9) buffer ListOut { ivec2 list_out[]; };                    // (triangle, node) appended
 layout(std430, binding = 10) buffer Result { uint result[]; };                       // per slot: 1 = blocked
+// Per leaf tile, its slots grouped by depth cluster: a leaf node's samples are
+// tile_order[tile · TILE² + first ...], first = node_box[2n + 1].w, count = node_box[2n].w.
+layout(std430, binding = 12) buffer TileOrder { int tile_order[]; };
 
+// Levels, 0 = the leaves: with CLUSTERS > 1, level 0 holds CLUSTERS depth clusters per leaf
+// tile and level 1 one node per leaf tile; then tiles of 4 × 4 tiles of the level below (FANOUT, Python side).
 uniform ivec2 u_tiles;                   // leaf tiles across, down (TILE pixels each)
-uniform int u_levels;                    // 1 .. MAX_LEVELS
+uniform int u_levels;                    // levels in all, 1 .. MAX_LEVELS
 uniform int u_level_offset[MAX_LEVELS];  // first node of each level
-uniform ivec2 u_level_size[MAX_LEVELS];  // tiles across, down at each level (level 0: u_tiles)
+uniform ivec2 u_level_size[MAX_LEVELS];  // tiles across, down at each level
+uniform int u_level_per_tile[MAX_LEVELS];  // nodes per tile at each level (CLUSTERS or 1)
+uniform int u_level_fanout[MAX_LEVELS];  // child tiles per axis of a tile of level l (>= 1) at level l - 1
 
 // A compute invocation's index in a dispatch of (x, y) work groups laid out row by row
 // (shadowlab.gpu.programs.dispatch splits large dispatches over y).
 #define INVOCATION_INDEX int(gl_GlobalInvocationID.y * gl_NumWorkGroups.x * uint(LOCAL_SIZE) + gl_GlobalInvocationID.x)
 
-// The nodes of level l in tile (x, y) of that level: at the leaves, CLUSTERS depth clusters per
-// tile; above, one node per tile.
-int level_nodes_per_tile(int l) { return l == 0 ? CLUSTERS : 1; }
+// Node k of tile (x, y) of level l.
 int node_index(int l, ivec2 tile, int k) {
-    return u_level_offset[l] + (tile.y * u_level_size[l].x + tile.x) * level_nodes_per_tile(l) + k;
+    return u_level_offset[l] + (tile.y * u_level_size[l].x + tile.x) * u_level_per_tile[l] + k;
 }

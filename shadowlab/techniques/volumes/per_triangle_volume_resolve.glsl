@@ -19,7 +19,7 @@ void main() {
     ivec2 t = ivec2(tile % u_tiles.x, tile / u_tiles.x);
     uint hit = blocked[s] | node_flag[node_index(0, t, k)];
     for (int l = 1; l < u_levels; ++l) {
-        t /= FANOUT;
+        t /= u_level_fanout[l];
         hit |= node_flag[node_index(l, t, 0)];
     }
     result[s] = hit != 0u ? 1u : 0u;

@@ -18,11 +18,11 @@ void main() {
     vec3 b = triangle_vertex[3 * pair.x + 1].xyz;
     vec3 c = triangle_vertex[3 * pair.x + 2].xyz;
     int local = pair.y - u_level_offset[0];
-    int tile = local / CLUSTERS, k = local % CLUSTERS;
+    int tile = local / CLUSTERS;
+    int n = pair.y, count = int(node_box[2 * n].w), first = int(node_box[2 * n + 1].w);
     uint tests = 0u, hits = 0u;
-    for (int i = 0; i < TILE * TILE; ++i) {
-        int s = tile * TILE * TILE + i;
-        if (sample_cluster[s] != k) continue;  // another cluster's sample, or no ray
+    for (int j = 0; j < count; ++j) {
+        int s = tile_order[tile * TILE * TILE + first + j];  // the node's samples: its tile's, in its cluster
         ++tests;
         vec4 o = ray_origin[s];
         if (segment_hits(o.xyz, ray_direction[s].xyz, o.w, a, b, c)) {

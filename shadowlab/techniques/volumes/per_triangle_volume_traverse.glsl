@@ -11,10 +11,12 @@
 //
 // Why the margins make accept and reject exact against the leaf test (the truth's watertight
 // float32 segment test; the module docstring of per_triangle_volume.py has the argument): the
-// planes and the box tests are computed in double from the float32 data; a box outside a plane
-// by the margin keeps every segment at least u_theta · u_scale (world units, about 500 float32
-// ulps of the scene's coordinates) away from the triangle, and a box inside all four planes by
-// the margin puts every segment's crossing that far inside it and well before the segment's end.
+// planes are built in double from the float32 data, kept in float32, and a tile decides only
+// beyond a margin of at least u_theta · u_scale (world units, some 500 float32 ulps of the
+// scene's coordinates, far above the float32 error of the tile test itself): a box outside a
+// plane by the margin keeps every segment at least that far from the triangle, and a box inside
+// all four planes by the margin puts every segment's crossing that far inside it and well before
+// the segment's end.
 #include "per_triangle_volume_common.glsl"
 
 #ifdef COMPUTE_SHADER
@@ -36,14 +38,17 @@ uniform int u_accept;                    // 0: no tile is accepted (every tile n
 uniform int u_level;                     // the level whose nodes this pass tests
 uniform int u_pairs;                     // list_in's pairs (without TOP)
 uniform int u_capacity;                  // list_out's capacity, pairs
+layout(std430, binding = 11) buffer Volumes { vec4 volume[]; };  // per triangle: VOLUME_VEC4S, written by the TOP pass
 
+// A triangle's volume as built in double (volume_of) and kept in float32 for the tile tests.
 struct Volume {
-    dvec4 plane[4];    // edge planes 0..2 (positive inside), the triangle's plane 3 (positive: the light's side)
+    vec4 plane[4];     // edge planes 0..2 (positive inside), the triangle's plane 3 (positive: the light's side)
     bool use[4];       // a plane too degenerate to decide anything is not used
     bool accept_ok;    // every plane used, and the crossing is provably before each segment's end
-    double edge_margin;   // LIGHT_AT_POINT: × a box's greatest distance from the light; else world units
-    double plane_margin;  // world units
+    float edge_margin_per_distance;  // point lights: the edge margin per unit of a box's distance from the light
+    float margin;      // world units, added to every margin (it also covers the float32 tile arithmetic)
 };
+#define VOLUME_VEC4S 5                   // per triangle in `volume`: the four planes, then the margins and flags
 
 // The point of triangle (a, b, c) closest to p (Ericson 2005, "Real-Time Collision Detection",
 // §5.1.5); p itself for a triangle degenerate in its interior case (callers need a lower bound
@@ -70,8 +75,10 @@ dvec3 closest_on_triangle(dvec3 p, dvec3 a, dvec3 b, dvec3 c) {
     return a + ab * v + ac * w;
 }
 
+// The four planes and margins of triangle tri, built in double from its float32 corners.
 Volume volume_of(int tri) {
     Volume vol;
+    dvec4 plane[4];
     dvec3 v[3];
     for (int i = 0; i < 3; ++i) v[i] = dvec3(triangle_vertex[3 * tri + i].xyz);
     dvec3 L = dvec3(u_light), u = dvec3(u_light_dir);
@@ -87,9 +94,9 @@ Volume volume_of(int tri) {
         vol.use[i] = abs(side) > 1e-12lf * size && length(n) > 0.0lf;
         if (vol.use[i]) {
             n = (side > 0.0lf ? n : -n) / length(n);
-            vol.plane[i] = dvec4(n, -dot(n, p0));
+            plane[i] = dvec4(n, -dot(n, p0));
         } else {
-            vol.plane[i] = dvec4(0.0lf);
+            plane[i] = dvec4(0.0lf);
         }
     }
     // the triangle's plane, positive on the light's side
@@ -103,7 +110,7 @@ Volume volume_of(int tri) {
         double band = at_point ? double(u_band) * scale : double(u_band);
         vol.use[3] = abs(light_side) >= band;
         n = light_side > 0.0lf ? n : -n;
-        vol.plane[3] = dvec4(n, -dot(n, v[0]));
+        plane[3] = dvec4(n, -dot(n, v[0]));
         vol.accept_ok = u_accept != 0 && vol.use[0] && vol.use[1] && vol.use[2] && vol.use[3];
         if (u_light_kind == LIGHT_TARGET_DIRECT) {
             // the rays end on the light's plane: accept only a triangle wholly in front of it
@@ -111,47 +118,68 @@ Volume volume_of(int tri) {
                 if (dot(v[i] - L, -u) < double(u_band) * scale) vol.accept_ok = false;
         }
     } else {
-        vol.plane[3] = dvec4(0.0lf);
+        plane[3] = dvec4(0.0lf);
     }
     double theta = double(u_theta) * scale;
-    vol.plane_margin = theta;
+    vol.margin = float(theta);
     if (at_point) {
         // a segment that passes the edge plane at angle α passes the triangle's edges at least
         // α × (the triangle's distance from the light) away: the margin grows as the triangle
         // comes close to the light; a triangle touching the light uses no edge plane
         double r_min = distance(L, closest_on_triangle(L, v[0], v[1], v[2]));
         if (r_min > 0.0lf) {
-            vol.edge_margin = theta / r_min;
+            vol.edge_margin_per_distance = float(theta / r_min);
         } else {
             vol.use[0] = vol.use[1] = vol.use[2] = false;
             vol.accept_ok = false;
-            vol.edge_margin = 0.0lf;
+            vol.edge_margin_per_distance = 0.0;
         }
     } else {
-        vol.edge_margin = theta;
+        vol.edge_margin_per_distance = 0.0;
     }
+    for (int i = 0; i < 4; ++i) vol.plane[i] = vec4(plane[i]);
     return vol;
 }
 
-// The box [lo, hi] of a node's ray origins against the volume.
+void store_volume(int tri, Volume vol) {
+    for (int i = 0; i < 4; ++i) volume[VOLUME_VEC4S * tri + i] = vol.plane[i];
+    int flags = (vol.use[0] ? 1 : 0) | (vol.use[1] ? 2 : 0) | (vol.use[2] ? 4 : 0) | (vol.use[3] ? 8 : 0)
+              | (vol.accept_ok ? 16 : 0);
+    volume[VOLUME_VEC4S * tri + 4] = vec4(vol.edge_margin_per_distance, vol.margin, 0.0, float(flags));
+}
+
+Volume load_volume(int tri) {
+    Volume vol;
+    for (int i = 0; i < 4; ++i) vol.plane[i] = volume[VOLUME_VEC4S * tri + i];
+    vec4 m = volume[VOLUME_VEC4S * tri + 4];
+    int flags = int(m.w);
+    for (int i = 0; i < 4; ++i) vol.use[i] = (flags & (1 << i)) != 0;
+    vol.accept_ok = (flags & 16) != 0;
+    vol.edge_margin_per_distance = m.x;
+    vol.margin = m.y;
+    return vol;
+}
+
+// The box [lo, hi] of a node's ray origins against the volume, in float32: the planes' rounding
+// to float32 and this arithmetic err by a few ulps of the scene's coordinates, far inside the
+// margin (u_theta · u_scale, some 500 ulps of them).
 int classify(Volume vol, vec3 lo, vec3 hi) {
-    dvec3 c = (dvec3(lo) + dvec3(hi)) * 0.5lf;
-    dvec3 h = (dvec3(hi) - dvec3(lo)) * 0.5lf;
-    double me = u_light_kind == LIGHT_AT_POINT ? vol.edge_margin * (distance(c, dvec3(u_light)) + length(h))
-                                               : vol.edge_margin;
+    vec3 c = (lo + hi) * 0.5;
+    vec3 h = (hi - lo) * 0.5;
+    float me = vol.margin + vol.edge_margin_per_distance * (distance(c, u_light) + length(h));
     bool inside = vol.accept_ok;
     for (int i = 0; i < 3; ++i) {
         if (!vol.use[i]) continue;
-        double s = dot(vol.plane[i].xyz, c) + vol.plane[i].w;
-        double r = dot(abs(vol.plane[i].xyz), h);
+        float s = dot(vol.plane[i].xyz, c) + vol.plane[i].w;
+        float r = dot(abs(vol.plane[i].xyz), h);
         if (s + r < -me) return REJECT;   // wholly outside an edge plane
         if (s - r <= me) inside = false;
     }
     if (vol.use[3]) {
-        double s = dot(vol.plane[3].xyz, c) + vol.plane[3].w;
-        double r = dot(abs(vol.plane[3].xyz), h);
-        if (s - r > vol.plane_margin) return REJECT;  // wholly on the light's side of the triangle
-        if (s + r >= -vol.plane_margin) inside = false;
+        float s = dot(vol.plane[3].xyz, c) + vol.plane[3].w;
+        float r = dot(abs(vol.plane[3].xyz), h);
+        if (s - r > vol.margin) return REJECT;  // wholly on the light's side of the triangle
+        if (s + r >= -vol.margin) inside = false;
     }
     return inside ? ACCEPT : DESCEND;
 }
@@ -181,24 +209,26 @@ void main() {
     if (index >= u_triangles) return;
     int tri = index;
     Volume vol = volume_of(tri);
+    store_volume(tri, vol);
     ivec2 size = u_level_size[u_level];
     for (int t = 0; t < size.x * size.y; ++t)
-        for (int k = 0; k < level_nodes_per_tile(u_level); ++k)
+        for (int k = 0; k < u_level_per_tile[u_level]; ++k)
             visit(vol, tri, node_index(u_level, ivec2(t % size.x, t / size.x), k));
 #else
     if (index >= u_pairs) return;
     ivec2 pair = list_in[index];
     int tri = pair.x;
-    Volume vol = volume_of(tri);
+    Volume vol = load_volume(tri);
     int above = u_level + 1;
     int local = pair.y - u_level_offset[above];
     ivec2 tile = ivec2(local % u_level_size[above].x, local / u_level_size[above].x);
     ivec2 size = u_level_size[u_level];
-    for (int j = 0; j < FANOUT; ++j) {
-        for (int i = 0; i < FANOUT; ++i) {
-            ivec2 c = tile * FANOUT + ivec2(i, j);
+    int fanout = u_level_fanout[above];
+    for (int j = 0; j < fanout; ++j) {
+        for (int i = 0; i < fanout; ++i) {
+            ivec2 c = tile * fanout + ivec2(i, j);
             if (c.x >= size.x || c.y >= size.y) continue;
-            for (int k = 0; k < level_nodes_per_tile(u_level); ++k) visit(vol, tri, node_index(u_level, c, k));
+            for (int k = 0; k < u_level_per_tile[u_level]; ++k) visit(vol, tri, node_index(u_level, c, k));
         }
     }
 #endif

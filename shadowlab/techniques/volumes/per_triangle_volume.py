@@ -11,7 +11,7 @@ the volumes' screen area. Here every caster triangle is its own volume — the r
 its three *edge planes* through the light and its own plane — and a view sample is in shadow when
 it lies inside some triangle's volume: no silhouettes, no adjacency, no counting, so soups,
 open, non-manifold and intersecting geometry are exact. The volumes are not rasterised: each is
-tested against a hierarchy of bounding boxes of the view samples, top down (2011 §3–4: a tile
+tested against a hierarchy of bounding boxes of the view samples, top down (as in 2011: a tile
 wholly outside one plane is rejected, a tile wholly inside all four is accepted at once, the
 others descend), so the per-sample work concentrates along the volumes' boundaries.
 
@@ -28,17 +28,20 @@ shared with the irregular z-buffer), which is how this technique is exact agains
 Passes (GL 4.3 compute, ``per_triangle_volume_*.glsl``):
 
 1. ``bounds`` (per frame): one work group per leaf tile (``tile`` × ``tile`` pixels) splits its
-   samples into ``depth_clusters`` logarithmic slices of the tile's own depth range — the
-   view-sample clusters of 2014 §4, which keep a tile that spans a depth discontinuity (a
+   samples into ``depth_clusters`` logarithmic slices of the tile's own depth range — after the
+   view-sample clusters of 2014, which keep a tile that spans a depth discontinuity (a
    column in front of the far ground) from having one box that every volume straddles — and
-   writes each cluster's box of ray origins; then ``levels`` − 1 passes unite 4 × 4 tiles into the
-   tiles above (8, 32, 128 pixels by default). 2011 builds the same hierarchy from a depth
-   buffer's min/max per tile; 2014 builds a BVH over clusters — a fixed 4 × 4 fan-out over screen
-   tiles is the simpler of the two, and enough for the counters this lab compares.
-2. ``triangles``: one invocation per caster triangle builds its four planes (in double) and tests
-   every node of the top level.
+   writes each cluster's box of ray origins (a level of its own under the tiles); then passes
+   unite the clusters into their tile and 4 × 4 tiles into the tiles above, ``levels`` levels of
+   tiles (8, 32, 128 pixels by default). 2011 tests the volumes against a hierarchical depth
+   map (screen tiles with their depth ranges); 2014 builds a full 3D hierarchy (a BVH) over
+   clusters of view samples. Here the hierarchy is the 2011 tile pyramid, with boxes of the
+   samples' world positions instead of depth ranges and 2014's depth clusters as its lowest
+   level: a fixed 4 × 4 fan-out, simple to build and to bound.
+2. ``triangles``: one invocation per caster triangle builds its four planes (in double, kept in
+   float32) and tests every node of the top level.
 3. ``tiles``: per level, one invocation per (triangle, node) pair that descended tests the
-   node's children (16, or 16 × clusters above the leaves).
+   node's children (16 tiles, or a leaf tile's clusters).
 4. ``samples``: one invocation per (triangle, leaf node) pair tests the leaf's samples exactly,
    setting each hit sample's bit (``atomicOr``: the per-pixel merge of all triangles).
 5. ``resolve``: a sample is in shadow when its bit is set or a node above it was accepted.
@@ -48,29 +51,31 @@ through global lists of (triangle, node) pairs, one per level (one invocation pe
 to bound. Each list holds ``capacity`` pairs (0: sized to start from the triangles and nodes);
 every append is counted even past the end, the counts are read back after each level, and a
 full list is retried larger (``on_overflow=retry``, in the notes and ``list_retries``) or fails
-(``on_overflow=fail``): never a silently lit sample. 2014's per-tile triangle binning and its
-shadow-volume culling of triangles are not done: every caster triangle is tested.
+(``on_overflow=fail``): never a silently lit sample. No caster triangle is culled beforehand
+(facing, or outside the view's volume): every one is tested against the top level.
 
 **Exactness of accept and reject.** The leaf test is the truth's; a tile's verdict must give the
-answer that test would give for every sample below, including float32 rounding. The planes and
-box tests are computed in double from the float32 data, and a tile decides only beyond a
-margin: θ · D with θ = :data:`THETA` (2^-14, ~500 float32 ulps) and D (``u_scale``) an upper bound
-on every distance in the scene (4 × its largest coordinate). Rejected when outside an edge
-plane: the segment runs on the outer side of a plane through the light; at distance r from the
-light it is at least (margin/distance-from-light) · r from the plane, and the margin for point
-lights is scaled by D / r_min (r_min: the triangle's distance from the light, in double), so it
-passes the triangle's edges at least θ · D away — far beyond the float32 test's error, whose
-edge functions err by a few ulps of the coordinates. Rejected when on the light's side of the
-triangle's plane: both ends of the segment are (the plane is used only when the light is at
-least :data:`BAND` · D from it, so the segment's end, T_LIGHT of the way and rounded, stays on the
-same side). Accepted when inside all three edge planes and beyond the plane, all by the margin:
-the segment crosses the plane at least θ · D inside the triangle, at a fraction 1 − d_L/(d_o +
-d_L) ≤ 1 − BAND/2 of the way, well before T_LIGHT (target-direct lights: the triangle must also lie
-in front of the light's plane, where the rays end). Degenerate planes (an edge seen end-on from the
-light, a zero-area triangle, a light in or near the triangle's plane, a triangle touching the
-light) are not used: the tiles descend and the leaves decide. So the masks with and without
-tile-level accepts are equal (a test says so), and both equal the truth's up to the segment
-test's own ties.
+answer that test would give for every sample below, including float32 rounding. Each triangle's
+planes are built in double from its float32 corners (kept in float32 for the tile tests), and a
+tile decides only beyond a margin of at least θ · D, θ = :data:`THETA` (2^-14, some 500 float32
+ulps) and D (``u_scale``) an upper bound on every distance in the scene (4 × its largest
+coordinate): far above the float32 error of the tile test itself and of the leaf test's edge
+functions, which err by a few ulps of the coordinates. Rejected when outside an edge plane: the
+segment runs on the outer side of a plane through the light, at a distance from it that grows in
+proportion to the distance from the light; for point lights the margin grows with the box's
+distance from the light over r_min (the triangle's distance from the light, in double), so the
+segment passes the triangle's edges at least θ · D away. Rejected when on the light's side of the
+triangle's plane: both ends of the segment are (the plane is used only when the light is at least
+:data:`BAND` · D from it, so the segment's end, T_LIGHT of the way and rounded, stays on that
+side; lights at infinity: only when the rays are at least at cosine BAND to the plane). Accepted
+when inside all three edge planes and beyond the plane, all by the margin: the segment crosses
+the plane at least θ · D inside the triangle, at a fraction 1 − d_L/(d_o + d_L) < 1 − BAND/2 of the
+way (d_L, d_o: the light's and the origin's distances from the plane), well before T_LIGHT
+(target-direct lights: the triangle must also lie in front of the light's plane, where the rays
+end). Degenerate planes (an edge seen end-on from the light, a zero-area triangle, a light in or
+near the triangle's plane, a triangle touching the light) are not used: the tiles descend and the
+leaves decide. So the masks with and without tile-level accepts are equal (a test says so), and
+both equal the truth's up to the segment test's own ties (none on the scenes tested).
 
 Counters: ``tile_tests`` (node–volume tests; empty nodes are skipped) = ``tiles_accepted`` +
 ``tiles_rejected`` + ``tiles_descended``; ``sample_tests`` (leaf segment tests: every sample of a

@@ -1,7 +1,7 @@
 // Per-triangle shadow volumes, pass 1 (per frame): the hierarchy over the view samples. With
 // LEAVES, one work group per leaf tile (TILE × TILE invocations, one per sample slot) splits its
 // samples into CLUSTERS depth clusters — logarithmic slices of the tile's own range of distances
-// from the eye, as the view-sample clusters of Sintorn et al. 2014 (§4) — and writes each
+// from the eye, after the view-sample clusters of Sintorn et al. 2014 — and writes each
 // cluster's bounding box of the ray origins and lists its slots together in tile_order (in
 // whatever order the atomics give: the samples pass tests them all); it also clears the slots' hit bits and the leaves'
 // flags. Without LEAVES, one invocation per tile of level u_level (≥ 1) unites the boxes of its

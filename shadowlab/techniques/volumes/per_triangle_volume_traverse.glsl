@@ -1,5 +1,5 @@
 // Per-triangle shadow volumes, passes 2 and 3: each caster triangle's shadow volume — its three
-// edge planes through the light and its own plane (Sintorn, Olsson & Assarsson 2011, §3) —
+// edge planes through the light and its own plane (Sintorn, Olsson & Assarsson 2011) —
 // against the hierarchy of view-sample boxes, top down. With TOP, one invocation per triangle
 // builds the planes and tests every node of the top level; without, one invocation per
 // (triangle, node) pair of the level above (list_in) tests the node's children. Each test
@@ -160,38 +160,48 @@ Volume load_volume(int tri) {
     return vol;
 }
 
+// The volume being tested, in plain variables (no arrays: llvmpipe keeps dynamically indexed
+// arrays in per-invocation memory).
+vec4 g_plane0, g_plane1, g_plane2, g_plane3;
+int g_flags;                             // bits 0..3: planes used, bit 4: accept allowed
+float g_margin_per_distance, g_margin;
+
+void set_volume(Volume vol) {
+    g_plane0 = vol.plane[0]; g_plane1 = vol.plane[1]; g_plane2 = vol.plane[2]; g_plane3 = vol.plane[3];
+    g_flags = (vol.use[0] ? 1 : 0) | (vol.use[1] ? 2 : 0) | (vol.use[2] ? 4 : 0) | (vol.use[3] ? 8 : 0)
+            | (vol.accept_ok ? 16 : 0);
+    g_margin_per_distance = vol.edge_margin_per_distance;
+    g_margin = vol.margin;
+}
+
 // The box [lo, hi] of a node's ray origins against the volume, in float32: the planes' rounding
 // to float32 and this arithmetic err by a few ulps of the scene's coordinates, far inside the
 // margin (u_theta · u_scale, some 500 ulps of them).
-int classify(Volume vol, vec3 lo, vec3 hi) {
+int classify(vec3 lo, vec3 hi) {
     vec3 c = (lo + hi) * 0.5;
     vec3 h = (hi - lo) * 0.5;
-    float me = vol.margin + vol.edge_margin_per_distance * (distance(c, u_light) + length(h));
-    bool inside = vol.accept_ok;
-    for (int i = 0; i < 3; ++i) {
-        if (!vol.use[i]) continue;
-        float s = dot(vol.plane[i].xyz, c) + vol.plane[i].w;
-        float r = dot(abs(vol.plane[i].xyz), h);
-        if (s + r < -me) return REJECT;   // wholly outside an edge plane
-        if (s - r <= me) inside = false;
-    }
-    if (vol.use[3]) {
-        float s = dot(vol.plane[3].xyz, c) + vol.plane[3].w;
-        float r = dot(abs(vol.plane[3].xyz), h);
-        if (s - r > vol.margin) return REJECT;  // wholly on the light's side of the triangle
-        if (s + r >= -vol.margin) inside = false;
-    }
+    float me = g_margin + g_margin_per_distance * (distance(c, u_light) + length(h));
+    // signed distances of the centre, and the box's reach, for the four planes
+    vec4 s = vec4(dot(g_plane0.xyz, c) + g_plane0.w, dot(g_plane1.xyz, c) + g_plane1.w,
+                  dot(g_plane2.xyz, c) + g_plane2.w, dot(g_plane3.xyz, c) + g_plane3.w);
+    vec4 r = vec4(dot(abs(g_plane0.xyz), h), dot(abs(g_plane1.xyz), h), dot(abs(g_plane2.xyz), h),
+                  dot(abs(g_plane3.xyz), h));
+    bvec4 use = bvec4((g_flags & 1) != 0, (g_flags & 2) != 0, (g_flags & 4) != 0, (g_flags & 8) != 0);
+    // wholly outside an edge plane, or wholly on the light's side of the triangle
+    bvec4 out_ = bvec4(lessThan(s.xyz + r.xyz, vec3(-me)), s.w - r.w > g_margin);
+    if (any(bvec4(use.x && out_.x, use.y && out_.y, use.z && out_.z, use.w && out_.w))) return REJECT;
+    bool inside = (g_flags & 16) != 0 && all(greaterThan(s.xyz - r.xyz, vec3(me))) && s.w + r.w < -g_margin;
     return inside ? ACCEPT : DESCEND;
 }
 
 uint tests = 0u, accepted = 0u, rejected = 0u;
 
 // Test node n (level u_level) of triangle tri: accept, reject or append the pair.
-void visit(Volume vol, int tri, int n) {
+void visit(int tri, int n) {
     vec4 lo = node_box[2 * n];
     if (lo.w == 0.0) return;  // an empty node holds no sample: nothing to test
     ++tests;
-    int verdict = classify(vol, lo.xyz, node_box[2 * n + 1].xyz);
+    int verdict = classify(lo.xyz, node_box[2 * n + 1].xyz);
     if (verdict == REJECT) {
         ++rejected;
     } else if (verdict == ACCEPT) {
@@ -210,15 +220,16 @@ void main() {
     int tri = index;
     Volume vol = volume_of(tri);
     store_volume(tri, vol);
+    set_volume(vol);
     ivec2 size = u_level_size[u_level];
     for (int t = 0; t < size.x * size.y; ++t)
         for (int k = 0; k < u_level_per_tile[u_level]; ++k)
-            visit(vol, tri, node_index(u_level, ivec2(t % size.x, t / size.x), k));
+            visit(tri, node_index(u_level, ivec2(t % size.x, t / size.x), k));
 #else
     if (index >= u_pairs) return;
     ivec2 pair = list_in[index];
     int tri = pair.x;
-    Volume vol = load_volume(tri);
+    set_volume(load_volume(tri));
     int above = u_level + 1;
     int local = pair.y - u_level_offset[above];
     ivec2 tile = ivec2(local % u_level_size[above].x, local / u_level_size[above].x);
@@ -228,7 +239,7 @@ void main() {
         for (int i = 0; i < fanout; ++i) {
             ivec2 c = tile * fanout + ivec2(i, j);
             if (c.x >= size.x || c.y >= size.y) continue;
-            for (int k = 0; k < u_level_per_tile[u_level]; ++k) visit(vol, tri, node_index(u_level, c, k));
+            for (int k = 0; k < u_level_per_tile[u_level]; ++k) visit(tri, node_index(u_level, c, k));
         }
     }
 #endif

@@ -5,7 +5,8 @@
 // The exact test is the watertight ray/triangle test of Woop, Benthin & Wald 2013 ("Watertight
 // ray/triangle intersection", JCGT 2(1)), on the ray the truth traces (origin, direction, tfar:
 // shadowlab.truth.tracing, the truth's offset rule), in float32 with contraction forbidden (precise)
-// and the paper's double-precision fallback when an edge function is exactly 0.
+// and the paper's double-precision fallback when an edge function is exactly 0: shared with the
+// per-triangle shadow volumes in shadowlab/gpu/watertight.glsl.
 #include "izb_common.glsl"
 
 #ifdef COMPUTE_SHADER

@@ -133,7 +133,7 @@ class PerTriangleVolume(Technique):
     name = "per_triangle_volume"
     summary = ("per-triangle shadow volumes (Sintorn et al. 2011, 2014): each triangle's four planes against a "
                "hierarchy of view-sample tiles in compute, exact segment tests at the leaves")
-    STYLE = PlotStyle("#8c564b", "P")
+    STYLE = PlotStyle("#ad494a", "8")  # a darker red than the stencil volume's
     LIGHTS = LIGHTS
     LIGHT_SAMPLED = True
     PASSES = ("bounds", "triangles", "tiles", "samples", "resolve")

@@ -51,8 +51,21 @@ through global lists of (triangle, node) pairs, one per level (one invocation pe
 to bound. Each list holds ``capacity`` pairs (0: sized to start from the triangles and nodes);
 every append is counted even past the end, the counts are read back after each level, and a
 full list is retried larger (``on_overflow=retry``, in the notes and ``list_retries``) or fails
-(``on_overflow=fail``): never a silently lit sample. No caster triangle is culled beforehand
-(facing, or outside the view's volume): every one is tested against the top level.
+(``on_overflow=fail``): never a silently lit sample.
+
+**Culling (``cull=closed``).** Soups need every triangle, but on a closed, consistently oriented
+mesh the triangles facing away from the light may be skipped: a segment whose ends are both
+outside such a mesh crosses it as often inwards as outwards, and one that starts inside (a
+receiver piercing the caster) leaves it once more than it enters; either way a blocked segment
+crosses a triangle facing the light. The watertight test keeps this count exact in float32: on
+an edge two triangles share, both compute the same edge function with opposite signs, so a
+segment's crossings of the mesh in the test's projection are counted without gaps or doubles.
+The triangles of such meshes facing away by more than a small cosine (2^-10; nearly edge-on ones
+are kept) are culled in the ``triangles`` pass, when every ray ends outside the mesh: a
+directional light, or a point light outside the mesh's bounding box grown by BAND · D (rays stop
+short of the light); never for target-direct lights, whose rays end on a plane that may cut the
+mesh. Meshes are judged by their edge table (:attr:`shadowlab.geometry.adjacency.EdgeTable.closed`)
+and oriented by the sign of their volume. Soups, open and non-manifold meshes keep every triangle.
 
 **Exactness of accept and reject.** The leaf test is the truth's; a tile's verdict must give the
 answer that test would give for every sample below, including float32 rounding. Each triangle's
@@ -77,7 +90,7 @@ near the triangle's plane, a triangle touching the light) are not used: the tile
 leaves decide. So the masks with and without tile-level accepts are equal (a test says so), and
 both equal the truth's up to the segment test's own ties (none on the scenes tested).
 
-Counters: ``tile_tests`` (node–volume tests; empty nodes are skipped) = ``tiles_accepted`` +
+Counters: ``triangles_culled``; ``tile_tests`` (node–volume tests; empty nodes are skipped) = ``tiles_accepted`` +
 ``tiles_rejected`` + ``tiles_descended``; ``sample_tests`` (leaf segment tests: every sample of a
 descended leaf), ``sample_sets`` (hits), ``pixel_ops`` = sample tests + tile-level sets (the
 per-pixel test-and-set operations the papers compare with a stencil volume's fill);
@@ -97,14 +110,16 @@ from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError
 
 #: Storage-buffer bindings (``per_triangle_volume_common.glsl``).
 BINDING = {"origins": 0, "directions": 1, "clusters": 2, "blocked": 3, "counters": 4, "triangles": 5,
-           "nodes": 6, "flags": 7, "list_in": 8, "list_out": 9, "result": 10, "volumes": 11, "order": 12}
+           "nodes": 6, "flags": 7, "list_in": 8, "list_out": 9, "result": 10, "volumes": 11, "order": 12,
+           "cullable": 13}
 #: Levels the shaders take at most (MAX_LEVELS: four of tiles, one of depth clusters), and child
 #: tiles per tile and axis (FANOUT).
 MAX_LEVELS, FANOUT = 5, 4
-#: Counter slots: per level (tests, accepted, rejected, descended), then sample tests and hits.
+#: Counter slots: per level (tests, accepted, rejected, descended), then sample tests, hits and
+#: triangles culled.
 PER_LEVEL = ("tests", "accepted", "rejected", "descended")
-COUNTER_SLOTS = 4 * MAX_LEVELS + 2
-SAMPLE_TESTS, SAMPLE_HITS = 4 * MAX_LEVELS, 4 * MAX_LEVELS + 1
+COUNTER_SLOTS = 4 * MAX_LEVELS + 3
+SAMPLE_TESTS, SAMPLE_HITS, CULLED = 4 * MAX_LEVELS, 4 * MAX_LEVELS + 1, 4 * MAX_LEVELS + 2
 #: ``ray_origin[s].w`` of a slot without a ray (NO_RAY).
 NO_RAY = -1.0
 #: Compute invocations per work group of the passes over triangles, pairs and slots.
@@ -145,12 +160,16 @@ class PerTriangleVolume(Technique):
                                    "Sintorn et al. 2014); 0 = off (one box per tile)", min=0, max=8),
         "accept": Param(True, "accept tiles wholly inside a volume at once (one tile-level set); false: every "
                               "tile not rejected descends to the leaves' sample tests"),
+        "cull": Param("closed", "skip the triangles facing away from the light on closed, consistently oriented "
+                                "meshes with the light outside their bounding box (exact: module docstring), or "
+                                "none",
+                      choices=("closed", "none")),
         "capacity": Param(0, "(triangle, node) pairs each level's list holds (0: sized from the triangles and "
                              "nodes to start, grown as needed)", min=0),
         "on_overflow": Param("retry", "a full pair list: retry with a list large enough, or fail",
                              choices=("retry", "fail")),
     }
-    STATS = {"triangles": FIRST, "tile_tests": SUM, "tiles_accepted": SUM, "tiles_rejected": SUM,
+    STATS = {"triangles": FIRST, "triangles_culled": SUM, "tile_tests": SUM, "tiles_accepted": SUM, "tiles_rejected": SUM,
              "tiles_descended": SUM, "sample_tests": SUM, "sample_sets": SUM, "pixel_ops": SUM,
              "volume_fragments": SUM, "list_retries": SUM, "nodes": FIRST, "memory_bytes": MAX}
 
@@ -214,6 +233,7 @@ class PerTriangleVolume(Technique):
             "flags": self.own(ctx.buffer(reserve=4 * self.node_count)),
             "volumes": self.own(ctx.buffer(reserve=VOLUME_BYTES * max(1, self.triangle_count))),
             "order": self.own(ctx.buffer(reserve=4 * self.slot_count)),
+            "cullable": self.own(ctx.buffer(self._cullable(frame, light, scale).tobytes())),
         }
         # one pair list per level (level l: the pairs that descended at level l)
         self.capacities = [self.capacity if self.capacity > 0 else 2 * max(self.triangle_count, 1) + 4 * n
@@ -252,8 +272,41 @@ class PerTriangleVolume(Technique):
             programs.set_uniforms(prog, geometry)
         self.notes.append(f"{self.triangle_count} caster triangles, {self.levels} levels of {tile}-pixel leaf tiles "
                           f"x{FANOUT} ({clusters} depth cluster{'s' if clusters > 1 else ''} per leaf tile)")
+        if self.cullable_objects:
+            self.notes.append(f"{self.cullable_objects} closed caster object(s) with the light outside: their "
+                              f"triangles facing away from the light are culled")
         self.retries = 0
         self.counts = np.zeros(COUNTER_SLOTS, np.int64)
+
+    def _cullable(self, frame, light, scale: float) -> np.ndarray:
+        """Int32 (max(T, 1),): per caster triangle 0, or the orientation of its mesh (+1: outward,
+        −1: inward, from the sign of its volume) where the mesh is closed and consistently
+        oriented (:attr:`shadowlab.geometry.adjacency.EdgeTable.closed`) and every ray's end is
+        outside it (``cull=closed``): a directional light, or a point light outside the mesh's
+        bounding box grown by :data:`BAND` · ``scale`` (rays stop short of the light, and this
+        keeps their ends on the light's side of every face; a target-direct light's rays end on
+        its plane, which may cut the mesh: never). The traversal skips such triangles when they
+        face away from the light."""
+        out = []
+        for obj in frame.scene.objects:
+            if not obj.casts:
+                continue
+            flag = 0
+            if self.cull == "closed" and obj.edges.closed and light.type_name != "target_direct":
+                vertices = np.asarray(obj.vertices, np.float64)
+                outside = light.at_infinity
+                if not outside:
+                    grow = BAND * scale
+                    pos = np.asarray(light.position, np.float64)
+                    outside = bool(np.any(pos < vertices.min(axis=0) - grow) or np.any(pos > vertices.max(axis=0) + grow))
+                if outside:
+                    v = vertices[np.asarray(obj.faces)]
+                    volume = float(np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum())
+                    flag = 1 if volume > 0 else -1 if volume < 0 else 0
+            out.append(np.full(len(obj.faces), flag, np.int32))
+        flags = np.concatenate(out) if out else np.zeros(0, np.int32)
+        self.cullable_objects = int(sum(1 for f in out if len(f) and f[0] != 0))
+        return flags if len(flags) else np.zeros(1, np.int32)
 
     @staticmethod
     def _caster_triangles(frame) -> np.ndarray:
@@ -369,7 +422,7 @@ class PerTriangleVolume(Technique):
         sample_tests = int(self.counts[SAMPLE_TESTS])
         memory = (self.slot_count * SLOT_BYTES + self.node_count * NODE_BYTES + self.buffers["triangles"].size
                   + VOLUME_BYTES * self.triangle_count + 4 * COUNTER_SLOTS + PAIR_BYTES * sum(self.capacities))
-        return {"triangles": self.triangle_count, "tile_tests": sum(p["tests"] for p in per),
+        return {"triangles": self.triangle_count, "triangles_culled": int(self.counts[CULLED]), "tile_tests": sum(p["tests"] for p in per),
                 "tiles_accepted": accepted, "tiles_rejected": sum(p["rejected"] for p in per),
                 "tiles_descended": sum(p["descended"] for p in per), "sample_tests": sample_tests,
                 "sample_sets": int(self.counts[SAMPLE_HITS]), "pixel_ops": sample_tests + accepted,

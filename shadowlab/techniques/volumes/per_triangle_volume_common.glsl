@@ -12,13 +12,14 @@
 #define MAX_LEVELS 5                     // four levels of tiles and the depth clusters
 // Counter slots (uint each), per level l (0 = the leaves): node tests, accepted, rejected,
 // descended (= pairs appended to level l's list, counted even past its capacity); then the
-// leaves' sample tests and hits.
+// leaves' sample tests and hits, and the triangles culled.
 #define COUNTER_TESTS(l) (4 * (l))
 #define COUNTER_ACCEPTED(l) (4 * (l) + 1)
 #define COUNTER_REJECTED(l) (4 * (l) + 2)
 #define COUNTER_DESCENDED(l) (4 * (l) + 3)
 #define COUNTER_SAMPLE_TESTS (4 * MAX_LEVELS)
 #define COUNTER_SAMPLE_HITS (4 * MAX_LEVELS + 1)
+#define COUNTER_CULLED (4 * MAX_LEVELS + 2)   // triangles culled (facing away from the light on a closed mesh)
 
 // Sample slot s = tile · TILE² + (y % TILE) · TILE + x % TILE of pixel (x, y), tiles row by row.
 layout(std430, binding = 0) readonly buffer RayOrigins { vec4 ray_origin[]; };       // origin, tfar (NO_RAY: none)

@@ -1,7 +1,7 @@
 // Per-triangle shadow volumes, passes 2 and 3: each caster triangle's shadow volume — its three
 // edge planes through the light and its own plane (Sintorn, Olsson & Assarsson 2011) —
 // against the hierarchy of view-sample boxes, top down. With TOP, one invocation per triangle
-// builds the planes and tests every node of the top level; without, one invocation per
+// (not culled: culled()) builds the planes and tests every node of the top level; without, one invocation per
 // (triangle, node) pair of the level above (list_in) tests the node's children. Each test
 // rejects the node (its box is outside one plane by a margin: no segment from its samples can
 // meet the triangle), accepts it (inside all four by a margin that proves every sample's segment
@@ -39,6 +39,10 @@ uniform int u_level;                     // the level whose nodes this pass test
 uniform int u_pairs;                     // list_in's pairs (without TOP)
 uniform int u_capacity;                  // list_out's capacity, pairs
 layout(std430, binding = 11) buffer Volumes { vec4 volume[]; };  // per triangle: VOLUME_VEC4S, written by the TOP pass
+// Per triangle: 0, or the orientation (+1 outward, -1 inward) of the closed mesh it belongs to,
+// the light outside it: such a triangle facing away from the light may be culled.
+layout(std430, binding = 13) readonly buffer Cullable { int cullable[]; };
+#define CULL_COSINE 0.0009765625         // 2^-10: culled only when facing away by more than this cosine
 
 // A triangle's volume as built in double (volume_of) and kept in float32 for the tile tests.
 struct Volume {
@@ -196,6 +200,21 @@ int classify(vec3 lo, vec3 hi) {
 
 uint tests = 0u, accepted = 0u, rejected = 0u;
 
+// Does triangle tri face away from the light, on a closed mesh with the light outside? Every
+// segment that a closed, consistently oriented mesh blocks (the light outside it) leaves the
+// mesh through a triangle facing the light — with the watertight test too, whose edge functions
+// agree on shared edges — so the others may be skipped (module docstring). Nearly edge-on
+// triangles are kept.
+bool culled(int tri) {
+    int orientation = cullable[tri];
+    if (orientation == 0) return false;
+    dvec3 a = dvec3(triangle_vertex[3 * tri].xyz);
+    dvec3 n = cross(dvec3(triangle_vertex[3 * tri + 1].xyz) - a, dvec3(triangle_vertex[3 * tri + 2].xyz) - a)
+              * double(orientation);
+    dvec3 towards = u_light_kind == LIGHT_AT_POINT ? dvec3(u_light) - a : dvec3(u_light_dir);
+    return dot(n, towards) < -double(CULL_COSINE) * length(n) * length(towards);
+}
+
 // Test node n (level u_level) of triangle tri: accept, reject or append the pair.
 void visit(int tri, int n) {
     vec4 lo = node_box[2 * n];
@@ -218,6 +237,10 @@ void main() {
 #ifdef TOP
     if (index >= u_triangles) return;
     int tri = index;
+    if (culled(tri)) {
+        atomicAdd(counter[COUNTER_CULLED], 1u);
+        return;
+    }
     Volume vol = volume_of(tri);
     store_volume(tri, vol);
     set_volume(vol);

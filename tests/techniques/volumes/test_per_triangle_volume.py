@@ -57,11 +57,27 @@ def test_accepting_tiles_changes_no_pixel(lab):
     assert m.stats["sample_tests"] < base.stats["sample_tests"]  # the accepted tiles' samples are not tested
 
 
+@pytest.mark.parametrize("scene", ["box_on_plane", "sm_point_cube"])
+def test_culling_closed_meshes_changes_no_pixel(lab, scene):
+    """Closed casters (the light outside): the triangles facing away from it are skipped, and the
+    mask is equal bit for bit to the one from every triangle."""
+    every = lab.measure(scene, "per_triangle_volume:cull=none", SMALL)
+    culled = lab.measure(scene, "per_triangle_volume", SMALL)
+    np.testing.assert_array_equal(culled.visibility, every.visibility)
+    assert every.stats["triangles_culled"] == 0
+    assert culled.stats["triangles_culled"] > culled.stats["triangles"] // 4
+    assert culled.stats["pixel_ops"] < every.stats["pixel_ops"]
+
+
+def test_soups_are_not_culled(lab):
+    assert lab.measure("sv_soup", "per_triangle_volume", SMALL).stats["triangles_culled"] == 0
+
+
 @pytest.mark.slow  # ~5 s: four hierarchy shapes on two scenes
 @pytest.mark.parametrize("scene", ["sv_light_close", "sm_point_cube"])
 def test_the_hierarchy_changes_no_pixel(lab, scene):
     """Leaf size, levels and depth clusters only change the work, never the mask."""
-    base = lab.measure(scene, "per_triangle_volume:accept=false", SMALL)
+    base = lab.measure(scene, "per_triangle_volume:accept=false,cull=none", SMALL)
     for spec in ("per_triangle_volume", "per_triangle_volume:depth_clusters=0",
                  "per_triangle_volume:levels=1,tile=4", "per_triangle_volume:levels=4,tile=16,depth_clusters=8"):
         m = lab.measure(scene, spec, SMALL)
@@ -106,8 +122,9 @@ def test_a_full_pair_list_fails_loudly_when_asked(lab):
 
 
 def test_parameters():
-    t = from_spec("per_triangle_volume:tile=4,levels=2,depth_clusters=0,accept=false,capacity=100,on_overflow=fail")
+    t = from_spec("per_triangle_volume:tile=4,levels=2,depth_clusters=0,accept=false,cull=none,capacity=100,"
+                  "on_overflow=fail")
     assert from_spec(t.spec()).params() == t.params()
-    for bad in ("tile=5", "levels=0", "levels=5", "depth_clusters=9", "on_overflow=drop"):
+    for bad in ("tile=5", "levels=0", "levels=5", "depth_clusters=9", "cull=back", "on_overflow=drop"):
         with pytest.raises(TechniqueError):
             from_spec(f"per_triangle_volume:{bad}")

@@ -169,8 +169,8 @@ class PerTriangleVolume(Technique):
         "on_overflow": Param("retry", "a full pair list: retry with a list large enough, or fail",
                              choices=("retry", "fail")),
     }
-    STATS = {"triangles": FIRST, "triangles_culled": SUM, "tile_tests": SUM, "tiles_accepted": SUM, "tiles_rejected": SUM,
-             "tiles_descended": SUM, "sample_tests": SUM, "sample_sets": SUM, "pixel_ops": SUM,
+    STATS = {"triangles": FIRST, "triangles_culled": SUM, "tile_tests": SUM, "tiles_accepted": SUM,
+             "tiles_rejected": SUM, "tiles_descended": SUM, "sample_tests": SUM, "sample_sets": SUM, "pixel_ops": SUM,
              "volume_fragments": SUM, "list_retries": SUM, "nodes": FIRST, "memory_bytes": MAX}
 
     # -- setup ---------------------------------------------------------------------
@@ -298,7 +298,8 @@ class PerTriangleVolume(Technique):
                 if not outside:
                     grow = BAND * scale
                     pos = np.asarray(light.position, np.float64)
-                    outside = bool(np.any(pos < vertices.min(axis=0) - grow) or np.any(pos > vertices.max(axis=0) + grow))
+                    outside = bool(np.any(pos < vertices.min(axis=0) - grow)
+                                   or np.any(pos > vertices.max(axis=0) + grow))
                 if outside:
                     v = vertices[np.asarray(obj.faces)]
                     volume = float(np.einsum("ij,ij->i", v[:, 0], np.cross(v[:, 1], v[:, 2])).sum())
@@ -379,9 +380,9 @@ class PerTriangleVolume(Technique):
             if asked <= self.capacities[level]:
                 return asked
             if self.on_overflow == "fail" or attempt == MAX_RETRIES:
-                raise TechniqueError(f"{self.name}: the level-{level} list of {self.capacities[level]} (triangle, node) "
-                                     f"pairs overflowed ({asked} asked for); set capacity=0 or larger, or "
-                                     f"on_overflow=retry")
+                raise TechniqueError(f"{self.name}: the level-{level} list of {self.capacities[level]} "
+                                     f"(triangle, node) pairs overflowed ({asked} asked for); set capacity=0 or "
+                                     f"larger, or on_overflow=retry")
             self.notes.append(f"level-{level} list of {self.capacities[level]} pairs overflowed ({asked} asked "
                               f"for): retried with {asked}")
             self.retries += 1
@@ -408,7 +409,8 @@ class PerTriangleVolume(Technique):
     def level_counts_of(self) -> list[dict]:
         """Per level (0 = the leaves) the counters of the last render: node tests, accepted,
         rejected, descended."""
-        return [dict(zip(PER_LEVEL, map(int, self.counts[4 * level:4 * level + 4]))) for level in range(self.level_count)]
+        return [dict(zip(PER_LEVEL, map(int, self.counts[4 * level:4 * level + 4])))
+                for level in range(self.level_count)]
 
     def work(self, counted: dict, stats: dict) -> dict:
         """The leaves' segment tests, as rays tested (the per-sample work)."""
@@ -422,7 +424,8 @@ class PerTriangleVolume(Technique):
         sample_tests = int(self.counts[SAMPLE_TESTS])
         memory = (self.slot_count * SLOT_BYTES + self.node_count * NODE_BYTES + self.buffers["triangles"].size
                   + VOLUME_BYTES * self.triangle_count + 4 * COUNTER_SLOTS + PAIR_BYTES * sum(self.capacities))
-        return {"triangles": self.triangle_count, "triangles_culled": int(self.counts[CULLED]), "tile_tests": sum(p["tests"] for p in per),
+        return {"triangles": self.triangle_count, "triangles_culled": int(self.counts[CULLED]),
+                "tile_tests": sum(p["tests"] for p in per),
                 "tiles_accepted": accepted, "tiles_rejected": sum(p["rejected"] for p in per),
                 "tiles_descended": sum(p["descended"] for p in per), "sample_tests": sample_tests,
                 "sample_sets": int(self.counts[SAMPLE_HITS]), "pixel_ops": sample_tests + accepted,

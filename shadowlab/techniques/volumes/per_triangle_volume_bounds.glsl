@@ -3,10 +3,11 @@
 // samples into CLUSTERS depth clusters — logarithmic slices of the tile's own range of distances
 // from the eye, after the view-sample clusters of Sintorn et al. 2014 — and writes each
 // cluster's bounding box of the ray origins and lists its slots together in tile_order (in
-// whatever order the atomics give: the samples pass tests them all); it also clears the slots' hit bits and the leaves'
-// flags. Without LEAVES, one invocation per tile of level u_level (≥ 1) unites the boxes of its
-// child tiles (the clusters of a leaf tile, or 4 × 4 tiles of the level below: u_level_fanout). Min and max are taken exactly, by
-// atomics on order-preserving integer keys of the float32 coordinates.
+// whatever order the atomics give: the samples pass tests them all); it also clears the slots'
+// hit bits and the leaves' flags. Without LEAVES, one invocation per tile of level u_level (≥ 1)
+// unites the boxes of its child tiles (the clusters of a leaf tile, or 4 × 4 tiles of the level
+// below: u_level_fanout). Min and max are taken exactly, by atomics on order-preserving integer
+// keys of the float32 coordinates.
 #include "per_triangle_volume_common.glsl"
 
 #ifdef COMPUTE_SHADER

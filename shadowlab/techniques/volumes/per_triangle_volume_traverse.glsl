@@ -23,7 +23,8 @@
 layout(local_size_x = LOCAL_SIZE) in;
 #define LIGHT_AT_POINT 0                 // point and spot lights: rays end at T_LIGHT of the way to u_light
 #define LIGHT_AT_INFINITY 1              // directional: rays along u_light_dir, unbounded
-#define LIGHT_TARGET_DIRECT 2            // rays along u_light_dir, ending on the light's plane (u_light, its normal -u_light_dir)
+#define LIGHT_TARGET_DIRECT 2            // rays along u_light_dir, ending on the light's plane
+                                         // (through u_light, normal -u_light_dir)
 #define REJECT 0
 #define ACCEPT 1
 #define DESCEND 2
@@ -32,7 +33,8 @@ uniform vec3 u_light;                    // the light's position, float32 as the
 uniform vec3 u_light_dir;                // towards the light (the rays' direction) for lights at infinity
 uniform float u_scale;                   // an upper bound on every distance between two points of the scene
 uniform float u_theta;                   // the margin, a fraction of u_scale
-uniform float u_band;                    // planes within u_band · u_scale of the light (or nearly parallel to it) are not used
+uniform float u_band;                    // planes within u_band · u_scale of the light (or within cosine
+                                         // u_band of parallel to a light at infinity) are not used
 uniform int u_triangles;
 uniform int u_accept;                    // 0: no tile is accepted (every tile not rejected descends)
 uniform int u_level;                     // the level whose nodes this pass tests
@@ -72,7 +74,8 @@ dvec3 closest_on_triangle(dvec3 p, dvec3 a, dvec3 b, dvec3 c) {
     double vb = d5 * d2 - d1 * d6;
     if (vb <= 0.0lf && d2 >= 0.0lf && d6 <= 0.0lf) return a + ac * (d2 / (d2 - d6));
     double va = d3 * d6 - d5 * d4;
-    if (va <= 0.0lf && (d4 - d3) >= 0.0lf && (d5 - d6) >= 0.0lf) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    if (va <= 0.0lf && (d4 - d3) >= 0.0lf && (d5 - d6) >= 0.0lf)
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
     double denom = va + vb + vc;
     if (!(denom > 0.0lf)) return p;      // a degenerate triangle: distance 0, the safe lower bound
     double v = vb / denom, w = vc / denom;

@@ -159,3 +159,16 @@ def mat_bytes(m: np.ndarray) -> bytes:
     """A 4x4 row-major float64 matrix as the column-major float32 bytes GLSL's mat4 expects."""
     return np.ascontiguousarray(np.asarray(m, dtype=np.float64).T, dtype="f4").tobytes()
 
+
+#: Work groups GL guarantees in one dimension of a dispatch (GL 4.6 core, table 23.64): larger
+#: dispatches are split over y (the shaders' invocation index counts rows of x groups).
+MAX_GROUPS_X = 65535
+
+
+def dispatch(prog, invocations: int, local_size: int) -> None:
+    """Run compute ``prog`` (``local_size`` invocations per work group, in x) over at least
+    ``invocations`` invocations, as (x, y) groups within :data:`MAX_GROUPS_X`; the shader skips
+    the surplus. Shared by the compute techniques of several families."""
+    groups = max(1, -(-invocations // local_size))
+    rows = -(-groups // MAX_GROUPS_X)
+    prog.run(-(-groups // rows), rows)

@@ -73,9 +73,6 @@ NO_NODE = -1
 NO_RAY = -1.0
 #: Compute invocations per work group of the insert and test passes.
 LOCAL_SIZE = 64
-#: Work groups GL guarantees in one dimension of a dispatch (GL 4.6 core, table 23.64): larger
-#: dispatches are split over y (izb_common.glsl: INVOCATION_INDEX).
-MAX_GROUPS_X = 65535
 #: Texels each triangle's light-space bounding box is grown by: half a texel makes the box cover
 #: every texel centre the triangle's texels could hold; one more absorbs float32 rounding of the
 #: projection, so no covered texel is missed (extra texels only cost tests).
@@ -96,14 +93,6 @@ MAX_RETRIES = 2
 RAY_BYTES, NODE_BYTES, TEXEL_BYTES, PAIR_BYTES = 36, 8, 4, 8
 #: The most sub-pixel samples: one bit each in a 32-bit word per pixel.
 MAX_SAMPLES = 32
-
-
-def dispatch(prog, invocations: int) -> None:
-    """Run compute ``prog`` over at least ``invocations`` invocations of :data:`LOCAL_SIZE` each
-    group, as (x, y) groups within :data:`MAX_GROUPS_X`; the shader skips the surplus."""
-    groups = max(1, -(-invocations // LOCAL_SIZE))
-    rows = -(-groups // MAX_GROUPS_X)
-    prog.run(-(-groups // rows), rows)
 
 
 class IrregularZBuffer(Technique):
@@ -282,7 +271,7 @@ class IrregularZBuffer(Technique):
             b["heads"].write(self.empty_heads)
             b["blocked"].clear()
             b["counters"].clear()
-            dispatch(self.insert_prog, self.ray_count)
+            programs.dispatch(self.insert_prog, self.ray_count, LOCAL_SIZE)
             ctx.memory_barrier()
         with self.timed_pass("raster"):
             self.target.use()
@@ -301,7 +290,7 @@ class IrregularZBuffer(Technique):
             pairs = min(asked, self.pair_capacity)
             if asked <= self.pair_capacity and pairs:  # an overflowing list is rendered again first
                 self.test_prog["u_pairs"].value = pairs
-                dispatch(self.test_prog, pairs)
+                programs.dispatch(self.test_prog, pairs, LOCAL_SIZE)
                 ctx.memory_barrier()
             self.counts = dict(zip(COUNTERS, np.frombuffer(b["counters"].read(), np.uint32).tolist()))
 

@@ -41,8 +41,12 @@ that the camera sees. Lloyd et al. save that fill in two ways, per light and per
   plane, turned round; for two-sided casters also the others as stored). Far caps are drawn
   for z-pass as well as z-fail: a finite volume's far end can lie between the camera and a
   receiver. Every visible point of the infinite volume lies in front of that plane, so each
-  visible point's count, and the mask, stays the plain volume's. Clamping by discrete depth
-  intervals (Lloyd et al.'s "discrete clamping", several slabs per volume) is not done.
+  visible point's count, and the mask, stays the plain volume's. A far cap is fill of its own:
+  where it would cover more of the view than the sides it cuts off (compared as solid angles
+  seen from the eye: a caster with nothing behind it, a wall of a room), the caster keeps its
+  infinite volume (``clamps_declined``) — an estimate that only chooses between two exact
+  geometries. Clamping by discrete depth intervals (Lloyd et al.'s "discrete clamping", several
+  slabs per volume) is not done.
 
 Exactness. The counts are decided by the depth buffer's points, not by the G-buffer's float32
 positions the map holds, so every test runs with margins: boxes grow by g = 16·d²/n·2⁻²⁴ +
@@ -73,11 +77,13 @@ import numpy as np
 from ...geometry import adjacency as adj
 from ...geometry import transforms as tf
 from ...gpu import programs
-from ..base import FIRST, MAX, SUM, Param, PlotStyle, TechniqueError, TuneRange
+from ..base import FIRST, MAX, SUM, Param, PlotStyle, TuneRange
 from .shadow_volume import ShadowVolume, _flagged, _triangle_indices, near_plane_quad
 
 #: Invocations per side of a receiver-map work group (LOCAL_SIZE in cc_volume_receivers.glsl).
 LOCAL_SIZE = 8
+#: Pixels per side of the block one receiver-map invocation takes (BLOCK in the shader).
+BLOCK = 4
 #: Header slots of the receiver-map pass (HEADER_* in cc_volume_receivers.glsl).
 HEADER_EYE_DISTANCE, HEADER_POINTS, HEADER_UNMAPPED = 0, 1, 2
 HEADER_WORDS = 4
@@ -102,7 +108,8 @@ class CCVolume(ShadowVolume):
     PARAMS = {
         "cull": Param(True, "cull casters whose volume misses the view frustum or holds no point of the receiver map"),
         "clamp": Param(True, "clamp each kept volume at the deepest visible receiver in its footprint, closed by a "
-                             "far cap (else: extruded to infinity as shadow_volume)"),
+                             "far cap, where the cap costs less than the sides it cuts (else: extruded to infinity "
+                             "as shadow_volume)"),
         "grid": Param(256, "receiver-map texels per side (one orthographic face, or six cube faces for a light at a "
                            "position)", min=1, max=4096,
                       tune=TuneRange(16, 1024, log=True)),  # coarse maps cull less; fine maps cost read-back
@@ -116,8 +123,8 @@ class CCVolume(ShadowVolume):
     READS = frozenset({"position"})  # the receiver-map pass reads the G-buffer's points
     STYLE = PlotStyle("#ff9896", "s")
     STATS = {**ShadowVolume.STATS, "casters_culled": SUM, "frustum_culled": SUM, "receiver_culled": SUM,
-             "casters_kept": SUM, "casters_clamped": SUM, "clamps_declined": SUM, "unbounded_casters": SUM, "culled_triangles": SUM,
-             "pixel_ops": SUM, "receiver_map_bytes": MAX, "receiver_map_texels": FIRST,
+             "casters_kept": SUM, "casters_clamped": SUM, "clamps_declined": SUM, "unbounded_casters": SUM,
+             "culled_triangles": SUM, "pixel_ops": SUM, "receiver_map_bytes": MAX, "receiver_map_texels": FIRST,
              "receiver_map_filled": SUM}
 
     # ------------------------------------------------------------------ setup
@@ -134,11 +141,12 @@ class CCVolume(ShadowVolume):
         self._kept_plans = list(self.plans)
         self._clamp: dict[int, tuple] = {}
         self._counts = {"frustum": 0, "receivers": 0, "unbounded": 0}
+        self._declined = 0
         self.map_filled = 0
         if not self.needs_map:
             return
         ctx = frame.ctx
-        self.map_prog = self.program("cc_volume_receivers.glsl", defines={"LOCAL_SIZE": LOCAL_SIZE})
+        self.map_prog = self.program("cc_volume_receivers.glsl", defines={"LOCAL_SIZE": LOCAL_SIZE, "BLOCK": BLOCK})
         uniforms = {"u_size": (frame.width, frame.height), "u_grid": self.grid, "u_cube": self.cube,
                     "u_eye": tuple(map(float, frame.camera.eye))}
         if self.cube:
@@ -185,7 +193,8 @@ class CCVolume(ShadowVolume):
         self.header_buf.bind_to_storage_buffer(0)
         self.map_buf.bind_to_storage_buffer(1)
         self.bind_gbuffer(self.map_prog)
-        self.map_prog.run(-(-self.frame.width // LOCAL_SIZE), -(-self.frame.height // LOCAL_SIZE))
+        span = LOCAL_SIZE * BLOCK
+        self.map_prog.run(-(-self.frame.width // span), -(-self.frame.height // span))
         ctx.memory_barrier()
         header = np.frombuffer(self.header_buf.read(), np.uint32)
         words = np.frombuffer(self.map_buf.read(), np.uint32)
@@ -225,70 +234,75 @@ class CCVolume(ShadowVolume):
         if self.cull:
             keep = volumes_may_meet_frustum(boxes, frustum_corners(self.frame), self.light)
             self._counts["frustum"] = int(np.sum(~keep))
+        deepest, nearest, farthest, inside = self._footprints(boxes, keep)
         kept = []
         for i, p in enumerate(plans):
             if not keep[i]:
                 continue
-            deepest, nearest, farthest = self._footprint(boxes[i])
-            if nearest is None:  # the light inside the grown box: the volume is everywhere
+            if inside[i]:  # the light inside the grown box: the volume is everywhere
                 self._counts["unbounded"] += 1
                 kept.append(p)
                 continue
-            if self.cull and not deepest >= nearest:
+            if self.cull and not deepest[i] >= nearest[i]:
                 self._counts["receivers"] += 1
                 continue
             kept.append(p)
             if self.clamp:
-                plane = self._clamp_plane(boxes[i], max(deepest + g, farthest) + g)
+                plane = self._clamp_plane(boxes[i], max(deepest[i] + g, farthest[i]) + g)
                 if plane is None:
                     self._counts["unbounded"] += 1
                 else:
                     self._clamp[p.index] = plane
         self._kept_plans = kept
 
-    def _footprint(self, box: np.ndarray) -> tuple:
-        """(deepest key in the texels the box's volume can reach — −inf if none —, the box's
-        nearest key, its farthest corner key); nearest is None for a point light inside the box."""
-        corners = _corners(box[None])[0]
+    def _footprints(self, boxes: np.ndarray, wanted: np.ndarray) -> tuple:
+        """Per box (K, 2, 3) — only where ``wanted`` — the deepest key in the texels its volume
+        can reach (−inf if none), its nearest key, its farthest corner's key, and whether a point
+        light lies inside it (then nothing bounds its volume)."""
+        K = len(boxes)
+        deepest = np.full(K, -np.inf)
+        corners = _corners(boxes)  # (K, 8, 3)
         if not self.cube:
-            proj = corners @ self.axes.T
-            lo, hi = proj.min(axis=0), proj.max(axis=0)
-            x0, x1 = self._texels(lo[0], hi[0], self.origin[0], self.texels_per_unit[0])
-            y0, y1 = self._texels(lo[1], hi[1], self.origin[1], self.texels_per_unit[1])
-            deepest = float(self.map[0, y0:y1 + 1, x0:x1 + 1].max())
-            return deepest, lo[2] - self.origin[2], hi[2] - self.origin[2]
+            proj = corners @ self.axes.T  # (K, 8, 3): u, v, depth
+            lo, hi = proj.min(axis=1), proj.max(axis=1)
+            x0, x1 = self._texels(lo[:, 0], hi[:, 0], self.origin[0], self.texels_per_unit[0])
+            y0, y1 = self._texels(lo[:, 1], hi[:, 1], self.origin[1], self.texels_per_unit[1])
+            face = self.map[0]
+            for i in np.flatnonzero(wanted):
+                deepest[i] = face[y0[i]:y1[i] + 1, x0[i]:x1[i] + 1].max()
+            return deepest, lo[:, 2] - self.origin[2], hi[:, 2] - self.origin[2], np.zeros(K, bool)
         L = self.light_position
-        if np.all(box[0] <= L) and np.all(L <= box[1]):
-            return -np.inf, None, None
-        nearest = float(np.linalg.norm(np.clip(L, box[0], box[1]) - L))
-        farthest = float(np.linalg.norm(corners - L, axis=1).max())
+        inside = np.all((boxes[:, 0] <= L) & (L <= boxes[:, 1]), axis=1)
+        nearest = np.linalg.norm(np.clip(L, boxes[:, 0], boxes[:, 1]) - L, axis=1)
         rel = corners - L
-        deepest = -np.inf
+        farthest = np.linalg.norm(rel, axis=2).max(axis=1)
+        whole = self.map.max(axis=(1, 2))
         half = self.grid / 2.0
-        for face in range(6):
-            k, sign = face // 2, (1.0 if face % 2 == 0 else -1.0)
-            z = sign * rel[:, k]
-            if z.max() <= 0.0:
-                continue  # the box is behind this face's plane: its rays never enter the face
-            if z.min() > 0.0:
-                others = [a for a in range(3) if a != k]
-                uv = rel[:, others] / z[:, None]
-                lo, hi = uv.min(axis=0), uv.max(axis=0)
-                x0, x1 = self._texels(lo[0], hi[0], -1.0, half)
-                y0, y1 = self._texels(lo[1], hi[1], -1.0, half)
-                if lo[0] > 1.0 or hi[0] < -1.0 or lo[1] > 1.0 or hi[1] < -1.0:
-                    continue
-            else:  # straddles the face's plane: its projection is unbounded, take the whole face
-                x0, x1, y0, y1 = 0, self.grid - 1, 0, self.grid - 1
-            deepest = max(deepest, float(self.map[face, y0:y1 + 1, x0:x1 + 1].max()))
-        return deepest, nearest, farthest
+        for f in range(6):
+            k, sign = f // 2, (1.0 if f % 2 == 0 else -1.0)
+            z = sign * rel[:, :, k]  # (K, 8)
+            reaches = wanted & ~inside & (z.max(axis=1) > 0.0)  # else behind the face's plane
+            front = reaches & (z.min(axis=1) > 0.0)  # else it straddles the plane: the whole face
+            others = [a for a in range(3) if a != k]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                uv = rel[:, :, others] / z[:, :, None]
+            lo, hi = uv.min(axis=1), uv.max(axis=1)
+            x0, x1 = self._texels(lo[:, 0], hi[:, 0], -1.0, half)
+            y0, y1 = self._texels(lo[:, 1], hi[:, 1], -1.0, half)
+            off = (lo[:, 0] > 1.0) | (hi[:, 0] < -1.0) | (lo[:, 1] > 1.0) | (hi[:, 1] < -1.0)
+            for i in np.flatnonzero(front & ~off):
+                deepest[i] = max(deepest[i], self.map[f, y0[i]:y1[i] + 1, x0[i]:x1[i] + 1].max())
+            straddle = reaches & ~front
+            deepest[straddle] = np.maximum(deepest[straddle], whole[f])
+        return deepest, nearest, farthest, inside
 
-    def _texels(self, lo: float, hi: float, origin: float, per_unit: float) -> tuple[int, int]:
-        """The texel range [a, b] (clamped to the grid, as the map pass clamps its points) that
-        the coordinate interval [lo, hi] overlaps, with :data:`TEXEL_SLACK`."""
-        a = int(np.clip(np.floor((lo - origin) * per_unit - TEXEL_SLACK), 0, self.grid - 1))
-        b = int(np.clip(np.floor((hi - origin) * per_unit + TEXEL_SLACK), 0, self.grid - 1))
-        return a, b
+    def _texels(self, lo: np.ndarray, hi: np.ndarray, origin: float, per_unit: float) -> tuple:
+        """The texel ranges [a, b] (int arrays, clamped to the grid, as the map pass clamps its
+        points) that the coordinate intervals [lo, hi] overlap, with :data:`TEXEL_SLACK`."""
+        with np.errstate(invalid="ignore"):
+            a = np.clip(np.floor((lo - origin) * per_unit - TEXEL_SLACK), 0, self.grid - 1)
+            b = np.clip(np.floor((hi - origin) * per_unit + TEXEL_SLACK), 0, self.grid - 1)
+        return np.nan_to_num(a).astype(np.int64), np.nan_to_num(b, nan=self.grid - 1).astype(np.int64)
 
     def _clamp_plane(self, box: np.ndarray, level: float):
         """The far plane of a clamped volume as (point on it, unit normal pointing away from the
@@ -324,44 +338,50 @@ class CCVolume(ShadowVolume):
         """Per counting method of the kept casters (``zfail`` flag → arrays), as the plain
         volume's: volume vertices (sides, and the finite far caps of clamped casters, flagged
         as surface points), near-cap, flipped-cap and infinite far-cap triangle indices."""
-        out = {}
+        # Silhouettes of every kept caster, and the clamped vertices of the clamped ones.
+        shapes = []
+        for p in self._kept_plans:
+            t = p.table
+            lit = adj.facing(t, self.light)
+            sil = adj.silhouette_edges(t, lit, p.two_sided)
+            faces_lit = np.flatnonzero(lit)
+            faces_dark = np.flatnonzero(~lit) if p.two_sided else np.zeros(0, np.int64)
+            plane = self._clamp.get(p.index)
+            world = cap = None
+            if plane is not None:
+                # Each welded vertex clamped once: shared edges stay watertight.
+                world = self._clamped(t.vertices, plane)
+                cap = np.concatenate([t.faces[faces_lit][:, [0, 2, 1]], t.faces[faces_dark]])
+            shapes.append((p, sil, faces_lit, faces_dark, world, cap))
+        pays = self._clamps_pay([s for s in shapes if s[4] is not None])
         self._declined = 0
+        out = {}
         for zfail in [z for z in (False, True) if any(p.zfail == z for p in self._kept_plans)]:
             verts, caps, flipped, far = [], [], [], []
-            for p in self._kept_plans:
+            for p, sil, faces_lit, faces_dark, world, cap in shapes:
                 if p.zfail != zfail:
                     continue
                 t = p.table
-                lit = adj.facing(t, self.light)
-                sil = adj.silhouette_edges(t, lit, p.two_sided)
-                faces_lit = np.flatnonzero(lit)
-                faces_dark = np.flatnonzero(~lit) if p.two_sided else np.zeros(0, np.int64)
                 a, b = _flagged(t.vertices[sil[:, 0]], 0.0), _flagged(t.vertices[sil[:, 1]], 0.0)
-                plane = self._clamp.get(p.index)
-                if plane is None:
+                if world is not None and not pays[p.index]:
+                    # The far cap would cost more than the sides it cuts: extruded to infinity.
+                    del self._clamp[p.index]
+                    self._declined += 1
+                    world = None
+                if world is None:
                     ae, be = a.copy(), b.copy()
                     ae[:, 3] = be[:, 3] = 1.0
                 else:
-                    # Each welded vertex clamped once: shared edges stay watertight.
-                    world = self._clamped(t.vertices, plane)
-                    cap = np.concatenate([t.faces[faces_lit][:, [0, 2, 1]], t.faces[faces_dark]])
-                    if self._clamp_pays(world, t.vertices, sil, cap):
-                        pushed = _flagged(world, 0.0)
-                        ae, be = pushed[sil[:, 0]], pushed[sil[:, 1]]
-                    else:  # the far cap would cost more than the sides it cuts: extruded to infinity
-                        del self._clamp[p.index]
-                        self._declined += 1
-                        plane = None
-                        ae, be = a.copy(), b.copy()
-                        ae[:, 3] = be[:, 3] = 1.0
+                    pushed = _flagged(world, 0.0)
+                    ae, be = pushed[sil[:, 0]], pushed[sil[:, 1]]
                 # Triangles (b, a, a') and (b, a', b'): the plain volume's order.
                 verts.append(np.stack([b, a, ae, b, ae, be], axis=1).reshape(-1, 4))
-                if plane is not None:  # the far cap: light-facing faces turned round, others as stored
+                if world is not None:  # the far cap: light-facing faces turned round, others as stored
                     verts.append(pushed[cap.ravel()])
                 if zfail:
                     caps.append(faces_lit + p.first_triangle)
                     flipped.append(faces_dark + p.first_triangle)
-                    if plane is None and not self.light.at_infinity:
+                    if world is None and not self.light.at_infinity:
                         far.append(_triangle_indices(faces_lit + p.first_triangle, (0, 2, 1)))
                         far.append(_triangle_indices(faces_dark + p.first_triangle))
             volume = np.concatenate(verts) if verts else np.zeros((0, 4), "f4")
@@ -371,22 +391,36 @@ class CCVolume(ShadowVolume):
             out[zfail] = (volume, cap_idx, flip_idx, far_idx)
         return out
 
-    def _clamp_pays(self, pushed: np.ndarray, vertices: np.ndarray, sil: np.ndarray, cap: np.ndarray) -> bool:
-        """Whether clamping one caster should save fill: the solid angle, seen from the eye, of
-        the side quads it cuts off (from the clamped vertices to infinity, both layers counted)
-        exceeds that of the far cap it adds. An estimate (solid angle, not clipped to the
-        viewport) that decides only which exact geometry is drawn, never a pixel's count."""
+    def _clamps_pay(self, shapes: list) -> dict:
+        """Plan index → whether clamping that caster should save fill: the solid angle, seen
+        from the eye, of the side quads it cuts off (from the clamped vertices to infinity, both
+        layers counted) exceeds that of the far cap it adds. An estimate (solid angles, not
+        clipped to the viewport) that only chooses between two exact geometries, never a count."""
+        if not shapes:
+            return {}
         eye = np.asarray(self.frame.camera.eye, np.float64)
-        a, b = pushed[sil[:, 0]] - eye, pushed[sil[:, 1]] - eye
+        side_owner, a, b, da, db, cap_owner, cap_pts = [], [], [], [], [], [], []
+        for n, (p, sil, _, _, world, cap) in enumerate(shapes):
+            t = p.table
+            side_owner.append(np.full(len(sil), n))
+            a.append(world[sil[:, 0]] - eye)
+            b.append(world[sil[:, 1]] - eye)
+            if not self.light.at_infinity:
+                da.append(t.vertices[sil[:, 0]] - self.light_position)
+                db.append(t.vertices[sil[:, 1]] - self.light_position)
+            cap_owner.append(np.full(len(cap), n))
+            cap_pts.append(world[cap] - eye)  # (F, 3, 3)
+        a, b = np.concatenate(a), np.concatenate(b)
         if self.light.at_infinity:
             da = db = np.broadcast_to(np.asarray(self.light.direction, np.float64), a.shape)
         else:
-            da = vertices[sil[:, 0]] - self.light_position
-            db = vertices[sil[:, 1]] - self.light_position
-        cut = np.abs(_solid_angles(a, b, db)).sum() + np.abs(_solid_angles(a, db, da)).sum()
-        c = pushed[cap] - eye  # (F, 3, 3)
-        added = np.abs(_solid_angles(c[:, 0], c[:, 1], c[:, 2])).sum()
-        return bool(cut > added)
+            da, db = np.concatenate(da), np.concatenate(db)
+        cut = np.abs(_solid_angles(a, b, db)) + np.abs(_solid_angles(a, db, da))
+        c = np.concatenate(cap_pts)
+        added = np.abs(_solid_angles(c[:, 0], c[:, 1], c[:, 2]))
+        cut = np.bincount(np.concatenate(side_owner), weights=cut, minlength=len(shapes))
+        added = np.bincount(np.concatenate(cap_owner), weights=added, minlength=len(shapes))
+        return {s[0].index: bool(cut[n] > added[n]) for n, s in enumerate(shapes)}
 
     # ------------------------------------------------------------------ figures
     def work(self, counted: dict, stats: dict) -> dict:
@@ -417,7 +451,7 @@ class CCVolume(ShadowVolume):
             "receiver_culled": self._counts["receivers"],
             "casters_kept": len(self._kept_plans),
             "casters_clamped": len(self._clamp),
-            "clamps_declined": getattr(self, "_declined", 0),
+            "clamps_declined": self._declined,
             "unbounded_casters": self._counts["unbounded"],
             "culled_triangles": sum(len(objs[p.index].faces) for p in culled),
             "pixel_ops": out["volume_fragments"],
@@ -431,9 +465,14 @@ class CCVolume(ShadowVolume):
 def _solid_angles(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Signed solid angles (N,) of the triangles of directions a, b, c (N, 3), any lengths (Van
     Oosterom & Strackee 1983)."""
-    a, b, c = (x / np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-300) for x in (a, b, c))
-    det = np.einsum("ij,ij->i", a, np.cross(b, c))
-    den = 1.0 + np.einsum("ij,ij->i", a, b) + np.einsum("ij,ij->i", b, c) + np.einsum("ij,ij->i", c, a)
+    def unit(x):
+        return x / np.maximum(np.sqrt((x * x).sum(axis=1)), 1e-300)[:, None]
+
+    a, b, c = unit(a), unit(b), unit(c)
+    bc = np.stack([b[:, 1] * c[:, 2] - b[:, 2] * c[:, 1], b[:, 2] * c[:, 0] - b[:, 0] * c[:, 2],
+                   b[:, 0] * c[:, 1] - b[:, 1] * c[:, 0]], axis=1)
+    det = (a * bc).sum(axis=1)
+    den = 1.0 + (a * b).sum(axis=1) + (b * c).sum(axis=1) + (c * a).sum(axis=1)
     return 2.0 * np.arctan2(det, den)
 
 

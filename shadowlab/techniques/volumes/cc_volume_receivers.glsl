@@ -12,6 +12,9 @@
 #ifndef LOCAL_SIZE
 #error "LOCAL_SIZE: invocations per work group side (shadowlab.techniques.volumes.cc_volume)"
 #endif
+#ifndef BLOCK
+#error "BLOCK: pixels per invocation side (shadowlab.techniques.volumes.cc_volume)"
+#endif
 layout(local_size_x = LOCAL_SIZE, local_size_y = LOCAL_SIZE) in;
 
 #define HEADER_EYE_DISTANCE 0          // float bits of the largest eye distance (non-negative: uint order)
@@ -38,17 +41,10 @@ uint encode(float key) {
     return floatBitsToUint(max(key, 0.0)) + 1u;
 }
 
-void main() {
-    ivec2 px = ivec2(gl_GlobalInvocationID.xy);
-    if (px.x >= u_size.x || px.y >= u_size.y) return;
-    vec4 p4 = texelFetch(u_position, px, 0);
-    if (p4.w == 0.0) return;
-    vec3 p = p4.xyz;
-    atomicMax(header[HEADER_EYE_DISTANCE], floatBitsToUint(distance(p, u_eye)));
-    atomicAdd(header[HEADER_POINTS], 1u);
+// The texel (index into texel_key) and key of one covered point; false for a point in no face.
+bool texel_of(vec3 p, out int index, out float key) {
     int face = 0;
     vec2 uv;
-    float key;
     if (u_cube) {
         // Face 2k (+axis k) or 2k + 1 (−axis k) of the major axis k; its coordinates are the other
         // two axes in increasing order, divided by the distance along axis k (in [−1, 1]).
@@ -62,10 +58,7 @@ void main() {
         } else {
             face = v.z > 0.0 ? 4 : 5; z = a.z; uv = v.xy;
         }
-        if (!(z > 0.0)) {
-            atomicAdd(header[HEADER_UNMAPPED], 1u);
-            return;
-        }
+        if (!(z > 0.0)) return false;
         uv = (uv / z * 0.5 + 0.5) * float(u_grid);
         key = length(v);
     } else {
@@ -75,6 +68,48 @@ void main() {
     // Points outside the grid (float rounding at the scene's bounds) go to the border texel;
     // the casters' texel ranges are clamped the same way, so nothing is lost.
     ivec2 t = clamp(ivec2(floor(uv)), ivec2(0), ivec2(u_grid - 1));
-    atomicMax(texel_key[(face * u_grid + t.y) * u_grid + t.x], encode(key));
+    index = (face * u_grid + t.y) * u_grid + t.x;
+    return true;
+}
+
+// Each invocation takes a BLOCK x BLOCK block of pixels and keeps the largest key of the run of
+// points that fall in one texel, writing it with one atomicMax when the texel changes (or at the
+// end): neighbouring pixels mostly share a texel, so this spares most of the atomics (which a
+// software rasteriser serialises), and every point's key still reaches its texel.
+void main() {
+    ivec2 base = ivec2(gl_GlobalInvocationID.xy) * BLOCK;
+    float farthest = 0.0;
+    uint points = 0u, unmapped = 0u;
+    int run = -1;
+    float best = 0.0;
+    for (int j = 0; j < BLOCK; ++j) {
+        for (int i = 0; i < BLOCK; ++i) {
+            ivec2 px = base + ivec2(i, j);
+            if (px.x >= u_size.x || px.y >= u_size.y) continue;
+            vec4 p4 = texelFetch(u_position, px, 0);
+            if (p4.w == 0.0) continue;
+            farthest = max(farthest, distance(p4.xyz, u_eye));
+            points += 1u;
+            int index;
+            float key;
+            if (!texel_of(p4.xyz, index, key)) {
+                unmapped += 1u;
+                continue;
+            }
+            if (index != run) {
+                if (run >= 0) atomicMax(texel_key[run], encode(best));
+                run = index;
+                best = key;
+            } else {
+                best = max(best, key);
+            }
+        }
+    }
+    if (run >= 0) atomicMax(texel_key[run], encode(best));
+    if (points > 0u) {
+        atomicMax(header[HEADER_EYE_DISTANCE], floatBitsToUint(farthest));
+        atomicAdd(header[HEADER_POINTS], points);
+    }
+    if (unmapped > 0u) atomicAdd(header[HEADER_UNMAPPED], unmapped);
 }
 #endif

@@ -5,7 +5,7 @@ The plain stencil volume (:mod:`shadowlab.techniques.volumes.shadow_volume`) ras
 caster's volume out to infinity, although the stencil only matters where a volume holds a point
 that the camera sees. Lloyd et al. save that fill in two ways, per light and per frame:
 
-- **Culling** (their §4): a caster whose volume holds no visible receiver changes no count that
+- **Culling**: a caster whose volume holds no visible receiver changes no count that
   is read, so its volume is not drawn. Two tests, both conservative, in this order:
 
   * *view frustum*: the caster's bounding box swept away from the light (a convex body: the
@@ -31,7 +31,7 @@ that the camera sees. Lloyd et al. save that fill in two ways, per light and per
   shadow lost), and an exact version needs conservative rasterisation, which the lab's GL does
   not have. The receiver cull already drops the casters whose volumes hold nothing visible.
 
-- **Clamping** (their §5, "continuous clamping" by receiver bounds): each kept caster's volume
+- **Clamping** (their "continuous clamping", by receiver bounds): each kept caster's volume
   is cut at the deepest visible receiver it can reach — D, the largest key in the texels of its
   footprint, plus margins — instead of running to infinity: silhouette vertices are pushed to
   the plane at depth D (light at infinity: the plane across the light's direction; light at a
@@ -104,7 +104,7 @@ class CCVolume(ShadowVolume):
 
     name = "cc_volume"
     summary = ("CC shadow volumes (Lloyd et al. 2004): volumes culled where they hold no visible receiver and "
-               "clamped to the receivers' depth, same masks as shadow_volume")
+               "clamped to the receivers' depth; shadow_volume's masks up to depth ties")
     PARAMS = {
         "cull": Param(True, "cull casters whose volume misses the view frustum or holds no point of the receiver map"),
         "clamp": Param(True, "clamp each kept volume at the deepest visible receiver in its footprint, closed by a "

@@ -212,8 +212,8 @@ class CCVolume(ShadowVolume):
 
     def _decide(self) -> None:
         """Which casters are kept (``self._kept_plans``) and the clamping of each clamped one
-        (``self._clamp``: plan index → ('plane', point, unit normal) for the far plane), with
-        counts of what was culled and what could not be bounded."""
+        (``self._clamp``: plan index → (a point of its far plane, the plane's unit normal away
+        from the light)), with counts of what was culled and what could not be bounded."""
         plans = self.plans
         self._counts = {"frustum": 0, "receivers": 0, "unbounded": 0}
         self._clamp = {}
@@ -394,32 +394,37 @@ class CCVolume(ShadowVolume):
     def _clamps_pay(self, shapes: list) -> dict:
         """Plan index → whether clamping that caster should save fill: the solid angle, seen
         from the eye, of the side quads it cuts off (from the clamped vertices to infinity, both
-        layers counted) exceeds that of the far cap it adds. An estimate (solid angles, not
-        clipped to the viewport) that only chooses between two exact geometries, never a count."""
+        layers counted) exceeds that of the far cap it adds. The cap's is the signed sum over its
+        boundary — the clamped silhouette edges, each with a fixed point of the cap, since the
+        cap's triangles are bounded by the silhouette with its multiplicities — so it costs what
+        the sides cost, not a pass over every cap triangle. An estimate (solid angles, not
+        clipped to the viewport; overlapping cap layers counted once) that only chooses between
+        two exact geometries, never a count."""
         if not shapes:
             return {}
         eye = np.asarray(self.frame.camera.eye, np.float64)
-        side_owner, a, b, da, db, cap_owner, cap_pts = [], [], [], [], [], [], []
-        for n, (p, sil, _, _, world, cap) in enumerate(shapes):
+        owner, a, b, da, db, apex = [], [], [], [], [], []
+        for n, (p, sil, _, _, world, _) in enumerate(shapes):
             t = p.table
-            side_owner.append(np.full(len(sil), n))
+            owner.append(np.full(len(sil), n))
             a.append(world[sil[:, 0]] - eye)
             b.append(world[sil[:, 1]] - eye)
+            if len(sil):
+                apex.append(np.broadcast_to(a[-1].mean(axis=0), a[-1].shape))
             if not self.light.at_infinity:
                 da.append(t.vertices[sil[:, 0]] - self.light_position)
                 db.append(t.vertices[sil[:, 1]] - self.light_position)
-            cap_owner.append(np.full(len(cap), n))
-            cap_pts.append(world[cap] - eye)  # (F, 3, 3)
-        a, b = np.concatenate(a), np.concatenate(b)
+        owner = np.concatenate(owner)
+        if not len(owner):
+            return {s[0].index: False for s in shapes}
+        a, b, apex = np.concatenate(a), np.concatenate(b), np.concatenate(apex)
         if self.light.at_infinity:
             da = db = np.broadcast_to(np.asarray(self.light.direction, np.float64), a.shape)
         else:
             da, db = np.concatenate(da), np.concatenate(db)
         cut = np.abs(_solid_angles(a, b, db)) + np.abs(_solid_angles(a, db, da))
-        c = np.concatenate(cap_pts)
-        added = np.abs(_solid_angles(c[:, 0], c[:, 1], c[:, 2]))
-        cut = np.bincount(np.concatenate(side_owner), weights=cut, minlength=len(shapes))
-        added = np.bincount(np.concatenate(cap_owner), weights=added, minlength=len(shapes))
+        cut = np.bincount(owner, weights=cut, minlength=len(shapes))
+        added = np.abs(np.bincount(owner, weights=_solid_angles(apex, a, b), minlength=len(shapes)))
         return {s[0].index: bool(cut[n] > added[n]) for n, s in enumerate(shapes)}
 
     # ------------------------------------------------------------------ figures

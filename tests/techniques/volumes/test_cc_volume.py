@@ -116,6 +116,20 @@ def test_fill_on_the_colonnade(lab):
     assert s["casters_kept"] + s["casters_culled"] == 145
 
 
+def test_toggles_off_give_the_plain_volume(lab):
+    """With culling and clamping off the volumes are the plain volume's, fragment for fragment
+    and pixel for pixel (sun_scene: every caster clamped when both are on)."""
+    frame = lab.frame("sun_scene", MEDIUM)
+    on = lab.measure("sun_scene", "cc_volume", MEDIUM).stats
+    off = lab.measure("sun_scene", "cc_volume:cull=false,clamp=false", MEDIUM)
+    plain = lab.measure("sun_scene", "shadow_volume", MEDIUM)
+    assert on["casters_clamped"] == 6 and on["volume_fragments"] < plain.stats["volume_fragments"]
+    assert off.stats["casters_clamped"] == off.stats["casters_culled"] == off.stats["receiver_map_texels"] == 0
+    assert off.stats["volume_fragments"] == plain.stats["volume_fragments"]
+    assert np.array_equal(off.visibility[frame.covered], plain.visibility[frame.covered])
+
+
+@pytest.mark.slow  # five configurations on the colonnade (~1.7 s)
 def test_toggles(lab):
     """cull=false keeps every caster; clamp=false clamps none; with both off the volumes are the
     plain volume's, fragment for fragment and pixel for pixel."""

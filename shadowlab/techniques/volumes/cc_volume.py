@@ -94,6 +94,10 @@ DEPTH_STEPS = 16.0
 #: Float32 rounding margin of positions (G-buffer, volume vertices, clip transforms), as a
 #: fraction of the scene's extent (float32 rounding is about 6e-8 of a coordinate).
 FLOAT_MARGIN = 1e-4
+#: A clamped volume's far cap is the fan over its silhouette (one triangle per silhouette edge)
+#: instead of its light-facing triangles where the fan's triangles cover at most this many times
+#: the cap's net solid angle (they barely fold over each other).
+FAN_SLACK = 1.05
 #: Texel-space slack on the casters' texel ranges: the GPU computes a point's texel in float32.
 TEXEL_SLACK = 0.01
 
@@ -123,9 +127,9 @@ class CCVolume(ShadowVolume):
     READS = frozenset({"position"})  # the receiver-map pass reads the G-buffer's points
     STYLE = PlotStyle("#ff9896", "s")
     STATS = {**ShadowVolume.STATS, "casters_culled": SUM, "frustum_culled": SUM, "receiver_culled": SUM,
-             "casters_kept": SUM, "casters_clamped": SUM, "clamps_declined": SUM, "unbounded_casters": SUM,
-             "culled_triangles": SUM, "pixel_ops": SUM, "receiver_map_bytes": MAX, "receiver_map_texels": FIRST,
-             "receiver_map_filled": SUM}
+             "casters_kept": SUM, "casters_clamped": SUM, "clamps_declined": SUM, "fan_caps": SUM,
+             "unbounded_casters": SUM, "culled_triangles": SUM, "pixel_ops": SUM, "receiver_map_bytes": MAX,
+             "receiver_map_texels": FIRST, "receiver_map_filled": SUM}
 
     # ------------------------------------------------------------------ setup
     def setup(self, frame, slot) -> None:
@@ -141,7 +145,7 @@ class CCVolume(ShadowVolume):
         self._kept_plans = list(self.plans)
         self._clamp: dict[int, tuple] = {}
         self._counts = {"frustum": 0, "receivers": 0, "unbounded": 0}
-        self._declined = 0
+        self._declined = self._fans = 0
         self.map_filled = 0
         if not self.needs_map:
             return
@@ -338,7 +342,8 @@ class CCVolume(ShadowVolume):
         """Per counting method of the kept casters (``zfail`` flag → arrays), as the plain
         volume's: volume vertices (sides, and the finite far caps of clamped casters, flagged
         as surface points), near-cap, flipped-cap and infinite far-cap triangle indices."""
-        # Silhouettes of every kept caster, and the clamped vertices of the clamped ones.
+        # Silhouettes of every kept caster, and the clamped silhouette vertices of the clamped
+        # ones: each welded vertex clamped once, so shared edges stay watertight.
         shapes = []
         for p in self._kept_plans:
             t = p.table
@@ -347,41 +352,53 @@ class CCVolume(ShadowVolume):
             faces_lit = np.flatnonzero(lit)
             faces_dark = np.flatnonzero(~lit) if p.two_sided else np.zeros(0, np.int64)
             plane = self._clamp.get(p.index)
-            world = cap = None
+            ends = None
             if plane is not None:
-                # Each welded vertex clamped once: shared edges stay watertight.
-                world = self._clamped(t.vertices, plane)
-                cap = np.concatenate([t.faces[faces_lit][:, [0, 2, 1]], t.faces[faces_dark]])
-            shapes.append((p, sil, faces_lit, faces_dark, world, cap))
+                used, where = np.unique(sil, return_inverse=True)
+                ends = self._clamped(t.vertices[used], plane)[where.reshape(sil.shape)]  # (E, 2, 3)
+            shapes.append((p, sil, faces_lit, faces_dark, ends))
         pays = self._clamps_pay([s for s in shapes if s[4] is not None])
-        self._declined = 0
+        self._declined = self._fans = 0
         out = {}
         for zfail in [z for z in (False, True) if any(p.zfail == z for p in self._kept_plans)]:
             verts, caps, flipped, far = [], [], [], []
-            for p, sil, faces_lit, faces_dark, world, cap in shapes:
+            for p, sil, faces_lit, faces_dark, ends in shapes:
                 if p.zfail != zfail:
                     continue
                 t = p.table
                 a, b = _flagged(t.vertices[sil[:, 0]], 0.0), _flagged(t.vertices[sil[:, 1]], 0.0)
-                if world is not None and not pays[p.index]:
+                plane = self._clamp.get(p.index)
+                if plane is not None and not pays[p.index][0]:
                     # The far cap would cost more than the sides it cuts: extruded to infinity.
                     del self._clamp[p.index]
                     self._declined += 1
-                    world = None
-                if world is None:
+                    plane = None
+                fan = plane is not None and pays[p.index][1]
+                cap = None
+                if plane is None:
                     ae, be = a.copy(), b.copy()
                     ae[:, 3] = be[:, 3] = 1.0
-                else:
-                    pushed = _flagged(world, 0.0)
+                elif fan:
+                    ae, be = _flagged(ends[:, 0], 0.0), _flagged(ends[:, 1], 0.0)
+                else:  # the cap's triangles need every vertex clamped (the same arithmetic per vertex)
+                    pushed = _flagged(self._clamped(t.vertices, plane), 0.0)
                     ae, be = pushed[sil[:, 0]], pushed[sil[:, 1]]
+                    # the far cap: light-facing faces turned round, the others as stored
+                    cap = pushed[np.concatenate([t.faces[faces_lit][:, [0, 2, 1]], t.faces[faces_dark]]).ravel()]
                 # Triangles (b, a, a') and (b, a', b'): the plain volume's order.
                 verts.append(np.stack([b, a, ae, b, ae, be], axis=1).reshape(-1, 4))
-                if world is not None:  # the far cap: light-facing faces turned round, others as stored
-                    verts.append(pushed[cap.ravel()])
+                if fan:
+                    # The far cap as a fan over the clamped silhouette: triangles (o, b', a'), the
+                    # boundary the turned-round cap has, so the same counts off the plane.
+                    apex = np.broadcast_to(_flagged(ends[:, 0].mean(axis=0)[None], 0.0), be.shape)
+                    verts.append(np.stack([apex, be, ae], axis=1).reshape(-1, 4))
+                    self._fans += 1
+                elif cap is not None:
+                    verts.append(cap)
                 if zfail:
                     caps.append(faces_lit + p.first_triangle)
                     flipped.append(faces_dark + p.first_triangle)
-                    if world is None and not self.light.at_infinity:
+                    if plane is None and not self.light.at_infinity:
                         far.append(_triangle_indices(faces_lit + p.first_triangle, (0, 2, 1)))
                         far.append(_triangle_indices(faces_dark + p.first_triangle))
             volume = np.concatenate(verts) if verts else np.zeros((0, 4), "f4")
@@ -392,23 +409,25 @@ class CCVolume(ShadowVolume):
         return out
 
     def _clamps_pay(self, shapes: list) -> dict:
-        """Plan index → whether clamping that caster should save fill: the solid angle, seen
+        """Plan index → (whether clamping that caster should save fill, whether its far cap
+        may be the fan over its silhouette). Clamping pays where the solid angle, seen
         from the eye, of the side quads it cuts off (from the clamped vertices to infinity, both
         layers counted) exceeds that of the far cap it adds. The cap's is the signed sum over its
         boundary — the clamped silhouette edges, each with a fixed point of the cap, since the
         cap's triangles are bounded by the silhouette with its multiplicities — so it costs what
         the sides cost, not a pass over every cap triangle. An estimate (solid angles, not
         clipped to the viewport; overlapping cap layers counted once) that only chooses between
-        two exact geometries, never a count."""
+        exact geometries, never a count. The fan may replace the cap's triangles where the sum
+        of its triangles' absolute solid angles is within :data:`FAN_SLACK` of the cap's."""
         if not shapes:
             return {}
         eye = np.asarray(self.frame.camera.eye, np.float64)
         owner, a, b, da, db, apex = [], [], [], [], [], []
-        for n, (p, sil, _, _, world, _) in enumerate(shapes):
+        for n, (p, sil, _, _, ends) in enumerate(shapes):
             t = p.table
             owner.append(np.full(len(sil), n))
-            a.append(world[sil[:, 0]] - eye)
-            b.append(world[sil[:, 1]] - eye)
+            a.append(ends[:, 0] - eye)
+            b.append(ends[:, 1] - eye)
             if len(sil):
                 apex.append(np.broadcast_to(a[-1].mean(axis=0), a[-1].shape))
             if not self.light.at_infinity:
@@ -424,8 +443,13 @@ class CCVolume(ShadowVolume):
             da, db = np.concatenate(da), np.concatenate(db)
         cut = np.abs(_solid_angles(a, b, db)) + np.abs(_solid_angles(a, db, da))
         cut = np.bincount(owner, weights=cut, minlength=len(shapes))
-        added = np.abs(np.bincount(owner, weights=_solid_angles(apex, a, b), minlength=len(shapes)))
-        return {s[0].index: bool(cut[n] > added[n]) for n, s in enumerate(shapes)}
+        fan = _solid_angles(apex, a, b)
+        added = np.abs(np.bincount(owner, weights=fan, minlength=len(shapes)))
+        # The fan's own fill: as small as the cap's where its triangles do not fold over each
+        # other (a silhouette star-shaped around the apex: convex casters).
+        folded = np.bincount(owner, weights=np.abs(fan), minlength=len(shapes))
+        return {s[0].index: (bool(cut[n] > added[n]), bool(folded[n] <= FAN_SLACK * added[n]))
+                for n, s in enumerate(shapes)}
 
     # ------------------------------------------------------------------ figures
     def work(self, counted: dict, stats: dict) -> dict:
@@ -457,6 +481,7 @@ class CCVolume(ShadowVolume):
             "casters_kept": len(self._kept_plans),
             "casters_clamped": len(self._clamp),
             "clamps_declined": self._declined,
+            "fan_caps": self._fans,
             "unbounded_casters": self._counts["unbounded"],
             "culled_triangles": sum(len(objs[p.index].faces) for p in culled),
             "pixel_ops": out["volume_fragments"],

@@ -31,22 +31,25 @@ that the camera sees. Lloyd et al. save that fill in two ways, per light and per
   shadow lost), and an exact version needs conservative rasterisation, which the lab's GL does
   not have. The receiver cull already drops the casters whose volumes hold nothing visible.
 
-- **Clamping** (their "continuous clamping", by receiver bounds): each kept caster's volume
-  is cut at the deepest visible receiver it can reach — D, the largest key in the texels of its
+- **Clamping** (their "continuous clamping", by receiver bounds): each kept caster's volume is
+  cut at the deepest visible receiver it can reach — D, the largest key in the texels of its
   footprint, plus margins — instead of running to infinity: silhouette vertices are pushed to
   the plane at depth D (light at infinity: the plane across the light's direction; light at a
-  position: the plane z = D along the axis from the light to the box's centre, when the box
-  lies wholly in front of the light across that axis; a box that does not is not clamped), and
-  the volume is closed there by a far cap (the light-facing triangles pushed to the same
-  plane, turned round; for two-sided casters also the others as stored). Far caps are drawn
-  for z-pass as well as z-fail: a finite volume's far end can lie between the camera and a
-  receiver. Every visible point of the infinite volume lies in front of that plane, so each
-  visible point's count, and the mask, stays the plain volume's. A far cap is fill of its own:
-  where it would cover more of the view than the sides it cuts off (compared as solid angles
-  seen from the eye: a caster with nothing behind it, a wall of a room), the caster keeps its
-  infinite volume (``clamps_declined``) — an estimate that only chooses between two exact
-  geometries. Clamping by discrete depth intervals (Lloyd et al.'s "discrete clamping", several
-  slabs per volume) is not done.
+  position: the plane z = D along the axis from the light to the box's centre, when the box lies
+  wholly in front of the light across that axis; a box that does not is not clamped), and the
+  volume is closed there by a far cap (the light-facing triangles pushed to the same plane,
+  turned round; for two-sided casters also the others as stored — or, where its triangles would
+  not fold over each other, the fan of triangles from one point of the plane over the clamped
+  silhouette edges, which has the same boundary and so gives the same counts off the plane, with
+  one triangle per silhouette edge instead of one per lit face). Far caps are drawn for z-pass
+  as well as z-fail: a finite volume's far end can lie between the camera and a receiver. Every
+  visible point of the infinite volume lies in front of that plane, so each visible point's
+  count, and the mask, stays the plain volume's. A far cap is fill of its own: where it would
+  cover more of the view than the sides it cuts off (compared as solid angles seen from the eye:
+  a caster with nothing behind it, a wall of a room), the caster keeps its infinite volume
+  (``clamps_declined``) — an estimate that only chooses between two exact geometries. Clamping
+  by discrete depth intervals (Lloyd et al.'s "discrete clamping", several slabs per volume) is
+  not done.
 
 Exactness. The counts are decided by the depth buffer's points, not by the G-buffer's float32
 positions the map holds, so every test runs with margins: boxes grow by g = 16·d²/n·2⁻²⁴ +

@@ -125,6 +125,7 @@ def test_fill_on_the_colonnade(lab):
     assert s["frustum_culled"] > 10 and s["receiver_culled"] > 10
     assert s["casters_culled"] == s["frustum_culled"] + s["receiver_culled"]
     assert s["casters_clamped"] > 50 and s["culled_triangles"] > 0
+    assert s["fan_caps"] == s["casters_clamped"]  # convex columns: every far cap is a fan
     assert s["casters_kept"] + s["casters_culled"] == 145
 
 

@@ -192,8 +192,8 @@ class CCVolume(ShadowVolume):
         super().render()
 
     def _receiver_map(self) -> None:
-        """Build the receiver map on the GPU and read it back: ``self.map`` float64 (faces,
-        grid, grid) of the largest key per texel (−inf where empty) and the header."""
+        """Build the receiver map on the GPU and read it back: ``self.map`` uint32 (faces, grid,
+        grid), the largest key per texel as the shader encodes it (0 where empty), and the header."""
         ctx = self.frame.ctx
         self.header_buf.clear()
         self.map_buf.clear()
@@ -204,11 +204,10 @@ class CCVolume(ShadowVolume):
         self.map_prog.run(-(-self.frame.width // span), -(-self.frame.height // span))
         ctx.memory_barrier()
         header = np.frombuffer(self.header_buf.read(), np.uint32)
-        words = np.frombuffer(self.map_buf.read(), np.uint32)
-        keys = (words - np.uint32(1)).view(np.float32).astype(np.float64)
-        keys[words == 0] = -np.inf
-        self.map = keys.reshape(self.faces, self.grid, self.grid)
-        self.map_filled = int(np.count_nonzero(words))
+        # Kept as the encoded words: their unsigned order is the keys' order, so the footprints'
+        # maxima are taken on them and only those are decoded (_decode).
+        self.map = np.frombuffer(self.map_buf.read(), np.uint32).reshape(self.faces, self.grid, self.grid)
+        self.map_filled = int(np.count_nonzero(self.map))
         self.eye_distance = float(header[HEADER_EYE_DISTANCE:HEADER_EYE_DISTANCE + 1].view(np.float32)[0])
         self.unmapped = int(header[HEADER_UNMAPPED])
 
@@ -267,7 +266,7 @@ class CCVolume(ShadowVolume):
         can reach (−inf if none), its nearest key, its farthest corner's key, and whether a point
         light lies inside it (then nothing bounds its volume)."""
         K = len(boxes)
-        deepest = np.full(K, -np.inf)
+        deepest = np.zeros(K, np.uint32)  # encoded, as the map's words (0: no point)
         corners = _corners(boxes)  # (K, 8, 3)
         if not self.cube:
             proj = corners @ self.axes.T  # (K, 8, 3): u, v, depth
@@ -277,13 +276,12 @@ class CCVolume(ShadowVolume):
             face = self.map[0]
             for i in np.flatnonzero(wanted):
                 deepest[i] = face[y0[i]:y1[i] + 1, x0[i]:x1[i] + 1].max()
-            return deepest, lo[:, 2] - self.origin[2], hi[:, 2] - self.origin[2], np.zeros(K, bool)
+            return _decode(deepest), lo[:, 2] - self.origin[2], hi[:, 2] - self.origin[2], np.zeros(K, bool)
         L = self.light_position
         inside = np.all((boxes[:, 0] <= L) & (L <= boxes[:, 1]), axis=1)
         nearest = np.linalg.norm(np.clip(L, boxes[:, 0], boxes[:, 1]) - L, axis=1)
         rel = corners - L
         farthest = np.linalg.norm(rel, axis=2).max(axis=1)
-        whole = self.map.max(axis=(1, 2))
         half = self.grid / 2.0
         for f in range(6):
             k, sign = f // 2, (1.0 if f % 2 == 0 else -1.0)
@@ -300,8 +298,9 @@ class CCVolume(ShadowVolume):
             for i in np.flatnonzero(front & ~off):
                 deepest[i] = max(deepest[i], self.map[f, y0[i]:y1[i] + 1, x0[i]:x1[i] + 1].max())
             straddle = reaches & ~front
-            deepest[straddle] = np.maximum(deepest[straddle], whole[f])
-        return deepest, nearest, farthest, inside
+            if straddle.any():
+                deepest[straddle] = np.maximum(deepest[straddle], self.map[f].max())
+        return _decode(deepest), nearest, farthest, inside
 
     def _texels(self, lo: np.ndarray, hi: np.ndarray, origin: float, per_unit: float) -> tuple:
         """The texel ranges [a, b] (int arrays, clamped to the grid, as the map pass clamps its
@@ -493,6 +492,15 @@ class CCVolume(ShadowVolume):
             "receiver_map_filled": self.map_filled,
         })
         return out
+
+
+def _decode(words: np.ndarray) -> np.ndarray:
+    """Keys (float64) of receiver-map words (cc_volume_receivers.glsl's ``encode``: the float32
+    bits of the key, plus 1); −inf for 0, an empty texel."""
+    words = np.asarray(words, np.uint32)
+    keys = (words - np.uint32(1)).view(np.float32).astype(np.float64)
+    keys[words == 0] = -np.inf
+    return keys
 
 
 def _solid_angles(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:

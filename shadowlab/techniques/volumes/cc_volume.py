@@ -227,8 +227,10 @@ class CCVolume(ShadowVolume):
             self._kept_plans = list(plans)
             return
         if self.unmapped:  # a visible point at the light itself: no key bounds it
-            self.notes.append(f"{self.unmapped} visible points lie at the light's position; culling and clamping "
-                              f"are off for this render")
+            note = (f"{self.unmapped} visible points lie at the light's position; culling and clamping are off "
+                    f"for this light")
+            if note not in self.notes:  # once, however many renders
+                self.notes.append(note)
             self._kept_plans = list(plans)
             self._counts["unbounded"] = len(plans)
             return

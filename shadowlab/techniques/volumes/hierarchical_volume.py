@@ -76,8 +76,8 @@ SPAN = 64
 LOCAL_SIZE = 64
 #: Work groups GL guarantees in one dimension of a dispatch (larger ones are split over y).
 MAX_GROUPS_X = 65535
-#: Bytes of one set-up volume triangle (``VolumeTriangle``, std430: 9 + 4 vec4).
-TRIANGLE_BYTES = 13 * 16
+#: Bytes of one set-up volume triangle (``VolumeTriangle``, std430: 3 + 9 + 4 vec4).
+TRIANGLE_BYTES = 16 * 16
 #: Counting rules per volume triangle (``RULE_*`` in the GLSL).
 RULE_ZFAIL, RULE_FLIPPED = 1, 2
 #: Pixels by which a tile's corner centres must lie inside (outside) every edge of a triangle
@@ -220,7 +220,8 @@ class HierarchicalVolume(ShadowVolume):
             **self.light.uniforms(), **grid, "u_clip_far": self.far == "finite", "u_margin_px": COVERAGE_MARGIN,
             "u_depth_rel": DEPTH_RELATIVE_MARGIN, "u_depth_px": DEPTH_POSITION_MARGIN})
         self.classify_prog = self.program("hierarchical_volume_classify.glsl", defines={"SPAN": SPAN})
-        programs.set_uniforms(self.classify_prog, grid)
+        programs.set_uniforms(self.classify_prog, {**grid, "u_clip_far": self.far == "finite",
+                                                   "u_depth_rel": DEPTH_RELATIVE_MARGIN})
         self.resolve_prog = self.program("hierarchical_volume_resolve.glsl")
         programs.set_uniforms(self.resolve_prog, grid)
         self.resolve_quad = self.fullscreen_quad(self.resolve_prog)

@@ -2,8 +2,8 @@
 // (hierarchical_volume_triangles.glsl, hierarchical_volume_classify.glsl); include it in their
 // compute stage, after hierarchical_volume_common.glsl.
 
-// One volume triangle, clipped to the view frustum and set up for the tile tests, in window
-// pixel coordinates: its edges (a, b, c): a x + b y + c is the signed distance to the edge,
+// One volume triangle, clipped to the view frustum and set up for the tile tests: its corners'
+// clip positions; in window pixel coordinates, its edges (a, b, c): a x + b y + c is the signed distance to the edge,
 // positive inside; its window-depth plane z = p.x x + p.y y + p.z and that plane's error bound
 // (p.w); the coverage margin (margin.x, pixels); its tile box (x0, y0, x1, y1, inclusive); and
 // info = (edges, counting side: 0 depth pass / 1 depth fail, ±1 it adds where it counts,
@@ -11,8 +11,11 @@
 #define MAX_POLY 9               // a triangle clipped by six planes has at most 9 corners
 #define FLAG_UNCERTAIN 1         // too close to degenerate: boundary on every tile of its box
 #define FLAG_NO_PLANE 2          // (nearly) edge-on: no depth plane, never settled at tile level
-#define FLAG_NO_EDGES 4          // edges unusable (too thin, or too imprecise): never covers a tile
+#define FLAG_NO_EDGES 4          // edges unusable (orientation or position unsure): never settles a tile
+#define FLAG_THIN 8              // under a pixel of area: never covers a tile (its facing may be unsure)
+#define MAX_CLIP 12              // a triangle clipped by the tile's sides, near and far planes
 struct VolumeTriangle {
+    vec4 clip[3];                // its corners' clip positions (the per-pixel stage's own)
     vec4 edge[MAX_POLY];
     vec4 plane;
     vec4 margin;

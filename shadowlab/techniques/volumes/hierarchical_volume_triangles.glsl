@@ -35,6 +35,7 @@ double det3(dvec3 a, dvec3 b, dvec3 c) {
 // A triangle that cannot be set up reliably: boundary on every tile with a surface.
 void store_uncertain(int i, int side) {
     for (int k = 0; k < MAX_POLY; ++k) tri[i].edge[k] = vec4(0.0);
+    for (int k = 0; k < 3; ++k) tri[i].clip[k] = vec4(0.0);
     tri[i].plane = vec4(0.0);
     tri[i].margin = vec4(0.0);
     tri[i].box = ivec4(0, 0, u_tiles.x - 1, u_tiles.y - 1);
@@ -49,6 +50,9 @@ void main() {
         vec4 v = tri_vertex[3 * i + k];
         c[k] = v.w > 0.0 ? extruded_clip(v.xyz) : surface_clip(v.xyz);
     }
+    // Two bit-identical corners (a directional light's side triangle (b, a', b'): a' and b' are
+    // the same point at infinity): zero area in every rasteriser, no fragment, no effect.
+    if (c[0] == c[1] || c[1] == c[2] || c[2] == c[0]) return;
     int rule = tri_rule[i];
     int side = (rule & RULE_ZFAIL) != 0 ? 1 : 0;
 
@@ -111,7 +115,10 @@ void main() {
         // err relative to the clip coordinates' size over w.
         float margin = u_margin_px + float(2.0e-6 * (size.x + size.y) * cmax / wmin);
         if (margin > 0.25 * float(u_tile)) flags |= FLAG_NO_EDGES;
-        if (abs(area) < 1.0) flags |= FLAG_NO_EDGES;   // too thin to cover a tile, facing unsure
+        double perimeter = 0.0;
+        for (int k = 0; k < n; ++k) perimeter += double(distance(vec2(q[k]), vec2(q[(k + 1) % n])));
+        if (abs(area) <= 1e-9 * perimeter * perimeter) flags |= FLAG_NO_EDGES;  // orientation unsure
+        if (abs(area) < 1.0) flags |= FLAG_THIN;        // too thin to cover a tile, facing unsure
         for (int k = 0; k < MAX_POLY; ++k) {
             vec4 edge = vec4(0.0, 0.0, 1.0, 0.0);      // no constraint
             if (k < n && (flags & FLAG_NO_EDGES) == 0) {
@@ -142,6 +149,7 @@ void main() {
             err = u_depth_rel * (1.0 + abs(C) + abs(A) * size.x + abs(B) * size.y)
                 + u_depth_px * (abs(A) + abs(B));
         }
+        for (int k = 0; k < 3; ++k) tri[i].clip[k] = c[k];
         tri[i].plane = vec4(float(A), float(B), float(C), float(err));
         tri[i].margin = vec4(margin, 0.0, 0.0, 0.0);
         ivec2 plo = max(ivec2(ceil(lo - double(margin) - 0.5)), ivec2(0));

@@ -89,8 +89,9 @@ COVERAGE_MARGIN = 0.25
 DEPTH_RELATIVE_MARGIN = 2.0 ** -17
 #: Position uncertainty (pixels) that the depth plane's slope turns into a depth error.
 DEPTH_POSITION_MARGIN = 0.25
-#: The span list's first size per volume triangle (grown to what a render asks for).
+#: The span list's first size per volume triangle, and at least (grown to what a render asks for).
 SPANS_PER_TRIANGLE = 4
+MIN_SPANS = 1024
 #: Retries of an overflowing span list before the run fails (each sizes it to what was asked).
 MAX_RETRIES = 2
 
@@ -283,8 +284,8 @@ class HierarchicalVolume(ShadowVolume):
         self._storage("tri_vertices", verts.nbytes).write(verts.tobytes())
         self._storage("tri_rules", rules.nbytes).write(rules.tobytes())
         self._storage("triangles", TRIANGLE_BYTES * count)
-        if self.span_capacity < SPANS_PER_TRIANGLE * count:
-            self.span_capacity = max(1024, SPANS_PER_TRIANGLE * count)
+        if self.span_capacity < SPANS_PER_TRIANGLE * count or not self.span_capacity:
+            self.span_capacity = max(MIN_SPANS, SPANS_PER_TRIANGLE * count)
         for attempt in range(MAX_RETRIES + 1):
             self._storage("spans", 8 * self.span_capacity)
             self._bind()

@@ -70,8 +70,9 @@ BINDING = {"tile_bounds": 0, "tile_count": 1, "tile_boundary": 2, "tri_vertices"
            "triangles": 5, "spans": 6, "counters": 7}
 #: Counter slots (``hierarchical_volume_common.glsl``: COUNTER_*).
 COUNTERS = ("spans", "tile_tests", "uncertain")
-#: Tiles per span: one work group of the second classification program (its local size).
-SPAN = 64
+#: Most tiles per span (a run of tiles in one tile row): one work group of the second
+#: classification program (its local size).
+SPAN = 16
 #: Invocations per work group of the tile and triangle programs (their ``local_size_x``).
 LOCAL_SIZE = 64
 #: Work groups GL guarantees in one dimension of a dispatch (larger ones are split over y).
@@ -90,7 +91,7 @@ DEPTH_RELATIVE_MARGIN = 2.0 ** -17
 #: Position uncertainty (pixels) that the depth plane's slope turns into a depth error.
 DEPTH_POSITION_MARGIN = 0.25
 #: The span list's first size per volume triangle, and at least (grown to what a render asks for).
-SPANS_PER_TRIANGLE = 4
+SPANS_PER_TRIANGLE = 8
 MIN_SPANS = 1024
 #: Retries of an overflowing span list before the run fails (each sizes it to what was asked).
 MAX_RETRIES = 2
@@ -287,7 +288,7 @@ class HierarchicalVolume(ShadowVolume):
         if self.span_capacity < SPANS_PER_TRIANGLE * count or not self.span_capacity:
             self.span_capacity = max(MIN_SPANS, SPANS_PER_TRIANGLE * count)
         for attempt in range(MAX_RETRIES + 1):
-            self._storage("spans", 8 * self.span_capacity)
+            self._storage("spans", 16 * self.span_capacity)
             self._bind()
             self.buffers["counters"].clear()
             self.triangles_prog["u_triangles"].value = count

@@ -1,5 +1,5 @@
 // Hierarchical shadow volumes, pass "classify" (2 of 2): one invocation per (volume triangle,
-// tile) pair, SPAN pairs per work group (one span). Against the tile's pixel centres and its
+// tile) pair, one span (a run of at most SPAN tiles of one tile row) per work group. Against the tile's pixel centres and its
 // surface depth range [zmin, zmax] (Aila & Akenine-Möller 2004, section 3), the triangle
 //   (a) covers none of the tile's pixel centres, or lies wholly on the side of the depth range
 //       where it is not counted: no effect;
@@ -74,14 +74,12 @@ vec2 exact_range(int i, vec2 lo, vec2 hi) {
 void main() {
     int s = GROUP_INDEX;
     if (s >= u_spans) return;
-    ivec2 sp = span[s];
+    ivec4 sp = span[s];
     int i = sp.x;
-    ivec4 box = tri[i].box;
+    int k = int(gl_LocalInvocationID.x);
+    if (k >= sp.w) return;
     ivec4 info = tri[i].info;
-    int bw = box.z - box.x + 1;
-    int k = sp.y + int(gl_LocalInvocationID.x);
-    if (k >= bw * (box.w - box.y + 1)) return;
-    ivec2 tc = box.xy + ivec2(k % bw, k / bw);
+    ivec2 tc = ivec2(sp.y + k, sp.z);
     int t = tc.y * u_tiles.x + tc.x;
     vec2 zb = tile_bounds[t];
     if (zb.x > zb.y) return;                       // no surface in the tile: nothing to count

@@ -25,7 +25,7 @@ struct VolumeTriangle {
 layout(std430, binding = 3) readonly buffer TriVertices { vec4 tri_vertex[]; };  // xyz, extrude flag
 layout(std430, binding = 4) readonly buffer TriRules { int tri_rule[]; };        // RULE_* bits
 layout(std430, binding = 5) buffer Triangles { VolumeTriangle tri[]; };
-layout(std430, binding = 6) buffer Spans { ivec2 span[]; };                      // (triangle, first tile)
+layout(std430, binding = 6) buffer Spans { ivec4 span[]; };   // (triangle, first tile x, tile y, tiles)
 layout(std430, binding = 7) buffer Counters { uint counter[]; };
 #define RULE_ZFAIL 1             // counted on depth fail (back +1, front −1), else on depth pass
 #define RULE_FLIPPED 2           // the other face's operations (two-sided caps of unlit faces)

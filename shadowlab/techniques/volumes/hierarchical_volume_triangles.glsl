@@ -3,8 +3,8 @@
 // shadow_volume_clip.glsl: points at infinity have w = 0); it is clipped in homogeneous clip
 // space (double precision) to the near plane, the four side planes and, for a finite
 // projection, the far plane; the clipped polygon's edges, its window-depth plane and error
-// bounds, its counting rule and its tile box are stored, and its box is cut into spans of SPAN
-// tiles appended to the span list (an atomic counter; a full list is counted, never dropped:
+// bounds, its counting rule and its tile box are stored, and the tiles it may reach, row by row,
+// are cut into spans of at most SPAN tiles appended to the span list (an atomic counter; a full list is counted, never dropped:
 // the technique grows it and runs again).
 //
 // The depth plane: the triangle's corners c0, c1, c2 (4-vectors) span a 3-dimensional subspace
@@ -89,6 +89,8 @@ void main() {
     double wmin = 1e300, cmax = 0.0;
     for (int k = 0; k < 3; ++k) cmax = max(cmax, double(max(max(abs(c[k].x), abs(c[k].y)), max(abs(c[k].z), abs(c[k].w)))));
     for (int k = 0; k < n; ++k) wmin = min(wmin, poly[k].w);
+    bool rows = false;              // per tile row, only the tiles the polygon reaches
+    float margin = 0.0;
     if (overflow || !(wmin > 0.0) || wmin < 1e-12 * cmax) {
         atomicAdd(counter[COUNTER_UNCERTAIN], 1u);
         store_uncertain(i, side);
@@ -113,7 +115,8 @@ void main() {
         int flags = 0;
         // Rasterisation rounds positions to sub-pixel precision; float32 clipping and division
         // err relative to the clip coordinates' size over w.
-        float margin = u_margin_px + float(2.0e-6 * (size.x + size.y) * cmax / wmin);
+        rows = true;
+        margin = u_margin_px + float(2.0e-6 * (size.x + size.y) * cmax / wmin);
         if (margin > 0.25 * float(u_tile)) flags |= FLAG_NO_EDGES;
         double perimeter = 0.0;
         for (int k = 0; k < n; ++k) perimeter += double(distance(vec2(q[k]), vec2(q[(k + 1) % n])));
@@ -158,13 +161,45 @@ void main() {
         tri[i].box = ivec4(plo / u_tile, phi / u_tile);
         tri[i].info = ivec4(n, side, delta, flags);
     }
+    // Spans: per tile row of the box, the run of tiles whose pixel centres the polygon, grown
+    // by the margin, may reach (its extent in x over the row's slab, grown by the margin in y):
+    // a long thin sliver across the screen meets few tiles of its box.
     ivec4 box = tri[i].box;
-    int tiles = (box.z - box.x + 1) * (box.w - box.y + 1);
-    int spans = (tiles + SPAN - 1) / SPAN;
-    atomicAdd(counter[COUNTER_TILE_TESTS], uint(tiles));
-    int base = int(atomicAdd(counter[COUNTER_SPANS], uint(spans)));
-    for (int s = 0; s < spans; ++s)
-        if (base + s < u_span_capacity)
-            span[base + s] = ivec2(i, s * SPAN);
+    double m = double(margin);
+    for (int ty = box.y; ty <= box.w; ++ty) {
+        int x0 = box.x, x1 = box.z;
+        if (rows) {
+            double ylo = double(ty * u_tile) + 0.5 - m, yhi = double(min((ty + 1) * u_tile, u_size.y)) - 0.5 + m;
+            double xmin = 1e300, xmax = -1e300;
+            for (int k = 0; k < n; ++k) {
+                dvec2 a = q[k], b = q[(k + 1) % n];
+                double t0 = 0.0, t1 = 1.0, dy = b.y - a.y;
+                if (dy == 0.0) {
+                    if (a.y < ylo || a.y > yhi) continue;
+                } else {
+                    double ta = (ylo - a.y) / dy, tb = (yhi - a.y) / dy;
+                    t0 = max(t0, min(ta, tb));
+                    t1 = min(t1, max(ta, tb));
+                    if (t0 > t1) continue;
+                }
+                double xa = a.x + t0 * (b.x - a.x), xb = a.x + t1 * (b.x - a.x);
+                xmin = min(xmin, min(xa, xb));
+                xmax = max(xmax, max(xa, xb));
+            }
+            if (xmin > xmax) continue;                 // the polygon misses this row
+            int px0 = max(int(ceil(xmin - m - 0.5)), 0), px1 = min(int(floor(xmax + m - 0.5)), u_size.x - 1);
+            if (px0 > px1) continue;
+            x0 = max(x0, px0 / u_tile);
+            x1 = min(x1, px1 / u_tile);
+            if (x0 > x1) continue;
+        }
+        int tiles = x1 - x0 + 1;
+        int spans = (tiles + SPAN - 1) / SPAN;
+        atomicAdd(counter[COUNTER_TILE_TESTS], uint(tiles));
+        int base = int(atomicAdd(counter[COUNTER_SPANS], uint(spans)));
+        for (int s = 0; s < spans; ++s)
+            if (base + s < u_span_capacity)
+                span[base + s] = ivec4(i, x0 + s * SPAN, ty, min(SPAN, tiles - s * SPAN));
+    }
 }
 #endif

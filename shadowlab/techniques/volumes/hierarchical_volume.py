@@ -22,15 +22,20 @@ boundary tiles:
    unlit faces with the other face's operations — is clipped in homogeneous clip space to the
    near plane and the frustum's sides (points at infinity have w = 0; the clip positions are
    the per-pixel stage's own, ``shadow_volume_clip.glsl``); its window-depth plane comes from
-   the clip-space corners without dividing by w (the 4D normal of the subspace they span). Its
-   screen box is cut into spans of tiles, and each (triangle, tile) pair is classified: (a) no
-   pixel centre of the tile covered, or the plane wholly on the side where it is not counted:
-   no effect; (b) every pixel centre covered (the tile's corner centres inside every edge by a
-   margin; the clipped polygon is convex) and the plane wholly on the counting side: ±1 to the
-   tile's count (an atomic add); otherwise (c) the tile is a boundary tile. Margins cover the
-   rasteriser's rounding: a quarter pixel of position, many depth units of the 24-bit buffer,
-   and more where clip coordinates are large against w; anything uncertain (near-degenerate,
-   edge-on) is boundary. A wrong "boundary" costs time, never a pixel.
+   the clip-space corners without dividing by w (the 4D normal of the subspace they span). Per
+   tile row, the run of tiles the clipped polygon reaches is cut into spans, and each (triangle,
+   tile) pair is classified: (a) no pixel centre of the tile covered, or the triangle's depth
+   over the tile wholly on the side where the depth test does not count it: no effect; (b)
+   every pixel centre covered (the tile's corner centres inside every edge by a margin; the
+   clipped polygon is convex) and its depth wholly on the counting side: ±1 to the tile's count
+   (an atomic add); otherwise (c) the tile is a boundary tile. The depth range is first bounded
+   by the plane at the tile's corners and, where that settles nothing (steep planes, slivers),
+   by the exact range over the triangle clipped to the tile. Margins cover the rasteriser's
+   rounding: a quarter pixel of position, many units of the 24-bit depth buffer, more where clip
+   coordinates are large against w; anything uncertain (near-degenerate, edge-on) is boundary:
+   a wrong "boundary" costs time, never a pixel. A triangle with two bit-identical corners (a
+   directional light's side triangles meet at one point at infinity) has no fragment anywhere
+   and is skipped.
 3. ``volume``, ``caps``: the plain volume's stencil passes, unchanged (:class:`ShadowVolume`:
    z-pass, z-fail or per-caster auto, caps, infinite far plane or depth clamp), drawn by a
    program whose fragment stage discards every fragment outside the boundary tiles. In a
@@ -53,7 +58,10 @@ in its fragment stage, so llvmpipe still rasterises them (a hardware implementat
 tiles before rasterising): ``volume_fragments`` and ``pixel_ops`` count the fragments that reach
 stencil work, as the hardware design would, and ``all_volume_fragments`` the plain volume's
 figure for the same frame. The span list is sized on the GPU's count and grown (and the pass
-run again) when it would overflow, never silently.
+run again) when it would overflow, never silently. Beyond the paper: the exact depth range over
+the triangle's part in a tile, which settles tiles the plane bound cannot (long slivers from
+finely tessellated silhouettes); in z-fail, caps lying on the visible surface tie with it and
+leave their tiles boundary, as in the paper.
 """
 from __future__ import annotations
 

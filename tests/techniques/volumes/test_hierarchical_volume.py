@@ -32,8 +32,15 @@ def _differences(lab, scene, spec, size) -> tuple[int, object, object]:
     return int(np.sum((m.visibility[covered] < 0.5) != (plain.visibility[covered] < 0.5))), m, plain
 
 
-@pytest.mark.parametrize("scene", SCENES)
-@pytest.mark.parametrize("size", [SMALL, MEDIUM], ids=["small", "medium"])
+#: Every scene at 160x120 in the inner loop; at 320x240 the two whose frames other tests share,
+#: the others with the slow tests (inner-loop budget).
+INNER_MEDIUM = {"box_on_plane", "sv_camera_in_shadow"}
+MASK_CASES = [(scene, SMALL) for scene in SCENES] + [
+    (scene, MEDIUM) if scene in INNER_MEDIUM else pytest.param(scene, MEDIUM, marks=pytest.mark.slow)
+    for scene in SCENES]
+
+
+@pytest.mark.parametrize("scene, size", MASK_CASES, ids=lambda v: "x".join(map(str, v)) if isinstance(v, tuple) else v)
 def test_the_plain_volumes_mask(lab, scene, size):
     wrong, m, plain = _differences(lab, scene, "hierarchical_volume", size)
     assert wrong == 0, f"{wrong} pixels differ from shadow_volume"
@@ -48,7 +55,8 @@ def test_the_plain_volumes_mask(lab, scene, size):
 
 
 @pytest.mark.parametrize("tile", [4, 16, 32])
-@pytest.mark.parametrize("scene", ["sv_colonnade", "sv_camera_in_shadow", "sv_open_mesh", "sv_directional"])
+@pytest.mark.parametrize("scene", [pytest.param("sv_colonnade", marks=pytest.mark.slow), "sv_camera_in_shadow",
+                                   "sv_open_mesh", "sv_directional", "spot_scene"])
 def test_every_tile_size(lab, scene, tile):
     wrong, m, _ = _differences(lab, scene, f"hierarchical_volume:tile={tile}", SMALL)
     assert wrong == 0, f"{wrong} pixels differ from shadow_volume"
@@ -65,9 +73,9 @@ def test_every_counting_mode_and_far_plane(lab, scene, spec):
 
 
 def test_the_tile_classes_cover_the_screen(lab):
-    frame = lab.frame("sv_colonnade", MEDIUM)
+    frame = lab.frame("sv_camera_in_shadow", MEDIUM)
     for tile in (4, 8, 32):
-        s = lab.measure("sv_colonnade", f"hierarchical_volume:tile={tile}", MEDIUM).stats
+        s = lab.measure("sv_camera_in_shadow", f"hierarchical_volume:tile={tile}", MEDIUM).stats
         tiles = -(-frame.width // tile) * -(-frame.height // tile)
         assert s["tiles_inside"] + s["tiles_outside"] + s["tiles_boundary"] == tiles
         assert s["tiles_boundary"] > 0 and s["tiles_outside"] > 0
@@ -80,13 +88,18 @@ def test_tiles_settled_in_shadow(lab):
     assert s["tiles_inside"] > 200
 
 
-def test_fewer_volume_fragments_than_the_plain_volume(lab):
-    """The point of the technique, measured: per-pixel stencil work only along shadow boundaries.
-    sv_colonnade at 320x240 (measured: 1.65 times fewer volume fragments; box_on_plane 7.9)."""
-    s = lab.measure("sv_colonnade", "hierarchical_volume", MEDIUM).stats
-    assert s["all_volume_fragments"] > 1.5 * s["volume_fragments"]
-    s = lab.measure("box_on_plane", "hierarchical_volume", MEDIUM).stats
-    assert s["all_volume_fragments"] > 6 * s["volume_fragments"]
+@pytest.mark.parametrize("scene, size, factor", [
+    ("box_on_plane", MEDIUM, 6.0),                                        # measured 7.9
+    ("sv_camera_in_shadow", MEDIUM, 3.5),                                 # measured 4.3
+    ("sv_colonnade", SMALL, 1.25),                                        # measured 1.35
+    pytest.param("sv_colonnade", MEDIUM, 1.5, marks=pytest.mark.slow),    # measured 1.65 (800x600: 2.4)
+])
+def test_fewer_volume_fragments_than_the_plain_volume(lab, scene, size, factor):
+    """The point of the technique, measured: per-pixel stencil work only in boundary tiles. On
+    sv_colonnade the many thin column shadows and column outlines leave most tiles boundary at
+    small sizes; the share falls as the image grows."""
+    s = lab.measure(scene, "hierarchical_volume", size).stats
+    assert s["all_volume_fragments"] > factor * s["volume_fragments"]
 
 
 def test_the_masked_passes_skip_fragments_outside_boundary_tiles(lab):

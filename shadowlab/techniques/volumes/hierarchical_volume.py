@@ -67,7 +67,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...gpu import gl, glstate, programs
+from ...gpu import gl, glstate, programs, targets
 from ...gpu.gl import check_errors
 from ...gpu.glstate import PassState, Stencil
 from ..base import SUM, Param, PlotStyle, TechniqueError
@@ -75,7 +75,7 @@ from .shadow_volume import ShadowVolume, _flagged
 
 #: Storage-buffer bindings (``hierarchical_volume_common.glsl``).
 BINDING = {"tile_bounds": 0, "tile_count": 1, "tile_boundary": 2, "tri_vertices": 3, "tri_rules": 4,
-           "triangles": 5, "spans": 6, "counters": 7}
+           "triangles": 5, "spans": 6, "counters": 7, "tile_triangle": 8}
 #: Counter slots (``hierarchical_volume_common.glsl``: COUNTER_*).
 COUNTERS = ("spans", "tile_tests", "uncertain")
 #: Most tiles per span (a run of tiles in one tile row): one work group of the second
@@ -87,8 +87,9 @@ LOCAL_SIZE = 64
 MAX_GROUPS_X = 65535
 #: Bytes of one set-up volume triangle (``VolumeTriangle``, std430: 3 + 9 + 4 vec4).
 TRIANGLE_BYTES = 16 * 16
-#: Counting rules per volume triangle (``RULE_*`` in the GLSL).
-RULE_ZFAIL, RULE_FLIPPED = 1, 2
+#: Counting rules per volume triangle (``RULE_*`` in the GLSL); a near cap also carries its scene
+#: triangle + 1, shifted by RULE_CAP_SHIFT.
+RULE_ZFAIL, RULE_FLIPPED, RULE_CAP_SHIFT = 1, 2, 2
 #: Pixels by which a tile's corner centres must lie inside (outside) every edge of a triangle
 #: for it to count as covering (missing) the tile: the rasteriser snaps corners to sub-pixel
 #: precision (1/256 pixel on llvmpipe, coarser on some GPUs) and clips in float32.
@@ -208,8 +209,14 @@ class HierarchicalVolume(ShadowVolume):
             "tile_bounds": self.own(ctx.buffer(reserve=8 * tiles)),
             "tile_count": self.own(ctx.buffer(reserve=4 * tiles)),
             "tile_boundary": self.own(ctx.buffer(reserve=4 * tiles)),
+            "tile_triangle": self.own(ctx.buffer(reserve=4 * tiles)),
             "counters": self.own(ctx.buffer(reserve=4 * len(COUNTERS))),
         }
+        # The pre-pass's triangle per pixel, drawn with the pre-pass's depth (the frame's
+        # depth-stencil, which the plain volume's target shares too).
+        self.triangle_tex = self.own(ctx.texture(self.size, 1, dtype="f4"))
+        self.triangle_target = self.own(targets.ScreenTarget.create(
+            self.size, [self.triangle_tex], share_depth_stencil=frame.depth_stencil_for(self)))
         self.span_capacity = 0
         self.retries = 0
         self.counts = dict.fromkeys(COUNTERS, 0)
@@ -222,7 +229,7 @@ class HierarchicalVolume(ShadowVolume):
         self.target.use()  # moderngl's current framebuffer bound again
         grid = {"u_tile": self.tile, "u_tiles": self.tile_grid, "u_size": self.size}
         self.tiles_prog = self.program("hierarchical_volume_tiles.glsl")
-        programs.set_uniforms(self.tiles_prog, {**grid, "u_depth": 0})
+        programs.set_uniforms(self.tiles_prog, {**grid, "u_depth": 0, "u_triangle": 1})
         self.triangles_prog = self.program("hierarchical_volume_triangles.glsl", defines={"SPAN": SPAN})
         for key, val in self.matrices.items():
             self.triangles_prog[key].write(val)
@@ -246,25 +253,41 @@ class HierarchicalVolume(ShadowVolume):
         return prog
 
     def _depth_prepass(self) -> None:
-        """The plain volume's depth pre-pass, every fragment kept (the mask is off; the tile
-        buffer is bound all the same, so the program never reads an unbound buffer)."""
+        """The plain volume's depth pre-pass (the same program, vertices, clipping and depth
+        clamp, into the same depth-stencil), every fragment kept (the mask is off; the tile
+        buffer is bound all the same, so the program never reads an unbound buffer), also
+        writing each pixel's scene triangle to :attr:`triangle_tex` (−1 where none)."""
+        from OpenGL import GL
+
         self.buffers["tile_boundary"].bind_to_storage_buffer(BINDING["tile_boundary"])
         self.vs_prog["u_mask_tiles"].value = False
-        super()._depth_prepass()
+        self.triangle_target.use()
+        glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=True,
+                                depth_clamp=self.far == "clamp", clip_distances=self.clip_distances))
+        self.triangle_target.clear_depth_stencil()
+        GL.glClearBufferfv(GL.GL_COLOR, 0, (-1.0, -1.0, -1.0, -1.0))
+        self.scene4_vao.render()  # one draw of every scene triangle: primitive i is triangle i
+        gl.check_errors("hierarchical volume depth pre-pass")
 
     # ------------------------------------------------------------------ per-frame work
     def volume_triangles(self, geometry: dict) -> tuple[np.ndarray, np.ndarray]:
         """Every volume triangle the stencil passes draw, as float32 (3T, 4) corners (world
         point, extrude flag: the per-pixel stage's own vertex data) and int32 (T,) counting
-        rules (:data:`RULE_ZFAIL`, :data:`RULE_FLIPPED`), from :meth:`cpu_volume_geometry`."""
+        rules (:data:`RULE_ZFAIL`, :data:`RULE_FLIPPED`, a near cap's scene triangle), from
+        :meth:`cpu_volume_geometry`."""
         verts, rules = [], []
         for zfail, (volume, cap_idx, flip_idx, far_idx) in geometry.items():
             rule = RULE_ZFAIL if zfail else 0
-            for part, r in ((volume, rule), (self.corners_ext[far_idx], rule), (self.corners4[cap_idx], rule),
-                            (self.corners4[flip_idx], rule | RULE_FLIPPED)):
+            none = np.zeros(0, np.int64)
+            for part, r, caps in ((volume, rule, none), (self.corners_ext[far_idx], rule, none),
+                                  (self.corners4[cap_idx], rule, cap_idx), (self.corners4[flip_idx],
+                                                                            rule | RULE_FLIPPED, flip_idx)):
                 if len(part):
                     verts.append(np.asarray(part, np.float32).reshape(-1, 4))
-                    rules.append(np.full(len(part) // 3, r, np.int32))
+                    r = np.full(len(part) // 3, r, np.int32)
+                    if len(caps):  # near caps: their scene triangle (corner index // 3) + 1
+                        r |= (caps[0::3] // 3 + 1).astype(np.int32) << RULE_CAP_SHIFT
+                    rules.append(r)
         if not verts:
             return np.zeros((0, 4), np.float32), np.zeros(0, np.int32)
         return np.concatenate(verts), np.concatenate(rules)
@@ -333,6 +356,7 @@ class HierarchicalVolume(ShadowVolume):
             glstate.apply(PassState())  # no sampler object on unit 0 (the depth copy is read raw)
             self._bind()
             self.depth_copy.use(0)
+            self.triangle_tex.use(1)
             dispatch(self.tiles_prog, -(-(self.tile_grid[0] * self.tile_grid[1]) // LOCAL_SIZE))
             ctx.memory_barrier()
         with self.timed_pass("classify"):

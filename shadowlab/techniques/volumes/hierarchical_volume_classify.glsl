@@ -15,7 +15,9 @@
 // (depth is affine over the triangle, so its extremes are there). Depth tests are "<" against
 // the pre-pass depth: a fragment passes where its depth is below the surface's. Fragment depths
 // are clamped to [0, 1] (far=clamp clamps; elsewhere the clip volume keeps them inside), and a
-// bound that reaches 1 ties with nothing stored below it.
+// bound that reaches 1 ties with nothing stored below it. A z-fail near cap lying on the visible
+// surface ties with it: where every surface pixel of the tile shows that very triangle (the
+// pre-pass's triangle per pixel), the cap fails the depth test at each and is counted.
 #include "hierarchical_volume_common.glsl"
 
 #ifdef COMPUTE_SHADER
@@ -92,6 +94,17 @@ void main() {
     }
     bool full = (flags & (FLAG_NO_EDGES | FLAG_THIN)) == 0;
     float m = tri[i].margin.x;
+    if (int(tri[i].margin.y) == tile_triangle[t]) {
+        // A near cap that is the very triangle every surface pixel of the tile shows: drawn by
+        // the same program from the same vertices as the pre-pass, it covers those pixels with
+        // their stored depth bit for bit, so the depth test fails at each (z-fail counts it).
+        if (full) {
+            atomicAdd(tile_count[t], info.y == 1 ? info.z : 0);
+            return;
+        }
+        atomicOr(tile_boundary[t], 1u);
+        return;
+    }
     if ((flags & FLAG_NO_EDGES) == 0) {
         for (int j = 0; j < info.x; ++j) {
             vec4 e = tri[i].edge[j];

@@ -12,6 +12,10 @@
 layout(std430, binding = 0) buffer TileBounds { vec2 tile_bounds[]; };
 layout(std430, binding = 1) buffer TileCount { int tile_count[]; };
 layout(std430, binding = 2) buffer TileBoundary { uint tile_boundary[]; };
+// Per tile: the one scene triangle every pixel holding a surface shows in the pre-pass, or
+// NO_TRIANGLE (several, or none).
+layout(std430, binding = 8) buffer TileTriangle { int tile_triangle[]; };
+#define NO_TRIANGLE (-2)
 
 uniform int u_tile;            // tile width and height in pixels
 uniform ivec2 u_tiles;         // tiles across, up

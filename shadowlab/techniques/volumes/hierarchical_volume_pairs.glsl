@@ -5,7 +5,8 @@
 // One volume triangle, clipped to the view frustum and set up for the tile tests: its corners'
 // clip positions; in window pixel coordinates, its edges (a, b, c): a x + b y + c is the signed distance to the edge,
 // positive inside; its window-depth plane z = p.x x + p.y y + p.z and that plane's error bound
-// (p.w); the coverage margin (margin.x, pixels); its tile box (x0, y0, x1, y1, inclusive); and
+// (p.w); the coverage margin (margin.x, pixels) and, for a near cap, its scene triangle (margin.y,
+// an integer; −1 for other triangles); its tile box (x0, y0, x1, y1, inclusive); and
 // info = (edges, counting side: 0 depth pass / 1 depth fail, ±1 it adds where it counts,
 // flags).
 #define MAX_POLY 9               // a triangle clipped by six planes has at most 9 corners
@@ -29,3 +30,4 @@ layout(std430, binding = 6) buffer Spans { ivec4 span[]; };   // (triangle, firs
 layout(std430, binding = 7) buffer Counters { uint counter[]; };
 #define RULE_ZFAIL 1             // counted on depth fail (back +1, front −1), else on depth pass
 #define RULE_FLIPPED 2           // the other face's operations (two-sided caps of unlit faces)
+#define RULE_CAP_SHIFT 2         // rule >> RULE_CAP_SHIFT: a near cap's scene triangle + 1, else 0

@@ -154,7 +154,7 @@ void main() {
         }
         for (int k = 0; k < 3; ++k) tri[i].clip[k] = c[k];
         tri[i].plane = vec4(float(A), float(B), float(C), float(err));
-        tri[i].margin = vec4(margin, 0.0, 0.0, 0.0);
+        tri[i].margin = vec4(margin, float((rule >> RULE_CAP_SHIFT) - 1), 0.0, 0.0);
         ivec2 plo = max(ivec2(ceil(lo - double(margin) - 0.5)), ivec2(0));
         ivec2 phi = min(ivec2(floor(hi + double(margin) - 0.5)), u_size - 1);
         if (any(greaterThan(plo, phi))) return;         // covers no pixel centre

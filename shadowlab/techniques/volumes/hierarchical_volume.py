@@ -78,10 +78,10 @@ BINDING = {"tile_bounds": 0, "tile_count": 1, "tile_boundary": 2, "tri_vertices"
            "triangles": 5, "spans": 6, "counters": 7, "tile_triangle": 8}
 #: Counter slots (``hierarchical_volume_common.glsl``: COUNTER_*).
 COUNTERS = ("spans", "tile_tests", "uncertain")
-#: Most tiles per span (a run of tiles in one tile row): one work group of the second
-#: classification program (its local size).
+#: Most tiles per span (a run of tiles in one tile row): one invocation of the second
+#: classification program.
 SPAN = 16
-#: Invocations per work group of the tile and triangle programs (their ``local_size_x``).
+#: Invocations per work group of the compute programs (their ``local_size_x``).
 LOCAL_SIZE = 64
 #: Work groups GL guarantees in one dimension of a dispatch (larger ones are split over y).
 MAX_GROUPS_X = 65535
@@ -339,7 +339,7 @@ class HierarchicalVolume(ShadowVolume):
             self.span_capacity = asked
         if asked:
             self.classify_prog["u_spans"].value = asked
-            dispatch(self.classify_prog, asked)
+            dispatch(self.classify_prog, -(-asked // LOCAL_SIZE))
             ctx.memory_barrier()
 
     def render(self) -> None:

@@ -1,5 +1,6 @@
-// Hierarchical shadow volumes, pass "classify" (2 of 2): one invocation per (volume triangle,
-// tile) pair, one span (a run of at most SPAN tiles of one tile row) per work group. Against the tile's pixel centres and its
+// Hierarchical shadow volumes, pass "classify" (2 of 2): every (volume triangle,
+// tile) pair, looped over by one invocation per span (a run of at most SPAN tiles of one tile
+// row). Against the tile's pixel centres and its
 // surface depth range [zmin, zmax] (Aila & Akenine-Möller 2004, section 3), the triangle
 //   (a) covers none of the tile's pixel centres, or lies wholly on the side of the depth range
 //       where it is not counted: no effect;
@@ -22,7 +23,7 @@
 
 #ifdef COMPUTE_SHADER
 #include "hierarchical_volume_pairs.glsl"
-layout(local_size_x = SPAN) in;
+layout(local_size_x = 64) in;
 uniform int u_spans;
 uniform bool u_clip_far;        // far=finite: the far plane clips the volumes too
 uniform float u_depth_rel;      // error bound of a window depth taken at a corner
@@ -73,15 +74,8 @@ vec2 exact_range(int i, vec2 lo, vec2 hi) {
     return range;
 }
 
-void main() {
-    int s = GROUP_INDEX;
-    if (s >= u_spans) return;
-    ivec4 sp = span[s];
-    int i = sp.x;
-    int k = int(gl_LocalInvocationID.x);
-    if (k >= sp.w) return;
-    ivec4 info = tri[i].info;
-    ivec2 tc = ivec2(sp.y + k, sp.z);
+// Classify the pair (triangle i, tile tc) and record its effect on the tile.
+void classify(int i, ivec4 info, ivec2 tc) {
     int t = tc.y * u_tiles.x + tc.x;
     vec2 zb = tile_bounds[t];
     if (zb.x > zb.y) return;                       // no surface in the tile: nothing to count
@@ -134,5 +128,13 @@ void main() {
         atomicAdd(tile_count[t], info.z);          // (b) counted at every pixel of the tile
     else
         atomicOr(tile_boundary[t], 1u);            // (d)
+}
+void main() {
+    int s = INVOCATION_INDEX;
+    if (s >= u_spans) return;
+    ivec4 sp = span[s];
+    ivec4 info = tri[sp.x].info;
+    for (int k = 0; k < sp.w; ++k)
+        classify(sp.x, info, ivec2(sp.y + k, sp.z));
 }
 #endif

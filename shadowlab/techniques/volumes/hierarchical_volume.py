@@ -30,9 +30,10 @@ boundary tiles:
    clipped polygon is convex) and its depth wholly on the counting side: ±1 to the tile's count
    (an atomic add); otherwise (c) the tile is a boundary tile. The depth range is first bounded
    by the plane at the tile's corners and, where that settles nothing (steep planes, slivers),
-   by the exact range over the triangle clipped to the tile. Margins cover the rasteriser's
-   rounding: a quarter pixel of position, many units of the 24-bit depth buffer, more where clip
-   coordinates are large against w; anything uncertain (near-degenerate, edge-on) is boundary:
+   by the exact range over the part of the clipped triangle inside the tile (depth taken at the
+   corners of that part, interpolated along the polygon's edges). Margins cover the
+   rasteriser's rounding: a quarter pixel of position, many units of the 24-bit depth buffer,
+   more where clip coordinates are large against w; anything uncertain (near-degenerate, edge-on) is boundary:
    a wrong "boundary" costs time, never a pixel. A triangle with two bit-identical corners (a
    directional light's side triangles meet at one point at infinity) has no fragment anywhere
    and is skipped.
@@ -85,8 +86,8 @@ SPAN = 16
 LOCAL_SIZE = 64
 #: Work groups GL guarantees in one dimension of a dispatch (larger ones are split over y).
 MAX_GROUPS_X = 65535
-#: Bytes of one set-up volume triangle (``VolumeTriangle``, std430: 3 + 9 + 4 vec4).
-TRIANGLE_BYTES = 16 * 16
+#: Bytes of one set-up volume triangle (``VolumeTriangle``, std430: 9 + 9 + 4 vec4).
+TRIANGLE_BYTES = 22 * 16
 #: Counting rules per volume triangle (``RULE_*`` in the GLSL); a near cap also carries its scene
 #: triangle + 1, shifted by RULE_CAP_SHIFT.
 RULE_ZFAIL, RULE_FLIPPED, RULE_CAP_SHIFT = 1, 2, 2
@@ -237,8 +238,7 @@ class HierarchicalVolume(ShadowVolume):
             **self.light.uniforms(), **grid, "u_clip_far": self.far == "finite", "u_margin_px": COVERAGE_MARGIN,
             "u_depth_rel": DEPTH_RELATIVE_MARGIN, "u_depth_px": DEPTH_POSITION_MARGIN})
         self.classify_prog = self.program("hierarchical_volume_classify.glsl", defines={"SPAN": SPAN})
-        programs.set_uniforms(self.classify_prog, {**grid, "u_clip_far": self.far == "finite",
-                                                   "u_depth_rel": DEPTH_RELATIVE_MARGIN})
+        programs.set_uniforms(self.classify_prog, {**grid, "u_depth_rel": DEPTH_RELATIVE_MARGIN})
         self.resolve_prog = self.program("hierarchical_volume_resolve.glsl")
         programs.set_uniforms(self.resolve_prog, grid)
         self.resolve_quad = self.fullscreen_quad(self.resolve_prog)

@@ -1,31 +1,28 @@
-// Hierarchical shadow volumes, pass "classify" (2 of 2): every (volume triangle,
-// tile) pair, looped over by one invocation per span (a run of at most SPAN tiles of one tile
-// row). Against the tile's pixel centres and its
-// surface depth range [zmin, zmax] (Aila & Akenine-Möller 2004, section 3), the triangle
+// Hierarchical shadow volumes, pass "classify" (2 of 2): every (volume triangle, tile) pair,
+// looped over by one invocation per span (a run of at most SPAN tiles of one tile row).
+// Against the tile's pixel centres and its surface depth range [zmin, zmax] (Aila &
+// Akenine-Möller 2004, section 3), the triangle
 //   (a) covers none of the tile's pixel centres, or lies wholly on the side of the depth range
 //       where it is not counted: no effect;
 //   (b) covers every pixel centre (the tile's corner centres lie inside every edge by the
 //       margin; the polygon is convex) and lies wholly on its counting side: it adds its ±1 to
 //       every pixel of the tile, so to the tile's count;
-//   (d) otherwise: the tile is a boundary tile, counted per pixel.
+//   (c) otherwise: the tile is a boundary tile, counted per pixel.
 // The triangle's depth range over the tile is first bounded by its plane at the tile's corner
 // centres (cheap, loose for steep planes); where that settles nothing, by the exact range over
-// the part of the triangle inside the tile (grown by the coverage margin): the triangle is
-// clipped in homogeneous clip space (double precision) to the tile's four sides and the near
-// (and for far=finite the far) plane, and window depth z/w is taken at the resulting corners
-// (depth is affine over the triangle, so its extremes are there). Depth tests are "<" against
-// the pre-pass depth: a fragment passes where its depth is below the surface's. Fragment depths
-// are clamped to [0, 1] (far=clamp clamps; elsewhere the clip volume keeps them inside), and a
-// bound that reaches 1 ties with nothing stored below it. A z-fail near cap lying on the visible
-// surface ties with it: where every surface pixel of the tile shows that very triangle (the
-// pre-pass's triangle per pixel), the cap fails the depth test at each and is counted.
+// the part of the (frustum-clipped) triangle inside the tile grown by the coverage margin.
+// Depth tests are "<" against the pre-pass depth: a fragment passes where its depth is below
+// the surface's. Fragment depths are clamped to [0, 1] (far=clamp clamps; elsewhere the clip
+// volume keeps them inside), and a bound that reaches 1 ties with nothing stored below it. A
+// z-fail near cap lying on the visible surface ties with it: where every surface pixel of the
+// tile shows that very triangle (the pre-pass's triangle per pixel), the cap fails the depth
+// test at each and is counted.
 #include "hierarchical_volume_common.glsl"
 
 #ifdef COMPUTE_SHADER
 #include "hierarchical_volume_pairs.glsl"
 layout(local_size_x = 64) in;
 uniform int u_spans;
-uniform bool u_clip_far;        // far=finite: the far plane clips the volumes too
 uniform float u_depth_rel;      // error bound of a window depth taken at a corner
 
 // 0: no effect, 1: counted at every pixel of the tile, 2: boundary; from the depth range
@@ -41,35 +38,47 @@ int verdict(float zlo, float zhi, vec2 zb, bool on_fail, bool full) {
 }
 
 // The window-depth range (x: min, y: max) of the triangle tri[i] inside the window rectangle
-// [lo, hi] (pixels), by clipping its clip-space corners; x > y when nothing of it is inside.
-vec2 exact_range(int i, vec2 lo, vec2 hi) {
-    dvec4 poly[MAX_CLIP], next[MAX_CLIP];
-    for (int k = 0; k < 3; ++k) poly[k] = dvec4(tri[i].clip[k]);
-    int n = 3;
-    dvec2 ndc_lo = dvec2(lo) / dvec2(u_size) * 2.0 - 1.0, ndc_hi = dvec2(hi) / dvec2(u_size) * 2.0 - 1.0;
-    int planes = u_clip_far ? 6 : 5;
-    for (int p = 0; p < planes && n > 0; ++p) {
-        // keep dot(pl, v) >= 0: x >= lo.x w, x <= hi.x w, y >= lo.y w, y <= hi.y w, near, far
-        dvec4 pl = p == 0 ? dvec4(1, 0, 0, -ndc_lo.x) : p == 1 ? dvec4(-1, 0, 0, ndc_hi.x)
-                 : p == 2 ? dvec4(0, 1, 0, -ndc_lo.y) : p == 3 ? dvec4(0, -1, 0, ndc_hi.y)
-                 : p == 4 ? dvec4(0, 0, 1, 1) : dvec4(0, 0, -1, 1);
-        // the near plane first would be safer for w, but every plane here is linear in
-        // homogeneous coordinates, and the result is the same set: order does not matter
-        int m = 0;
-        for (int k = 0; k < n; ++k) {
-            dvec4 a = poly[k], b = poly[(k + 1) % n];
-            double da = dot(pl, a), db = dot(pl, b);
-            if (da >= 0.0 && m < MAX_CLIP) next[m++] = a;
-            if ((da >= 0.0) != (db >= 0.0) && m < MAX_CLIP) next[m++] = a + (da / (da - db)) * (b - a);
-        }
-        n = m;
-        for (int k = 0; k < n; ++k) poly[k] = next[k];
-    }
+// [lo, hi] (pixels); x > y when nothing of it is inside. Depth is affine over the triangle in
+// window coordinates, so its extremes over the convex intersection lie at the intersection's
+// corners: the polygon's corners inside the rectangle, its edges' crossings of the rectangle's
+// sides (depth interpolated along the edge, well conditioned even for slivers) and the
+// rectangle's corners inside the polygon (the plane, with its error bound). Every test leans
+// towards including a candidate (TOUCH pixels): an extra one only widens the range.
+#define TOUCH 1e-3
+void extend(inout vec2 range, float z) {
+    range = vec2(min(range.x, z), max(range.y, z));
+}
+vec2 exact_range(int i, int n, int flags, vec2 lo, vec2 hi) {
     vec2 range = vec2(2.0, -1.0);
     for (int k = 0; k < n; ++k) {
-        if (!(poly[k].w > 0.0)) return vec2(0.0, 1.0);   // cannot happen past the near plane: unsure
-        float z = float(0.5 + 0.5 * poly[k].z / poly[k].w);
-        range = vec2(min(range.x, z), max(range.y, z));
+        vec3 a = tri[i].vert[k].xyz, b = tri[i].vert[(k + 1) % n].xyz;
+        if (all(greaterThanEqual(a.xy, lo - TOUCH)) && all(lessThanEqual(a.xy, hi + TOUCH)))
+            extend(range, a.z);
+        for (int side = 0; side < 4; ++side) {
+            int axis = side / 2;                   // 0: x = const, 1: y = const
+            float c = (side % 2 == 0) ? lo[axis] : hi[axis];
+            float da = a[axis] - c, db = b[axis] - c;
+            if (da * db >= 0.0) continue;          // no crossing inside the edge (ends: above)
+            float s = da / (da - db);
+            float other = mix(a[1 - axis], b[1 - axis], s);
+            if (other >= lo[1 - axis] - TOUCH && other <= hi[1 - axis] + TOUCH)
+                extend(range, mix(a.z, b.z, s));
+        }
+    }
+    for (int corner = 0; corner < 4; ++corner) {
+        vec2 p = vec2((corner & 1) != 0 ? hi.x : lo.x, (corner & 2) != 0 ? hi.y : lo.y);
+        bool inside = true;
+        if ((flags & FLAG_NO_EDGES) == 0)
+            for (int j = 0; j < n; ++j) {
+                vec4 e = tri[i].edge[j];
+                if (e.x * p.x + e.y * p.y + e.z < -TOUCH) inside = false;
+            }
+        if (!inside) continue;
+        if ((flags & FLAG_NO_PLANE) != 0) return vec2(0.0, 1.0);   // no plane to take it from: unsure
+        vec4 pl = tri[i].plane;
+        float z = pl.x * p.x + pl.y * p.y + pl.z;
+        extend(range, z - pl.w);
+        extend(range, z + pl.w);
     }
     return range;
 }
@@ -119,7 +128,7 @@ void classify(int i, ivec4 info, ivec2 tc) {
     if (v == 2) {
         // the fragments' pixel centres lie in [lo, hi]; the rasteriser's triangle differs from
         // this one by less than the margin: clip to the rectangle grown by it
-        vec2 r = exact_range(i, lo - m, hi + m);
+        vec2 r = exact_range(i, info.x, flags, lo - m, hi + m);
         if (r.x > r.y) return;                     // (a) nothing of it over the tile's centres
         v = verdict(r.x - u_depth_rel, r.y + u_depth_rel, zb, on_fail, full);
     }
@@ -127,7 +136,7 @@ void classify(int i, ivec4 info, ivec2 tc) {
     if (v == 1)
         atomicAdd(tile_count[t], info.z);          // (b) counted at every pixel of the tile
     else
-        atomicOr(tile_boundary[t], 1u);            // (d)
+        atomicOr(tile_boundary[t], 1u);            // (c)
 }
 void main() {
     int s = INVOCATION_INDEX;

@@ -29,5 +29,6 @@ int tile_of_pixel(ivec2 pixel) {
 // A compute invocation's index (and its work group's) in a dispatch of (x, y) work groups laid
 // out row by row (dispatches are split over y beyond the 65535 groups GL guarantees in x). Macros,
 // so that the programs without a compute stage never see them.
-#define INVOCATION_INDEX int(gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x + gl_GlobalInvocationID.x)
+#define INVOCATION_INDEX \
+    int(gl_GlobalInvocationID.y * gl_NumWorkGroups.x * gl_WorkGroupSize.x + gl_GlobalInvocationID.x)
 #define GROUP_INDEX int(gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x)

@@ -2,10 +2,10 @@
 // (hierarchical_volume_triangles.glsl, hierarchical_volume_classify.glsl); include it in their
 // compute stage, after hierarchical_volume_common.glsl.
 
-// One volume triangle, clipped to the view frustum and set up for the tile tests: its corners'
-// clip positions; in window pixel coordinates, its edges (a, b, c): a x + b y + c is the signed distance to the edge,
-// positive inside; its window-depth plane z = p.x x + p.y y + p.z and that plane's error bound
-// (p.w); the coverage margin (margin.x, pixels) and, for a near cap, its scene triangle (margin.y,
+// One volume triangle, clipped to the view frustum and set up for the tile tests, in window
+// pixel coordinates: the clipped polygon's corners (x, y, window depth); its edges (a, b, c):
+// a x + b y + c is the signed distance to the edge, positive inside; its window-depth plane
+// z = p.x x + p.y y + p.z and that plane's error bound (p.w); the coverage margin (margin.x, pixels) and, for a near cap, its scene triangle (margin.y,
 // an integer; −1 for other triangles); its tile box (x0, y0, x1, y1, inclusive); and
 // info = (edges, counting side: 0 depth pass / 1 depth fail, ±1 it adds where it counts,
 // flags).
@@ -14,9 +14,8 @@
 #define FLAG_NO_PLANE 2          // (nearly) edge-on: no depth plane, never settled at tile level
 #define FLAG_NO_EDGES 4          // edges unusable (orientation or position unsure): never settles a tile
 #define FLAG_THIN 8              // under a pixel of area: never covers a tile (its facing may be unsure)
-#define MAX_CLIP 12              // a triangle clipped by the tile's sides, near and far planes
 struct VolumeTriangle {
-    vec4 clip[3];                // its corners' clip positions (the per-pixel stage's own)
+    vec4 vert[MAX_POLY];
     vec4 edge[MAX_POLY];
     vec4 plane;
     vec4 margin;

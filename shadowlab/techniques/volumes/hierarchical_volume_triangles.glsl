@@ -2,10 +2,10 @@
 // clip positions are the per-pixel stage's own (surface_clip / extruded_clip of
 // shadow_volume_clip.glsl: points at infinity have w = 0); it is clipped in homogeneous clip
 // space (double precision) to the near plane, the four side planes and, for a finite
-// projection, the far plane; the clipped polygon's edges, its window-depth plane and error
+// projection, the far plane; the clipped polygon's corners and edges, its window-depth plane and error
 // bounds, its counting rule and its tile box are stored, and the tiles it may reach, row by row,
-// are cut into spans of at most SPAN tiles appended to the span list (an atomic counter; a full list is counted, never dropped:
-// the technique grows it and runs again).
+// are cut into spans of at most SPAN tiles appended to the span list (an atomic counter; a full
+// list is counted, never dropped: the technique grows it and runs again).
 //
 // The depth plane: the triangle's corners c0, c1, c2 (4-vectors) span a 3-dimensional subspace
 // of homogeneous space; its normal n (the generalised cross product, n_k = (−1)^k times the
@@ -35,7 +35,7 @@ double det3(dvec3 a, dvec3 b, dvec3 c) {
 // A triangle that cannot be set up reliably: boundary on every tile with a surface.
 void store_uncertain(int i, int side) {
     for (int k = 0; k < MAX_POLY; ++k) tri[i].edge[k] = vec4(0.0);
-    for (int k = 0; k < 3; ++k) tri[i].clip[k] = vec4(0.0);
+    for (int k = 0; k < MAX_POLY; ++k) tri[i].vert[k] = vec4(0.0);
     tri[i].plane = vec4(0.0);
     tri[i].margin = vec4(0.0);
     tri[i].box = ivec4(0, 0, u_tiles.x - 1, u_tiles.y - 1);
@@ -87,7 +87,8 @@ void main() {
     dvec2 size = dvec2(u_size);
     dvec2 q[MAX_POLY];
     double wmin = 1e300, cmax = 0.0;
-    for (int k = 0; k < 3; ++k) cmax = max(cmax, double(max(max(abs(c[k].x), abs(c[k].y)), max(abs(c[k].z), abs(c[k].w)))));
+    for (int k = 0; k < 3; ++k)
+        cmax = max(cmax, double(max(max(abs(c[k].x), abs(c[k].y)), max(abs(c[k].z), abs(c[k].w)))));
     for (int k = 0; k < n; ++k) wmin = min(wmin, poly[k].w);
     bool rows = false;              // per tile row, only the tiles the polygon reaches
     float margin = 0.0;
@@ -152,7 +153,9 @@ void main() {
             err = u_depth_rel * (1.0 + abs(C) + abs(A) * size.x + abs(B) * size.y)
                 + u_depth_px * (abs(A) + abs(B));
         }
-        for (int k = 0; k < 3; ++k) tri[i].clip[k] = c[k];
+        // the corners with their window depth (w > 0 past the near plane)
+        for (int k = 0; k < MAX_POLY; ++k)
+            tri[i].vert[k] = k < n ? vec4(vec2(q[k]), float(0.5 + 0.5 * poly[k].z / poly[k].w), 0.0) : vec4(0.0);
         tri[i].plane = vec4(float(A), float(B), float(C), float(err));
         tri[i].margin = vec4(margin, float((rule >> RULE_CAP_SHIFT) - 1), 0.0, 0.0);
         ivec2 plo = max(ivec2(ceil(lo - double(margin) - 0.5)), ivec2(0));

@@ -132,7 +132,7 @@ class ShadowVolume(Technique):
         # it as clip distance 0 (see shadowlab/techniques/volumes/shadow_volume_common.glsl).
         self.defines = {"NEAR_CLIP": 1} if self.far == "clamp" else None
         self.clip_distances = 1 if self.far == "clamp" else 0
-        self.vs_prog = self.program("shadow_volume.glsl", defines=self.defines)
+        self.vs_prog = self.volume_program()
         for key, val in self.matrices.items():
             self.vs_prog[key].write(val)
         programs.set_uniforms(self.vs_prog, self.light.uniforms())
@@ -164,6 +164,12 @@ class ShadowVolume(Technique):
         self.const_prog = self.program("constant.glsl")
         self.quad = self.fullscreen_quad(self.const_prog)
         self._depth_prepass()
+
+    def volume_program(self):
+        """The CPU path's program (depth pre-pass, caps, CPU-path volumes). A subclass may return
+        another with the same vertex and geometry stages (hierarchical_volume: its own fragment
+        stage), so that the pre-pass and every cap it draws still tie bit for bit."""
+        return self.program("shadow_volume.glsl", defines=self.defines)
 
     def _depth_prepass(self) -> None:
         """Scene depth under this technique's projection, drawn by the CPU path's program; the GPU

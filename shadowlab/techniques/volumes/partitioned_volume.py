@@ -13,27 +13,33 @@ fixed pool) and any triangle soup goes in as it is. A point is located in the tr
 in a BSP, except that the intersection child is always visited too: reaching the end of a
 triangle's chain of planes means the point lies in its volume — in shadow. Mora, Gerhards,
 Aveneau & Ghazanfarpour 2016 ("Deep Partitioned Shadow Volumes Using Stackless and Hybrid
-Traversals", EGSR) make the capping plane a node like the others, so that points in front of a
-triangle leave its subtree early, and replace the query's stack by a stackless walk over parent
-links, or a hybrid that falls back on it when a small stack is full.
+Traversals", EGSR) add depth to the tree — here each triangle's capping plane is a node of its
+chain like its shadow planes, so that points in front of a triangle leave its subtree there — and
+replace the query's stack by a stackless walk over parent links, or a hybrid that falls back on
+it when a small stack is full.
 
 Passes (``shadowlab/techniques/volumes/psv_build.glsl``, ``psv_query.glsl``, sharing
 ``psv_common.glsl``; GL 4.3 compute and storage buffers):
 
 1. ``build`` (compute): the tree from the caster triangles (float32 corners, as the truth's
-   Embree scene holds them), by one invocation that inserts them in scene order — the papers
-   insert in parallel with atomics, whose tree (and every count taken from it) then depends on
-   scheduling; one invocation keeps it the same on every run and every driver, at the cost of a
-   build that does not scale with the GPU (``build`` in the pass timings). A triangle whose
-   insertion ends at another's leaf lies inside that one's volume and is dropped (counted in
-   ``triangles_culled``, the papers' culling). The nodes come from a pool of ``pool`` nodes
-   (0: five per triangle, which cannot overflow); a build that finds the pool full stops,
-   and the render is repeated with a full-size pool (``on_overflow=retry``, in the notes and
-   ``pool_retries``) or fails (``on_overflow=fail``) — never a tree with volumes missing.
+   Embree scene holds them; ``order=scene`` as stored, ``order=light`` nearest the light first),
+   one invocation per triangle, in rounds: each triangle walks down from where it stopped to the
+   first empty child its volume goes to and asks for it (``atomicMin`` of its index); the lowest
+   index asking wins and hangs its chain there, the others walk on through it in the next round.
+   The papers let the first thread to arrive win (``atomicCompSwap``), a tree that depends on
+   scheduling; here the tree, and every count taken from it, is the same on every run and every
+   driver, for a few dispatches per level of the tree (``build`` in the pass timings). A triangle
+   whose walk ends at another's leaf lies inside that one's volume and is dropped (counted in
+   ``triangles_culled``, the papers' culling). The nodes come from a pool of ``pool`` nodes (0:
+   five per triangle, which cannot overflow) by an atomic counter; a build that finds the pool
+   full stops, and the render is repeated with a full-size pool (``on_overflow=retry``, in the
+   notes and ``pool_retries``) or fails (``on_overflow=fail``) — never a tree with volumes missing.
 2. ``query`` (compute): one invocation per evaluated pixel locates the truth's own shadow-ray
    origin (:func:`shadowlab.truth.tracing.offset_origins`, as the irregular z-buffer does) in the
-   tree, with a stack (``query=stack``, :data:`STACK_SIZE` nodes, hybrid on overflow) or without
-   (``query=stackless``); both enter the same nodes in the same order.
+   tree, with a stack (``query=stack``, ``stack_size`` nodes, then stackless: the hybrid) or
+   without (``query=stackless``, parent links); both enter the same nodes in the same order. A
+   query makes at most :data:`STEP_BUDGET` steps per dispatch and is resumed by the next one
+   where it stopped: llvmpipe ends an invocation silently after 65535 loop iterations.
 
 Exactness (this lab's addition; the papers decide by float32 plane tests, which near a
 shadow boundary or a contact disagree with an exact ray test). Every plane decision is
@@ -139,6 +145,8 @@ class PartitionedVolume(Technique):
                        choices=("stack", "stackless")),
         "stack_size": Param(STACK_SIZE, "nodes of the query's stack (query=stack); a query needing more is counted "
                                         "and goes on stackless", min=1, max=256),
+        "order": Param("scene", "insertion order: scene (as stored) or light (nearest the light first, sorted on "
+                                "the CPU in setup; deeper trees and no more culling on the shipped scenes)", choices=("scene", "light")),
         "pool": Param(0, f"tree nodes in the pool (0: {NODES_PER_TRIANGLE} per caster triangle, which cannot "
                          f"overflow)", min=0),
         "on_overflow": Param("retry", "a full pool: build again with a full-size pool, or fail",
@@ -159,6 +167,8 @@ class PartitionedVolume(Technique):
         self.ray_index = idx
         self.ray_count = len(idx)
         corners = self._caster_triangles(frame)
+        if self.order == "light" and len(corners) > 3:
+            corners = self._nearest_first(corners, light)
         self.triangle_count = len(corners) // 3 if frame.has_casters else 0
         rays = max(1, self.ray_count)
         origin_w = np.zeros((rays, 4), np.float32)
@@ -222,6 +232,19 @@ class PartitionedVolume(Technique):
         out = np.zeros((len(corners), 4), np.float32)
         out[:, :3] = corners
         return out
+
+    @staticmethod
+    def _nearest_first(corners: np.ndarray, light) -> np.ndarray:
+        """``corners`` (3T, 4) reordered triangle by triangle, nearest the light first (each
+        triangle's nearest corner: its distance to a point light, or its depth along a light at
+        infinity), ties in scene order."""
+        pts = corners[:, :3].astype(np.float64).reshape(-1, 3, 3)
+        if light.at_infinity:
+            key = (pts @ np.asarray(light.direction, np.float64)).min(axis=1)
+        else:
+            key = np.linalg.norm(pts - np.asarray(light.position, np.float64), axis=2).min(axis=1)
+        order = np.argsort(key, kind="stable")
+        return np.ascontiguousarray(corners.reshape(-1, 3, 4)[order].reshape(-1, 4))
 
     # -- rendering -----------------------------------------------------------------
     def render(self) -> None:

@@ -11,7 +11,9 @@
 // the walk goes back up through the parent links and, at each node it comes back to, recomputes
 // the children it visits there and takes the one after the child it came from (Mora et al. 2016,
 // §4). Both enter the same nodes in the same order, so they give the same visibility and the
-// same count of nodes entered.
+// same count of nodes entered. A query stops after STEP_BUDGET steps (llvmpipe ends an invocation
+// silently after 65535 loop iterations), saves its stackless state and is resumed by the next
+// dispatch (u_resume).
 #include "psv_common.glsl"
 #include "watertight.glsl"
 

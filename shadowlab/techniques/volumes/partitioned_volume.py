@@ -13,10 +13,11 @@ fixed pool) and any triangle soup goes in as it is. A point is located in the tr
 in a BSP, except that the intersection child is always visited too: reaching the end of a
 triangle's chain of planes means the point lies in its volume — in shadow. Mora, Gerhards,
 Aveneau & Ghazanfarpour 2016 ("Deep Partitioned Shadow Volumes Using Stackless and Hybrid
-Traversals", EGSR) add depth to the tree — here each triangle's capping plane is a node of its
-chain like its shadow planes, so that points in front of a triangle leave its subtree there — and
-replace the query's stack by a stackless walk over parent links, or a hybrid that falls back on
-it when a small stack is full.
+Traversals", EGSR) add depth information to the tree, for the points in front of the casters,
+and replace the query's stack by a stackless walk over parent links, or a hybrid that falls back
+on it when a small stack is full. Here the capping plane is a node of each triangle's chain like
+its shadow planes, the last one: first in the chain it partitions poorly (the volumes run to
+infinity behind it, so most of the volumes tested against it straddle it).
 
 Passes (``shadowlab/techniques/volumes/psv_build.glsl``, ``psv_query.glsl``, sharing
 ``psv_common.glsl``; GL 4.3 compute and storage buffers):

@@ -136,7 +136,7 @@ class PartitionedVolume(Technique):
     name = "partitioned_volume"
     summary = ("partitioned shadow volumes (Gerhards et al. 2015; Mora et al. 2016): the casters' shadow planes in "
                "a ternary tree built in compute, each pixel located in it; exact leaf tests")
-    STYLE = PlotStyle("#8c564b", "P")
+    STYLE = PlotStyle("#393b79", "*")
     LIGHT_SAMPLED = True  # area lights: averaged over point lights, like the other hard techniques
     LIGHTS = frozenset({"point", "spot", "directional", "target_direct", "area"})
     PASSES = ("build", "query")

@@ -13,11 +13,14 @@ fixed pool) and any triangle soup goes in as it is. A point is located in the tr
 in a BSP, except that the intersection child is always visited too: reaching the end of a
 triangle's chain of planes means the point lies in its volume — in shadow. Mora, Gerhards,
 Aveneau & Ghazanfarpour 2016 ("Deep Partitioned Shadow Volumes Using Stackless and Hybrid
-Traversals", EGSR) add depth information to the tree, for the points in front of the casters,
-and replace the query's stack by a stackless walk over parent links, or a hybrid that falls back
-on it when a small stack is full. Here the capping plane is a node of each triangle's chain like
-its shadow planes, the last one: first in the chain it partitions poorly (the volumes run to
-infinity behind it, so most of the volumes tested against it straddle it).
+Traversals", EGSR) add depth information to the tree, for the lit points in front of the
+casters, and replace the query's stack by a stackless walk over parent links, or a hybrid that
+falls back on it when a small stack is full. Here each node keeps the least light depth (distance
+to a point light, position along a light at infinity) of the triangles in its subtree, kept up to
+date as chains are hung: a point less deep than that, by the margin δ below, cannot be shadowed
+by anything in the subtree, which the query skips. The capping plane is a node of each
+triangle's chain like its shadow planes, the last one: first in the chain it partitions poorly
+(the volumes run to infinity behind it, so most of the volumes tested against it straddle it).
 
 Passes (``shadowlab/techniques/volumes/psv_build.glsl``, ``psv_query.glsl``, sharing
 ``psv_common.glsl``; GL 4.3 compute and storage buffers):
@@ -60,13 +63,15 @@ irregular z-buffer's test) on the truth's ray, and a miss goes on with the trave
 
 With these, (a) a ray whose exact test hits T reaches T's leaf (at every node on T's path the
 ray's origin lies within the margin of T's side; the triangle's own planes are within its own
-ε_T); and (b) a triangle dropped at T's leaf lies inside T's volume by the sum of both margins,
-so that any ray hitting it hits T (by the exact test too) — except where T is too close to a
-point light for the truth's ray, which stops short of it (``tfar``), or lies partly behind a
-target-direct light's disc: such leaves drop nothing. Planes whose orientation double precision
-cannot settle (the light almost in a triangle's plane, or on an edge's line) are transparent:
-both sides visited, the exact test decides. So the mask is the exact test's verdict on every
-ray: that of the irregular z-buffer, which agrees with the truth but for ties it documents.
+ε_T); (b) a triangle dropped at T's leaf lies inside T's volume by the sum of both margins, so
+that any ray hitting it hits T (by the exact test too) — unless T is too close to a point light
+for the truth's ray, which stops short of it (``tfar``), or lies partly behind a target-direct
+light's disc: such leaves drop nothing; and (c) a ray blocked by a triangle starts deeper than
+the triangle's nearest point, up to the float32 rounding that δ covers, so the depth test skips
+no subtree that could block it. Planes whose orientation double precision cannot settle (the
+light almost in a triangle's plane, or on an edge's line) are transparent: both sides visited,
+the exact test decides. So the mask is the exact test's verdict on every ray: that of the
+irregular z-buffer, which agrees with the truth but for ties it documents.
 
 The rays and their origins are built on the CPU in ``setup`` (the truth's float64 points and
 rounding), as the irregular z-buffer does. ``nodes_visited`` (= ``pixel_ops``, the papers'

@@ -42,6 +42,7 @@ struct Volume {
     vec4 plane[4];
     int flags[4];
     float rel;
+    float depth;                         // the light depth of its nearest point (light_depth)
     bool cullable;
 };
 
@@ -98,6 +99,7 @@ bool make_volume(int t, out Volume V) {
             V.rel = float(double(u_delta) / (dmin - double(u_delta))) + u_direction_eps;
         }
         V.cullable = dmin > double(u_near);
+        V.depth = float(dmin);
         for (int i = 0; i < 3; ++i) {
             dvec3 P = corner[i], Q = corner[(i + 1) % 3], O = corner[(i + 2) % 3];
             dvec3 S = cross(P - L, Q - L);
@@ -111,6 +113,8 @@ bool make_volume(int t, out Volume V) {
         }
     } else {
         dvec3 D = dvec3(u_light_direction);
+        V.depth = min(min(dot(V.v[0], u_light_direction), dot(V.v[1], u_light_direction)),
+                      dot(V.v[2], u_light_direction));
         double h = dot(n, -D);
         if (h < 0.0LF) { n = -n; h = -h; }       // towards the light is positive
         transparent = h <= RELIABLE;
@@ -176,6 +180,7 @@ void load_volume(int t, out Volume V) {
     for (int i = 0; i < 4; ++i) V.plane[i] = staged[STAGED_PER_TRIANGLE * t + i];
     vec4 extra = staged[STAGED_PER_TRIANGLE * t + 4];
     V.rel = extra.x;
+    V.depth = extra.w;
     int flags = floatBitsToInt(extra.y);
     for (int i = 0; i < 4; ++i) V.flags[i] = (i == 3 ? KIND_CAP : KIND_SIDE) | flags;
     V.cullable = extra.z != 0.0;
@@ -190,7 +195,7 @@ void prepare(int t) {
     }
     for (int i = 0; i < 4; ++i) staged[STAGED_PER_TRIANGLE * t + i] = V.plane[i];
     staged[STAGED_PER_TRIANGLE * t + 4] = vec4(V.rel, intBitsToFloat(V.flags[0] & FLAG_TRANSPARENT),
-                                               V.cullable ? 1.0 : 0.0, 0.0);
+                                               V.cullable ? 1.0 : 0.0, V.depth);
     walk[t] = ivec4(NONE, 0, NONE, STATUS_ACTIVE);
 }
 
@@ -256,7 +261,7 @@ void hang(int t) {
         node[k].rel = i == 3 ? 0.0 : V.rel;
         node[k].tri = t;
         node[k].flags = V.flags[i];
-        node[k].pad = 0;
+        node[k].depth = depth_key(V.depth);
         node[k].link = ivec4(k + 1, NONE, NONE, i == 0 ? parent : k - 1);
     }
     int leaf = first + 4;
@@ -264,10 +269,14 @@ void hang(int t) {
     node[leaf].rel = 0.0;
     node[leaf].tri = t;
     node[leaf].flags = KIND_LEAF | (V.cullable ? FLAG_CULLABLE : 0);
-    node[leaf].pad = 0;
+    node[leaf].depth = depth_key(V.depth);
     node[leaf].link = ivec4(NONE, NONE, NONE, first + 3);
     if (at_root) counter[COUNTER_ROOT] = uint(first + 1);
     else node[w.x].link[w.z % 3] = first;        // each child slot has one winner: no race
+    // The ancestors' depths: up until one is already as shallow (whoever made it so went on up).
+    int key = depth_key(V.depth);
+    for (int p = parent; p != NONE; p = node[p].link.w)
+        if (atomicMin(node[p].depth, key) <= key) break;
     walk[t] = ivec4(first, w.y + 5, NONE, STATUS_INSERTED);
     atomicAdd(counter[COUNTER_INSERTED], 1u);
     atomicMax(counter[COUNTER_DEPTH], uint((at_root ? 0 : w.y) + 5));

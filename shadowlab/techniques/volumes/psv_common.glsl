@@ -33,13 +33,14 @@
 
 // A node: its plane n·x + c (n unit; none for a leaf), the margin's relative part (shadow planes
 // of a point light: × the query point's distance to the light), the triangle, kind and flags,
-// and the links.
+// the depth of its subtree (the least light depth of the triangles in it, as an ordered int:
+// depth_key) and the links.
 struct Node {
     vec4 plane;
     float rel;
     int tri;
     int flags;
-    int pad;
+    int depth;
     ivec4 link;
 };
 
@@ -83,3 +84,12 @@ uniform float u_delta;                   // the absolute margin (world units, mo
 // decided by angle there), the absolute part covers float32 evaluation.
 float plane_distance(Node n, vec3 p) { return dot(n.plane.xyz, p) + n.plane.w; }
 float light_distance(vec3 p) { return u_point == 1 ? distance(p, u_light_position) : 0.0; }
+
+// Light depth: the distance to a point light, or the position along a light at infinity. A ray
+// from p can only be blocked by a triangle whose nearest point is less deep than p (by the
+// absolute margin): the depth of a subtree bounds what it can block (the depth information of
+// Mora et al. 2016).
+float light_depth(vec3 p) { return u_point == 1 ? distance(p, u_light_position) : dot(p, u_light_direction); }
+// Floats as ints of the same order (for atomicMin), and back.
+int depth_key(float f) { int b = floatBitsToInt(f); return b >= 0 ? b : b ^ 0x7fffffff; }
+float key_depth(int k) { return intBitsToFloat(k >= 0 ? k : k ^ 0x7fffffff); }

@@ -28,8 +28,10 @@ uniform int u_resume;                    // 0: every ray from the root; 1: the p
 #error "STEP_BUDGET: loop steps per invocation and dispatch (shadowlab.techniques.volumes.partitioned_volume)"
 #endif
 
-// The children of N that a query at p (distance r to a point light) visits, as bits 1 << CHILD_*.
-int visit_mask(Node N, vec3 p, float r) {
+// The children of N that a query at p (distance r to a point light, light depth q plus the
+// margin) visits, as bits 1 << CHILD_*: none when the whole subtree lies deeper than p.
+int visit_mask(Node N, vec3 p, float r, float q) {
+    if (key_depth(N.depth) > q) return 0;
     int kind = N.flags & KIND_MASK;
     if (kind == KIND_LEAF) return 1 << CHILD_INTER;
     if ((N.flags & FLAG_TRANSPARENT) != 0) return 7;
@@ -59,7 +61,7 @@ bool leaf_hits(Node N, vec4 o, vec3 d, inout uint tests) {
 // The stackless walk from node n (entered next when from == NONE, else reached back from its
 // child `from`) to the end of the tree: RAY_SHADOW when a leaf's exact test hits, RAY_LIT at the
 // end, RAY_PENDING (the state saved in query_state[k]) when `steps` reaches STEP_BUDGET.
-uint walk_stackless(int k, int n, int from, vec4 o, vec3 d, float r, inout int steps, inout uint entered,
+uint walk_stackless(int k, int n, int from, vec4 o, vec3 d, float r, float q, inout int steps, inout uint entered,
                     inout uint tests) {
     while (n != NONE) {
         if (steps++ >= STEP_BUDGET) {
@@ -70,11 +72,12 @@ uint walk_stackless(int k, int n, int from, vec4 o, vec3 d, float r, inout int s
         int s;
         if (from == NONE) {
             ++entered;
-            if ((N.flags & KIND_MASK) == KIND_LEAF && leaf_hits(N, o, d, tests)) return RAY_SHADOW;
-            s = next_slot(N, visit_mask(N, o.xyz, r), -1);
+            if ((N.flags & KIND_MASK) == KIND_LEAF && key_depth(N.depth) <= q && leaf_hits(N, o, d, tests))
+                return RAY_SHADOW;
+            s = next_slot(N, visit_mask(N, o.xyz, r, q), -1);
         } else {
             int came = from == N.link.x ? CHILD_NEG : (from == N.link.y ? CHILD_POS : CHILD_INTER);
-            s = next_slot(N, visit_mask(N, o.xyz, r), came);
+            s = next_slot(N, visit_mask(N, o.xyz, r, q), came);
         }
         if (s >= 0) {
             n = N.link[s];
@@ -94,12 +97,13 @@ void main() {
     vec4 o = ray_origin[k];
     vec3 d = ray_direction[k].xyz;
     float r = light_distance(o.xyz);
+    float q = light_depth(o.xyz) + 2.0 * u_delta;
     uint entered = 0u, tests = 0u;
     int steps = 0;
     uint result;
     if (u_resume == 1) {
         ivec2 state = query_state[k];
-        result = walk_stackless(k, state.x, state.y, o, d, r, steps, entered, tests);
+        result = walk_stackless(k, state.x, state.y, o, d, r, q, steps, entered, tests);
     } else {
         int root = int(counter[COUNTER_ROOT]) - 1;
 #ifdef QUERY_STACK
@@ -113,8 +117,11 @@ void main() {
             }
             Node N = node[n];
             ++entered;
-            if ((N.flags & KIND_MASK) == KIND_LEAF && leaf_hits(N, o, d, tests)) { result = RAY_SHADOW; break; }
-            int mask = visit_mask(N, o.xyz, r);
+            if ((N.flags & KIND_MASK) == KIND_LEAF && key_depth(N.depth) <= q && leaf_hits(N, o, d, tests)) {
+                result = RAY_SHADOW;
+                break;
+            }
+            int mask = visit_mask(N, o.xyz, r, q);
             int kids[3] = int[3](NONE, NONE, NONE);
             int count = 0;
             if ((mask & (1 << CHILD_NEG)) != 0 && N.link.x != NONE) kids[count++] = N.link.x;
@@ -135,9 +142,9 @@ void main() {
         }
         // Entering `resume` without the stack: the walk back up through the parents visits
         // exactly the nodes the stack still held, in the same order.
-        if (resume != NONE) result = walk_stackless(k, resume, NONE, o, d, r, steps, entered, tests);
+        if (resume != NONE) result = walk_stackless(k, resume, NONE, o, d, r, q, steps, entered, tests);
 #else
-        result = walk_stackless(k, root, NONE, o, d, r, steps, entered, tests);
+        result = walk_stackless(k, root, NONE, o, d, r, q, steps, entered, tests);
 #endif
     }
     if (result == RAY_PENDING) atomicAdd(counter[COUNTER_PENDING], 1u);

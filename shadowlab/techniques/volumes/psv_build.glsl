@@ -33,6 +33,7 @@ uniform int u_target;                    // 1: a target-direct light; nothing be
 uniform float u_near;                    // point lights: a triangle closer to the light culls nothing
 uniform float u_direction_eps;           // angle covering the float32 rounding of a ray's direction
 #define NO_EPS 1e20                      // a relative margin that makes every shadow-plane test ambiguous
+#define CHAIN_SHIFT 4                    // Node.flags bits 4-5: the node's place in its chain (0-2 sides, 3 cap)
 #define RELIABLE 9.313225746154785e-10   // 2^-30: below this relative size a sign in double is not trusted
 
 // One triangle's shadow volume as the build needs it: corners, planes and flags of its chain,
@@ -96,7 +97,10 @@ bool make_volume(int t, out Volume V) {
             V.rel = NO_EPS;
             transparent = true;
         } else {
-            V.rel = float(double(u_delta) / (dmin - double(u_delta))) + u_direction_eps;
+            // rounded up to a power of two: neighbours in a mesh then share it (see classify)
+            int e;
+            float mant = frexp(float(double(u_delta) / (dmin - double(u_delta))) + u_direction_eps, e);
+            V.rel = mant == 0.5 ? ldexp(mant, e) : ldexp(1.0, e);
         }
         V.cullable = dmin > double(u_near);
         V.depth = float(dmin);
@@ -146,31 +150,46 @@ bool make_volume(int t, out Volume V) {
     return true;
 }
 
-// Which child volume V goes to at plane node N (of another triangle): CHILD_NEG or CHILD_POS
-// only when every point of the volume lies beyond the sum of both triangles' margins on that
-// side, else CHILD_INTER. Shadow planes: the volume is the cone (prism) of its corners, so the
-// corners decide, with margins that grow with the distance to a point light as the query's do.
-// Capping plane: the volume runs from the triangle away from the light, so it is negative when
-// its corners are; positive only for a point light when every corner is farther from the plane
-// than the light (the volume then moves away from the plane).
-int classify(Node N, Volume V) {
+// Which child volume V goes to at plane node N (of another triangle u): CHILD_NEG or CHILD_POS
+// only when every point of the volume lies on that side, else CHILD_INTER. Shadow planes: the
+// volume is the cone (prism) of its corners, so the corners decide, each beyond the sum of both
+// triangles' margins (which grow with the distance to a point light as the query's do) — or
+// exactly on the plane: a corner that is one of the corners u's plane goes through (a mesh's
+// shared edge) lies on it in exact arithmetic, and the volume then touches the plane there;
+// touching is allowed when V's relative margin is no larger than N's, which then covers V's
+// uncertainty at the query. Capping plane: the volume runs from the triangle away from the
+// light, so it is negative when its corners are (or lie on u's plane); positive only for a
+// point light when every corner is farther from the plane than the light (the volume then
+// moves away from it). `strict`: one-sided without touching (only such volumes may be dropped).
+int classify(Node N, Volume V, out bool strict) {
+    strict = false;
     if ((N.flags & FLAG_TRANSPARENT) != 0) return CHILD_INTER;
-    bool neg = true, pos = true;
+    int j = (N.flags >> CHAIN_SHIFT) & 3;        // which of u's planes: shadow plane of edge j, or 3: cap
+    vec3 u0 = triangle_vertex[3 * N.tri].xyz, u1 = triangle_vertex[3 * N.tri + 1].xyz;
+    vec3 u2 = triangle_vertex[3 * N.tri + 2].xyz;
+    vec3 ea = j == 1 ? u1 : (j == 2 ? u2 : u0);  // the edge (ea, eb) of shadow plane j
+    vec3 eb = j == 0 ? u1 : (j == 1 ? u2 : u0);
+    bool neg = true, pos = true, touching = false;
     if ((N.flags & KIND_MASK) == KIND_SIDE) {
         for (int i = 0; i < 3; ++i) {
+            if (V.v[i] == ea || V.v[i] == eb) { touching = true; continue; }
             float s = plane_distance(N, V.v[i]);
             float m = (N.rel + V.rel) * light_distance(V.v[i]) + 2.0 * u_delta;
             neg = neg && s < -m;
             pos = pos && s > m;
         }
+        if (touching && V.rel > N.rel) return CHILD_INTER;
     } else {
         float hl = u_point == 1 ? plane_distance(N, u_light_position) : 0.0;
         for (int i = 0; i < 3; ++i) {
+            bool on = V.v[i] == u0 || V.v[i] == u1 || V.v[i] == u2;
+            touching = touching || on;
             float s = plane_distance(N, V.v[i]);
-            neg = neg && s < -2.0 * u_delta;
-            pos = pos && u_point == 1 && s > 2.0 * u_delta && s - hl > 2.0 * u_delta;
+            neg = neg && (on || s < -2.0 * u_delta);
+            pos = pos && !on && u_point == 1 && s > 2.0 * u_delta && s - hl > 2.0 * u_delta;
         }
     }
+    strict = !touching;
     return neg ? CHILD_NEG : (pos ? CHILD_POS : CHILD_INTER);
 }
 
@@ -214,18 +233,22 @@ void walk_down(int t) {
     load_volume(t, V);
     int n = w.x == NONE ? root : w.x;
     int depth = w.x == NONE ? 1 : w.y;           // the depth of n (the root: 1)
+    int streak = 0;                              // strictly negative decisions in a row (a leaf's four planes)
     while (true) {
         Node N = node[n];
         int slot;
         if ((N.flags & KIND_MASK) == KIND_LEAF) {
-            if ((N.flags & FLAG_CULLABLE) != 0) {
+            if ((N.flags & FLAG_CULLABLE) != 0 && streak >= 4) {
                 walk[t] = ivec4(n, depth, NONE, STATUS_CULLED);
                 atomicAdd(counter[COUNTER_CULLED], 1u);
                 return;
             }
             slot = CHILD_INTER;
+            streak = 0;
         } else {
-            slot = classify(N, V);
+            bool strict;
+            slot = classify(N, V, strict);
+            streak = slot == CHILD_NEG && strict ? streak + 1 : 0;
         }
         int child = N.link[slot];
         if (child == NONE) {
@@ -260,7 +283,7 @@ void hang(int t) {
         node[k].plane = V.plane[i];
         node[k].rel = i == 3 ? 0.0 : V.rel;
         node[k].tri = t;
-        node[k].flags = V.flags[i];
+        node[k].flags = V.flags[i] | (i << CHAIN_SHIFT);
         node[k].depth = depth_key(V.depth);
         node[k].link = ivec4(k + 1, NONE, NONE, i == 0 ? parent : k - 1);
     }

@@ -58,12 +58,20 @@ irregular z-buffer's test) on the truth's ray, and a miss goes on with the trave
   magnitude M and the absolute uncertainty of the watertight test at the crossing;
 - for the shadow planes of a point light, an angle ε_T = δ / (d_T − δ) + :data:`DIRECTION_EPS`
   per triangle (d_T its distance to the light: the absolute uncertainty seen from the light,
-  plus the rounding of the ray's float32 direction), times the query point's distance to the
-  light.
+  plus the rounding of the ray's float32 direction; rounded up to a power of two, so that the
+  triangles of a mesh share it), times the query point's distance to the light.
+
+A corner of the inserted triangle that is one of the corners a node's plane goes through (a
+mesh's shared edge or vertex) lies on that plane in exact arithmetic and takes no margin: the
+volume touches the plane and still goes to one side, where the margins alone would send every
+neighbour of a mesh triangle to the intersection child. For a shadow plane this needs the
+inserted triangle's relative margin to be no larger than the node's, whose margin then covers
+the inserted triangle's uncertainty at the query.
 
 With these, (a) a ray whose exact test hits T reaches T's leaf (at every node on T's path the
 ray's origin lies within the margin of T's side; the triangle's own planes are within its own
-ε_T); (b) a triangle dropped at T's leaf lies inside T's volume by the sum of both margins, so
+ε_T); (b) a triangle dropped at T's leaf lies inside T's volume by the sum of both margins
+(touching corners never drop a triangle), so
 that any ray hitting it hits T (by the exact test too) — unless T is too close to a point light
 for the truth's ray, which stops short of it (``tfar``), or lies partly behind a target-direct
 light's disc: such leaves drop nothing; and (c) a ray blocked by a triangle starts deeper than
@@ -72,6 +80,10 @@ no subtree that could block it. Planes whose orientation double precision cannot
 light almost in a triangle's plane, or on an edge's line) are transparent: both sides visited,
 the exact test decides. So the mask is the exact test's verdict on every ray: that of the
 irregular z-buffer, which agrees with the truth but for ties it documents.
+
+The price of the margins: a receiver on a lit face of a caster lies within δ of that face's own
+capping plane (its ray starts 2^-18 of the scene's size off the surface, the truth's offset), so
+its query reaches that triangle's leaf and makes one exact test that misses.
 
 The rays and their origins are built on the CPU in ``setup`` (the truth's float64 points and
 rounding), as the irregular z-buffer does. ``nodes_visited`` (= ``pixel_ops``, the papers'

@@ -45,6 +45,13 @@ def test_exact_against_the_truth(lab, scene):
     assert (m.visibility < 0.5).sum() > 20  # not trivially lit (the fewest: target_direct_scene, 63)
 
 
+def test_another_insertion_order_builds_another_tree_with_the_same_mask(lab):
+    scene_order = lab.measure("spot_scene", "partitioned_volume", SMALL)
+    light_order = lab.measure("spot_scene", "partitioned_volume:order=light", SMALL)
+    np.testing.assert_array_equal(light_order.visibility, scene_order.visibility)
+    assert light_order.stats["nodes_visited"] != scene_order.stats["nodes_visited"]
+
+
 def test_the_plain_volume_is_not_exact_on_the_soup(lab):
     """The same scene and size: the stencil volume's counts go wrong on the soup (so the test
     above can fail)."""

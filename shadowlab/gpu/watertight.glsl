@@ -2,9 +2,10 @@
 // intersection", JCGT 2(1)) as a segment test, on the ray the truth traces (origin, direction,
 // tfar: shadowlab.truth.tracing, the truth's offset rule), in float32 with contraction forbidden
 // (precise) and the paper's double-precision fallback when an edge function is exactly 0.
-// Shared by the techniques that test the truth's own shadow rays exactly: the irregular z-buffer
-// (shadowlab/techniques/maps/izb_test.glsl) and the per-triangle shadow volumes
-// (shadowlab/techniques/volumes/per_triangle_volume_samples.glsl).
+// Shared by the techniques that decide a shadow ray exactly as the ray-traced truth does: the
+// irregular z-buffer (shadowlab/techniques/maps/izb_test.glsl), the per-triangle shadow volumes
+// (shadowlab/techniques/volumes/per_triangle_volume_samples.glsl) and the partitioned shadow
+// volumes' query (shadowlab/techniques/volumes/psv_query.glsl).
 //! glsl 430
 
 // Woop et al. 2013, listing 1: does org + t·dir, 0 < t <= tfar, meet triangle (a, b, c)?

@@ -6,8 +6,9 @@
 // ray/triangle intersection", JCGT 2(1)), on the ray the truth traces (origin, direction, tfar:
 // shadowlab.truth.tracing, the truth's offset rule), in float32 with contraction forbidden (precise)
 // and the paper's double-precision fallback when an edge function is exactly 0: shared with the
-// per-triangle shadow volumes in shadowlab/gpu/watertight.glsl.
+// shadow-volume family in shadowlab/gpu/watertight.glsl.
 #include "izb_common.glsl"
+#include "watertight.glsl"
 
 #ifdef COMPUTE_SHADER
 #ifndef LOCAL_SIZE
@@ -15,8 +16,6 @@
 #endif
 layout(local_size_x = LOCAL_SIZE) in;
 uniform int u_pairs;
-
-#include "watertight.glsl"
 
 void main() {
     int i = INVOCATION_INDEX;

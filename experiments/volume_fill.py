@@ -20,7 +20,7 @@ and a few standard scenes, one row per (scene, hard light, technique):
 the paper's claim beside it; ``fill.png`` draws the per-pixel work per scene on a log scale.
 
     python experiments/volume_fill.py [--out results/volumes] [--size 800x600] [--repeat 3]
-        [--scenes sv_colonnade,sv_soup,...] [--techniques shadow_volume,cc_volume,...]
+        [--scenes sv_colonnade,sv_soup,...] [--techniques shadow_volume,cc_volume,...] [--tables-only]
 
 Writes ``fill.csv``, ``fill.md``, ``fill.png`` and the provenance record ``fill.json`` under ``--out``.
 """
@@ -128,18 +128,23 @@ def markdown(df: pd.DataFrame, saving: pd.DataFrame, size) -> str:
     lines = [f"# Shadow-volume fill, {size[0]}x{size[1]} (experiments/volume_fill.py)", "",
              "Saving = the plain volume's `volume_fragments` / the variant's `pixel_ops` (per-pixel "
              "operations: stencil fragments, test-and-set operations, tree nodes visited). `wrong`: "
-             "evaluated pixels that differ from the truth; `differ`: from the plain volume.", ""]
+             "evaluated pixels that differ from the truth; `differ`: from the plain volume. The plain "
+             "volume's stencil updates (the fragments that change a count: z-pass's depth-test passes, "
+             "z-fail's fails) are the figure Sintorn et al. compare test-and-set operations with.", ""]
     variants = [v for v in VOLUMES[1:] if v in set(saving.technique)]
-    head = "| scene | light | plain fragments | " + " | ".join(f"{v} saving (wrong/differ)" for v in variants) + " |"
-    lines += [head, "|" + "---|" * (3 + len(variants))]
+    head = ("| scene | light | plain fragments | plain stencil updates | "
+            + " | ".join(f"{v} saving (wrong/differ)" for v in variants) + " |")
+    lines += [head, "|" + "---|" * (4 + len(variants))]
     for (scene, light), g in saving.groupby(["scene", "light"], sort=False):
         plain = g[g.technique == PLAIN]
         cells = []
         for v in variants:
             r = g[g.technique == v]
-            cells.append("—" if r.empty else f"{r.saving.iloc[0]:.1f}× ({int(r.wrong.iloc[0])}/"
+            cells.append("—" if r.empty else f"{r.saving.iloc[0]:.2g}× ({int(r.wrong.iloc[0])}/"
                                              f"{int(r.differ_from_plain.iloc[0])})")
-        lines.append(f"| `{scene}` | {light} | {plain.pixel_ops.iloc[0]:,.0f} | " + " | ".join(cells) + " |")
+        updates = df[(df.scene == scene) & (df.light == light) & (df.technique == PLAIN)].stencil_updates.iloc[0]
+        lines.append(f"| `{scene}` | {light} | {plain.pixel_ops.iloc[0]:,.0f} | {updates:,.0f} | "
+                     + " | ".join(cells) + " |")
     lines += ["", "Claims:", ""] + [f"- `{k}`: {v}" for k, v in CLAIMS.items()] + ["", "## All rows", ""]
     cols = ["scene", "light", "technique", "wrong", "differ_from_plain", "volume_fragments", "pixel_ops",
             "time_ms_median", "setup_ms"]
@@ -172,8 +177,9 @@ def plot(df: pd.DataFrame, path: Path) -> None:
     d = d.assign(case=d.scene + ":" + d.light.astype(str))
     table = d.pivot_table(index="case", columns="technique", values="pixel_ops", sort=False)
     table = table[[v for v in VOLUMES if v in table]]
-    fig, ax = plt.subplots(figsize=(10, 4.5))
-    table.plot.bar(ax=ax, logy=True, width=0.8)
+    fig, ax = plt.subplots(figsize=(10, 5))
+    table.plot.bar(ax=ax, logy=True, width=0.8, color=[from_spec(t).STYLE.color for t in table.columns])
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=len(table.columns), frameon=False)
     ax.set_ylabel("per-pixel operations per render")
     ax.set_xlabel("")
     ax.set_title("Shadow-volume family: per-pixel work (lower is less fill)")
@@ -191,7 +197,13 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--scenes", default=",".join(SCENES))
     ap.add_argument("--techniques", default=",".join(VOLUMES + REFERENCES))
+    ap.add_argument("--tables-only", action="store_true", help="rewrite fill.md and fill.png from fill.csv")
     args = ap.parse_args()
+    if args.tables_only:
+        df = pd.read_csv(args.out / "fill.csv")
+        (args.out / "fill.md").write_text(markdown(df, saving_table(df), args.size))
+        plot(df, args.out / "fill.png")
+        return
     args.out.mkdir(parents=True, exist_ok=True)
     techniques = args.techniques.split(",")
     if PLAIN in techniques:  # the plain volume first: the others are compared with its mask

@@ -193,7 +193,7 @@ class HierarchicalVolume(ShadowVolume):
     #: The classification reads the volume triangles the CPU path builds.
     silhouette = "cpu"
     PASSES = ("silhouette", "tiles", "classify", "volume", "caps", "count")
-    STYLE = PlotStyle("#e7969c", "X")
+    STYLE = PlotStyle("#fd8d3c", "X")
     STATS = {**ShadowVolume.STATS, "tiles_inside": SUM, "tiles_outside": SUM, "tiles_boundary": SUM,
              "tile_tests": SUM, "pixel_ops": SUM, "all_volume_fragments": SUM, "uncertain_triangles": SUM,
              "span_retries": SUM}

@@ -25,7 +25,11 @@ and storage buffers):
    most: docs/irregular-zbuffer.md);
 3. ``test`` (compute): each pair's triangle against every ray listed in its texel, with the
    watertight ray/triangle test (Woop et al. 2013), setting the sample's bit in a per-pixel
-   mask.
+   mask. One invocation walks at most :data:`WALK_BUDGET` nodes of the list per dispatch, saves
+   the node where it stopped (a continuation per pair) and is dispatched again, for the pairs
+   still pending, until every walk has reached the end of its list (``izb_resumes``, in the
+   notes): llvmpipe ends an invocation silently after 65535 loop iterations, which would leave
+   the rest of a longer list (a coarse grid) lit.
 
 The list walk is a compute pass, not the fragment stage as in Johnson et al.: on llvmpipe a
 fragment shader that walks a list costs orders of magnitude more per step than a compute
@@ -63,9 +67,9 @@ from .toolkit import ATLAS_DEFINES, Atlas
 
 #: Storage-buffer bindings (``shadowlab/techniques/maps/izb_common.glsl``).
 BINDING = {"origins": 0, "directions": 1, "samples": 2, "heads": 3, "nodes": 4, "blocked": 5, "counters": 6,
-           "texels": 7, "triangles": 8, "pairs": 9}
+           "texels": 7, "triangles": 8, "pairs": 9, "continuation": 10}
 #: Counter slots (``shadowlab/techniques/maps/izb_common.glsl``: COUNTER_*).
-COUNTERS = ("nodes", "node_overflow", "outside", "pairs", "tests", "hits")
+COUNTERS = ("nodes", "node_overflow", "outside", "pairs", "tests", "hits", "pending")
 #: The work list's first size per ray when ``capacity=0`` (grown to what a render needs).
 PAIRS_PER_RAY = 4
 #: The list terminator and the ``w`` of a ray not to trace (izb_common.glsl: NO_NODE, NO_RAY).
@@ -73,6 +77,12 @@ NO_NODE = -1
 NO_RAY = -1.0
 #: Compute invocations per work group of the insert and test passes.
 LOCAL_SIZE = 64
+#: List nodes one invocation of the test pass walks per dispatch; a longer list is walked on
+#: where it stopped by another dispatch. llvmpipe ends a shader invocation silently after 65535
+#: loop iterations (Mesa's LP_MAX_TGSI_LOOP_ITERATIONS), leaving the rays past that point lit; a
+#: quarter of it keeps well clear while making a resume rare (only coarse grids list more rays
+#: in one texel).
+WALK_BUDGET = 16384
 #: Texels each triangle's light-space bounding box is grown by: half a texel makes the box cover
 #: every texel centre the triangle's texels could hold; one more absorbs float32 rounding of the
 #: projection, so no covered texel is missed (extra texels only cost tests).
@@ -89,8 +99,9 @@ W_MIN_FRACTION = 0.5 * (1.0 - T_LIGHT)
 #: Retries of an overflowing work list before the run fails (each sizes it to what was asked).
 MAX_RETRIES = 2
 #: Bytes of one ray (origin+tfar vec4, direction vec4, sample int), one node (ivec2), one ray's
-#: texel (int) and one work pair (ivec2): the storage-buffer memory the stats report.
-RAY_BYTES, NODE_BYTES, TEXEL_BYTES, PAIR_BYTES = 36, 8, 4, 8
+#: texel (int), one work pair (ivec2) and its walk's continuation (int): the storage-buffer
+#: memory the stats report.
+RAY_BYTES, NODE_BYTES, TEXEL_BYTES, PAIR_BYTES, CONTINUATION_BYTES = 36, 8, 4, 8, 4
 #: The most sub-pixel samples: one bit each in a 32-bit word per pixel.
 MAX_SAMPLES = 32
 
@@ -122,7 +133,8 @@ class IrregularZBuffer(Technique):
                           choices=("box", "polygon")),
     }
     STATS = {"izb_rays": SUM, "izb_pairs": SUM, "izb_tests": SUM, "izb_hits": SUM, "izb_retries": SUM,
-             "izb_list_mean": FIRST, "izb_list_p99": FIRST, "izb_list_max": MAX, "izb_texels_used": FIRST,
+             "izb_resumes": SUM, "izb_list_mean": FIRST, "izb_list_p99": FIRST, "izb_list_max": MAX,
+             "izb_texels_used": FIRST,
              "memory_bytes": MAX, "faces": FIRST, "passes": FIRST, "samples": FIRST}
 
     def setup(self, frame, slot) -> None:
@@ -164,7 +176,7 @@ class IrregularZBuffer(Technique):
         self.pool = max(1, self.ray_count)  # one node per ray
         self.buffers["nodes"] = self.own(ctx.buffer(reserve=NODE_BYTES * self.pool))
         self.pair_capacity = self.capacity if self.capacity > 0 else PAIRS_PER_RAY * max(1, self.ray_count)
-        self.buffers["pairs"] = self.own(ctx.buffer(reserve=PAIR_BYTES * self.pair_capacity))
+        self._allocate_pairs()
         self.insert_prog = self.program("izb_insert.glsl", defines={**ATLAS_DEFINES, "LOCAL_SIZE": LOCAL_SIZE})
         programs.set_uniforms(self.insert_prog, self.light.uniforms())
         self.atlas.write_uniforms(self.insert_prog)
@@ -172,7 +184,7 @@ class IrregularZBuffer(Technique):
                                                  "u_node_capacity": self.pool})
         self.raster_prog = self.program("izb_raster.glsl",
                                         defines={"COVERAGE_POLYGON": 1} if self.coverage == "polygon" else None)
-        self.test_prog = self.program("izb_test.glsl", defines={"LOCAL_SIZE": LOCAL_SIZE})
+        self.test_prog = self.program("izb_test.glsl", defines={"LOCAL_SIZE": LOCAL_SIZE, "WALK_BUDGET": WALK_BUDGET})
         for prog in (self.raster_prog, self.test_prog):
             programs.set_uniforms(prog, {"u_samples_per_pixel": self.samples,
                                          "u_atlas_size": tuple(map(float, self.atlas.size))})
@@ -184,7 +196,17 @@ class IrregularZBuffer(Technique):
         self.w_min = self._w_min(origins)
         self.empty_heads = np.full(self.atlas.texels, NO_NODE, np.int32).tobytes()
         self.retries = 0
+        self.resumes = 0
         self.counts = dict.fromkeys(COUNTERS, 0)
+
+    def _allocate_pairs(self) -> None:
+        """The work list of :attr:`pair_capacity` (triangle, texel) pairs and its walks' continuations."""
+        ctx = self.frame.ctx
+        for name in ("pairs", "continuation"):
+            if name in self.buffers:
+                self.free(self.buffers[name])
+        self.buffers["pairs"] = self.own(ctx.buffer(reserve=PAIR_BYTES * self.pair_capacity))
+        self.buffers["continuation"] = self.own(ctx.buffer(reserve=CONTINUATION_BYTES * self.pair_capacity))
 
     # -- the rays ------------------------------------------------------------------
     def _rays(self, frame, slot):
@@ -249,9 +271,8 @@ class IrregularZBuffer(Technique):
             self.notes.append(f"work list of {self.pair_capacity} pairs overflowed ({asked} asked for): retried "
                               f"with {asked}")
             self.retries += 1
-            self.free(self.buffers["pairs"])
             self.pair_capacity = asked
-            self.buffers["pairs"] = self.own(self.frame.ctx.buffer(reserve=PAIR_BYTES * self.pair_capacity))
+            self._allocate_pairs()
         problems = [f"{self.counts['outside']} rays start outside the light's grid (the fit missed them)"
                     if self.counts["outside"] else "",
                     f"{self.counts['node_overflow']} rays found the node pool full" if self.counts["node_overflow"]
@@ -288,10 +309,29 @@ class IrregularZBuffer(Technique):
             asked = int(np.frombuffer(b["counters"].read(4, offset=4 * COUNTERS.index("pairs")), np.uint32)[0])
         with self.timed_pass("test"):
             pairs = min(asked, self.pair_capacity)
+            self.resumes = 0
             if asked <= self.pair_capacity and pairs:  # an overflowing list is rendered again first
                 self.test_prog["u_pairs"].value = pairs
+                self.test_prog["u_resume"].value = 0
                 programs.dispatch(self.test_prog, pairs, LOCAL_SIZE)
                 ctx.memory_barrier()
+                # walks cut at WALK_BUDGET nodes go on where they stopped; each dispatch takes
+                # every pending walk WALK_BUDGET nodes further, so no list needs more than this
+                limit = self.ray_count // WALK_BUDGET + 1
+                pending_at = 4 * COUNTERS.index("pending")
+                while pending := int(np.frombuffer(b["counters"].read(4, offset=pending_at), np.uint32)[0]):
+                    if self.resumes == limit:
+                        raise TechniqueError(f"{self.name}: {pending} list walks still pending after {limit} "
+                                             f"resumed dispatches")
+                    note = (f"{pending} list walks longer than {WALK_BUDGET} nodes (llvmpipe ends a loop "
+                            f"after 65535 iterations): resumed by further test dispatches (izb_resumes)")
+                    if self.resumes == 0 and note not in self.notes:
+                        self.notes.append(note)
+                    b["counters"].write(np.zeros(1, np.uint32).tobytes(), offset=pending_at)
+                    self.test_prog["u_resume"].value = 1
+                    programs.dispatch(self.test_prog, pairs, LOCAL_SIZE)
+                    ctx.memory_barrier()
+                    self.resumes += 1
             self.counts = dict(zip(COUNTERS, np.frombuffer(b["counters"].read(), np.uint32).tolist()))
 
     # -- results -------------------------------------------------------------------
@@ -320,8 +360,8 @@ class IrregularZBuffer(Technique):
 
     def stats(self) -> dict:
         """Work counters (rays, (triangle, texel) pairs, triangle–segment tests, hits,
-        retries; ``izb_tests`` and ``izb_hits`` are approximate: a ray another triangle has
-        already blocked is skipped, and which triangle gets there first depends on scheduling —
+        retries, resumed test dispatches; ``izb_tests`` and ``izb_hits`` are approximate: a ray
+        another triangle has already blocked is skipped, and which triangle gets there first depends on scheduling —
         the visibility does not), the list-length distribution over non-empty texels (mean, p99, max), the
         storage-buffer memory, faces, passes, samples per pixel."""
         texels = np.frombuffer(self.buffers["texels"].read(), np.int32)[:self.ray_count]
@@ -329,10 +369,10 @@ class IrregularZBuffer(Technique):
         used = lengths[lengths > 0]
         memory = (self.ray_count * (RAY_BYTES + TEXEL_BYTES) + self.pool * NODE_BYTES + 4 * self.atlas.texels
                   + 4 * len(self.frame.pixel_index) + self.buffers["triangles"].size
-                  + PAIR_BYTES * self.pair_capacity)
+                  + (PAIR_BYTES + CONTINUATION_BYTES) * self.pair_capacity)
         return {"izb_rays": int(self.ray_count), "izb_pairs": int(self.counts["pairs"]),
                 "izb_tests": int(self.counts["tests"]), "izb_hits": int(self.counts["hits"]),
-                "izb_retries": int(self.retries),
+                "izb_retries": int(self.retries), "izb_resumes": int(self.resumes),
                 "izb_list_mean": float(used.mean()) if len(used) else 0.0,
                 "izb_list_p99": float(np.percentile(used, 99)) if len(used) else 0.0,
                 "izb_list_max": int(used.max()) if len(used) else 0, "izb_texels_used": int(len(used)),

@@ -13,6 +13,7 @@
 #define COUNTER_PAIRS 3                  // (triangle, non-empty texel) pairs rasterised
 #define COUNTER_TESTS 4                  // triangle-segment tests
 #define COUNTER_HITS 5                   // tests that found the segment blocked
+#define COUNTER_PENDING 6                // pairs whose list walk stopped at WALK_BUDGET (izb_test.glsl)
 
 // Ray k: origin (xyz) and tfar (w; NO_RAY: skip), direction (xyz), the sample it belongs to.
 // Sample s is bit s % u_samples_per_pixel of word s / u_samples_per_pixel of `blocked`.
@@ -26,6 +27,7 @@ layout(std430, binding = 6) buffer Counters { uint counter[]; };
 layout(std430, binding = 7) buffer RayTexels { int ray_texel[]; };     // per ray: its atlas texel (statistics)
 layout(std430, binding = 8) readonly buffer Triangles { vec4 triangle_vertex[]; };  // 3 per caster triangle
 layout(std430, binding = 9) buffer Pairs { ivec2 pair[]; };             // (triangle, atlas texel)
+layout(std430, binding = 10) buffer Continuations { int continuation[]; };  // per pair: the next node to walk
 
 uniform int u_samples_per_pixel;
 

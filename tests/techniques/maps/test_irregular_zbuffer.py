@@ -7,7 +7,7 @@ import pytest
 
 from shadowlab.scene import builtin_scenes, load_scene
 from shadowlab.techniques import TechniqueError, from_spec
-from shadowlab.techniques.maps.irregular_zbuffer import MAX_SAMPLES
+from shadowlab.techniques.maps.irregular_zbuffer import MAX_SAMPLES, WALK_BUDGET
 
 from helpers import MEDIUM, SMALL
 
@@ -99,6 +99,24 @@ def test_work_counters_add_up(lab):
     assert st["memory_bytes"] > 4 * 256 * 256  # at least the head pointers
     coarse = lab.measure("sv_many_casters", "irregular_zbuffer:resolution=32", SMALL).stats
     assert coarse["izb_list_max"] > st["izb_list_max"]  # a coarser grid: longer lists
+
+
+@pytest.mark.slow  # one ~95k-ray list walked by each caster triangle, and a 2-sample truth (~1.2 s)
+def test_lists_longer_than_the_loop_limit_are_walked_to_the_end(lab):
+    """llvmpipe ends a shader invocation silently after 65535 loop iterations: a one-texel grid
+    lists every ray in one texel (here more than that: asserted), and the test pass walks it
+    WALK_BUDGET nodes per dispatch, resumed where it stopped, so no ray past the limit stays lit
+    (before: a few pixels lit wrongly)."""
+    n = 2
+    m = lab.measure("box_on_plane", f"irregular_zbuffer:resolution=1,samples={n}", MEDIUM)
+    assert m.stats["izb_list_max"] > 65535  # the case: one list past the limit
+    truth = lab.measure("box_on_plane", f"raytrace:pixel_samples={n}", MEDIUM).visibility
+    evaluated = lab.frame("box_on_plane", MEDIUM).evaluated(0)
+    wrong = int(np.sum(m.visibility[evaluated] != truth[evaluated]))
+    assert wrong == 0, f"{wrong} pixels differ from the {n}-sample truth"
+    assert m.stats["izb_resumes"] >= m.stats["izb_list_max"] // WALK_BUDGET
+    assert any("resumed" in note for note in m.notes)
+    assert lab.measure("box_on_plane", "irregular_zbuffer", SMALL).stats["izb_resumes"] == 0
 
 
 def test_light_sampled_area_light(lab):

@@ -160,6 +160,13 @@ def mat_bytes(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(np.asarray(m, dtype=np.float64).T, dtype="f4").tobytes()
 
 
+#: Loop iterations after which llvmpipe silently ends a shader invocation (Mesa's
+#: LP_MAX_TGSI_LOOP_ITERATIONS; every loop of the invocation counts, nested ones included): a
+#: shader whose loops could run longer must stop early and resume in another dispatch, or its
+#: caller must refuse the configuration (docs/architecture.md). The GL spec sets no such limit, so
+#: other drivers run on: results must not depend on it either way.
+LLVMPIPE_LOOP_LIMIT = 65535
+
 #: Work groups GL guarantees in one dimension of a dispatch (GL 4.6 core, table 23.64): larger
 #: dispatches are split over y (the shaders' invocation index counts rows of x groups).
 MAX_GROUPS_X = 65535

@@ -84,8 +84,6 @@ COUNTERS = ("spans", "tile_tests", "uncertain")
 SPAN = 16
 #: Invocations per work group of the compute programs (their ``local_size_x``).
 LOCAL_SIZE = 64
-#: Work groups GL guarantees in one dimension of a dispatch (larger ones are split over y).
-MAX_GROUPS_X = 65535
 #: Bytes of one set-up volume triangle (``VolumeTriangle``, std430: 9 + 9 + 4 vec4).
 TRIANGLE_BYTES = 22 * 16
 #: Counting rules per volume triangle (``RULE_*`` in the GLSL); a near cap also carries its scene
@@ -105,14 +103,6 @@ SPANS_PER_TRIANGLE = 8
 MIN_SPANS = 1024
 #: Retries of an overflowing span list before the run fails (each sizes it to what was asked).
 MAX_RETRIES = 2
-
-
-def dispatch(prog, groups: int) -> None:
-    """Run compute ``prog`` over at least ``groups`` work groups, as (x, y) groups within
-    :data:`MAX_GROUPS_X`; the shader skips the surplus."""
-    groups = max(1, groups)
-    rows = -(-groups // MAX_GROUPS_X)
-    prog.run(-(-groups // rows), rows)
 
 
 class DepthCopy:
@@ -324,7 +314,7 @@ class HierarchicalVolume(ShadowVolume):
             self.buffers["counters"].clear()
             self.triangles_prog["u_triangles"].value = count
             self.triangles_prog["u_span_capacity"].value = self.span_capacity
-            dispatch(self.triangles_prog, -(-count // LOCAL_SIZE))
+            programs.dispatch(self.triangles_prog, count, LOCAL_SIZE)
             ctx.memory_barrier()
             self.counts = dict(zip(COUNTERS, np.frombuffer(self.buffers["counters"].read(), np.uint32).tolist()))
             asked = int(self.counts["spans"])
@@ -339,7 +329,7 @@ class HierarchicalVolume(ShadowVolume):
             self.span_capacity = asked
         if asked:
             self.classify_prog["u_spans"].value = asked
-            dispatch(self.classify_prog, -(-asked // LOCAL_SIZE))
+            programs.dispatch(self.classify_prog, asked, LOCAL_SIZE)
             ctx.memory_barrier()
 
     def render(self) -> None:
@@ -357,7 +347,7 @@ class HierarchicalVolume(ShadowVolume):
             self._bind()
             self.depth_copy.use(0)
             self.triangle_tex.use(1)
-            dispatch(self.tiles_prog, -(-(self.tile_grid[0] * self.tile_grid[1]) // LOCAL_SIZE))
+            programs.dispatch(self.tiles_prog, self.tile_grid[0] * self.tile_grid[1], LOCAL_SIZE)
             ctx.memory_barrier()
         with self.timed_pass("classify"):
             self._classify(verts, rules)

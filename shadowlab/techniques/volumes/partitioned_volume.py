@@ -135,15 +135,6 @@ STEP_BUDGET = 16384
 MAX_RESUMES = 10000
 #: Compute invocations per work group of the build and the query; larger dispatches are split over y.
 LOCAL_SIZE = 64
-MAX_GROUPS_X = 65535
-
-
-def dispatch(prog, invocations: int) -> None:
-    """Run compute ``prog`` over at least ``invocations`` invocations of :data:`LOCAL_SIZE` each
-    group, as (x, y) groups within :data:`MAX_GROUPS_X`; the shader skips the surplus."""
-    groups = max(1, -(-invocations // LOCAL_SIZE))
-    rows = -(-groups // MAX_GROUPS_X)
-    prog.run(-(-groups // rows), rows)
 
 
 class PartitionedVolume(Technique):
@@ -299,19 +290,19 @@ class PartitionedVolume(Technique):
             b["claims"].clear(chunk=b"\xff\xff\xff\xff")
             self.build_prog["u_pool"].value = self.pool_nodes
             self.build_prog["u_stage"].value = STAGE_PREPARE
-            dispatch(self.build_prog, self.triangle_count)
+            programs.dispatch(self.build_prog, self.triangle_count, LOCAL_SIZE)
             ctx.memory_barrier()
             self.rounds = 0
             while self.triangle_count:
                 b["counters"].write(zero, offset=4 * COUNTERS.index("wanting"))
                 self.build_prog["u_stage"].value = STAGE_WALK
-                dispatch(self.build_prog, self.triangle_count)
+                programs.dispatch(self.build_prog, self.triangle_count, LOCAL_SIZE)
                 ctx.memory_barrier()
                 counts = self._counters()
                 if counts["wanting"] == 0 or counts["overflow"]:
                     break
                 self.build_prog["u_stage"].value = STAGE_HANG
-                dispatch(self.build_prog, self.triangle_count)
+                programs.dispatch(self.build_prog, self.triangle_count, LOCAL_SIZE)
                 ctx.memory_barrier()
                 self.rounds += 1
             self.counts = self._counters()
@@ -321,14 +312,14 @@ class PartitionedVolume(Technique):
             self.resumes = 0
             if self.ray_count:
                 self.query_prog["u_resume"].value = 0
-                dispatch(self.query_prog, self.ray_count)
+                programs.dispatch(self.query_prog, self.ray_count, LOCAL_SIZE)
                 ctx.memory_barrier()
                 while self._counters()["pending"]:
                     if self.resumes == MAX_RESUMES:
                         raise TechniqueError(f"{self.name}: queries still pending after {MAX_RESUMES} dispatches")
                     b["counters"].write(zero, offset=4 * COUNTERS.index("pending"))
                     self.query_prog["u_resume"].value = 1
-                    dispatch(self.query_prog, self.ray_count)
+                    programs.dispatch(self.query_prog, self.ray_count, LOCAL_SIZE)
                     ctx.memory_barrier()
                     self.resumes += 1
             self.counts = self._counters()

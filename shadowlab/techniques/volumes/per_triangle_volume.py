@@ -194,6 +194,14 @@ class PerTriangleVolume(Technique):
             fanout.append(FANOUT)
         self.level_count = len(sizes)
         counts = [w * h * k for (w, h), k in zip(sizes, per_tile)]
+        # The top pass loops over every top-level node in one invocation per triangle; llvmpipe
+        # would end that loop silently past its iteration limit, so such a layout is refused.
+        top_iterations = sizes[-1][0] * sizes[-1][1] * (per_tile[-1] + 1)
+        if top_iterations > programs.LLVMPIPE_LOOP_LIMIT // 2:
+            raise TechniqueError(
+                f"{self.name}: {counts[-1]:,} top-level nodes at {frame.width}x{frame.height} (tile={tile}, "
+                f"levels={self.levels}) are more than one invocation may loop over on llvmpipe (it stops "
+                f"after {programs.LLVMPIPE_LOOP_LIMIT:,} iterations); use more levels or a larger tile")
         self.level_sizes, self.level_counts = sizes, counts
         self.level_offsets = [int(x) for x in np.cumsum([0] + counts[:-1])]
         self.node_count = int(sum(counts))

@@ -146,7 +146,7 @@ def test_toggles_off_give_the_plain_volume(lab):
     assert np.array_equal(off.visibility[frame.covered], plain.visibility[frame.covered])
 
 
-@pytest.mark.slow  # five configurations on the colonnade (~1.7 s)
+@pytest.mark.slow  # five configurations on the colonnade
 def test_toggles(lab):
     """cull=false keeps every caster; clamp=false clamps none; with both off the volumes are the
     plain volume's, fragment for fragment and pixel for pixel."""

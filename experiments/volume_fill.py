@@ -117,7 +117,8 @@ def saving_table(df: pd.DataFrame) -> pd.DataFrame:
                 continue
             ops = r.get("pixel_ops", np.nan)
             out.append({"scene": scene, "light": light, "technique": r.technique, "pixel_ops": ops,
-                        "saving": base / ops if ops and ops > 0 else np.inf,
+                        # unknown ops (NaN): an unknown saving, not an infinite one
+                        "saving": np.nan if pd.isna(ops) else base / ops if ops > 0 else np.inf,
                         "wrong": r.wrong, "differ_from_plain": r.differ_from_plain,
                         "time_ms_median": r.time_ms_median})
     return pd.DataFrame(out)

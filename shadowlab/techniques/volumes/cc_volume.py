@@ -438,8 +438,8 @@ class CCVolume(ShadowVolume):
                 da.append(t.vertices[sil[:, 0]] - self.light_position)
                 db.append(t.vertices[sil[:, 1]] - self.light_position)
         owner = np.concatenate(owner)
-        if not len(owner):
-            return {s[0].index: False for s in shapes}
+        if not len(owner):  # no silhouette edge at all: what the sums below give for one (no cut, no fold)
+            return {s[0].index: (False, True) for s in shapes}
         a, b, apex = np.concatenate(a), np.concatenate(b), np.concatenate(apex)
         if self.light.at_infinity:
             da = db = np.broadcast_to(np.asarray(self.light.direction, np.float64), a.shape)

@@ -158,8 +158,11 @@ void main() {
             tri[i].vert[k] = k < n ? vec4(vec2(q[k]), float(0.5 + 0.5 * poly[k].z / poly[k].w), 0.0) : vec4(0.0);
         tri[i].plane = vec4(float(A), float(B), float(C), float(err));
         tri[i].margin = vec4(margin, float((rule >> RULE_CAP_SHIFT) - 1), 0.0, 0.0);
-        ivec2 plo = max(ivec2(ceil(lo - double(margin) - 0.5)), ivec2(0));
-        ivec2 phi = min(ivec2(floor(hi + double(margin) - 0.5)), u_size - 1);
+        // Pixel bounds clamped in double to [-1, u_size] before the conversion to int (one past
+        // the viewport either side keeps "covers no pixel" as it was): a huge margin or window
+        // coordinate past 2^31 has no defined int (x86 gives INT_MIN, which would drop the triangle).
+        ivec2 plo = max(ivec2(clamp(ceil(lo - double(margin) - 0.5), dvec2(-1.0), size)), ivec2(0));
+        ivec2 phi = min(ivec2(clamp(floor(hi + double(margin) - 0.5), dvec2(-1.0), size)), u_size - 1);
         if (any(greaterThan(plo, phi))) return;         // covers no pixel centre
         tri[i].box = ivec4(plo / u_tile, phi / u_tile);
         tri[i].info = ivec4(n, side, delta, flags);
@@ -190,7 +193,9 @@ void main() {
                 xmax = max(xmax, max(xa, xb));
             }
             if (xmin > xmax) continue;                 // the polygon misses this row
-            int px0 = max(int(ceil(xmin - m - 0.5)), 0), px1 = min(int(floor(xmax + m - 0.5)), u_size.x - 1);
+            // clamped in double before the conversion, as the box above
+            int px0 = max(int(clamp(ceil(xmin - m - 0.5), -1.0lf, size.x)), 0);
+            int px1 = min(int(clamp(floor(xmax + m - 0.5), -1.0lf, size.x)), u_size.x - 1);
             if (px0 > px1) continue;
             x0 = max(x0, px0 / u_tile);
             x1 = min(x1, px1 / u_tile);

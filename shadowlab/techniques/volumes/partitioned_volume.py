@@ -43,7 +43,9 @@ Passes (``shadowlab/techniques/volumes/psv_build.glsl``, ``psv_query.glsl``, sha
    tree, with a stack (``query=stack``, ``stack_size`` nodes, then stackless: the hybrid) or
    without (``query=stackless``, parent links); both enter the same nodes in the same order. A
    query makes at most :data:`STEP_BUDGET` steps per dispatch and is resumed by the next one
-   where it stopped: llvmpipe ends an invocation silently after 65535 loop iterations.
+   where it stopped (the resumes in the notes): llvmpipe ends an invocation silently after 65535
+   loop iterations. The build's walk up a new chain's ancestors loops as deep as the tree: a tree
+   half that deep is refused with an error (``order=light`` builds shallower trees).
 
 Exactness (this lab's addition; the papers decide by float32 plane tests, which near a
 shadow boundary or a contact disagree with an exact ray test). Every plane decision is
@@ -306,6 +308,14 @@ class PartitionedVolume(Technique):
                 ctx.memory_barrier()
                 self.rounds += 1
             self.counts = self._counters()
+        # hang() walks up the new chain's ancestors in one loop, as many steps as the tree is deep:
+        # llvmpipe would end it silently past its loop limit (ancestors left with stale depths)
+        depth = self.counts["depth"]
+        if depth >= programs.LLVMPIPE_LOOP_LIMIT // 2:
+            raise TechniqueError(
+                f"{self.name}: the tree is {depth:,} nodes deep, more than one invocation may walk up "
+                f"(llvmpipe stops a loop after {programs.LLVMPIPE_LOOP_LIMIT:,} iterations, so the ancestors' "
+                f"depths could be left wrong); use order=light (a shallower tree) or fewer triangles")
         if self.counts["overflow"]:
             return False
         with self.timed_pass("query"):
@@ -322,6 +332,8 @@ class PartitionedVolume(Technique):
                     programs.dispatch(self.query_prog, self.ray_count, LOCAL_SIZE)
                     ctx.memory_barrier()
                     self.resumes += 1
+            if self.resumes:
+                self.notes.append(f"queries resumed {self.resumes} time(s) ({STEP_BUDGET} steps per dispatch)")
             self.counts = self._counters()
         return True
 

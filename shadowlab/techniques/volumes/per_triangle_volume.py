@@ -51,7 +51,10 @@ through global lists of (triangle, node) pairs, one per level (one invocation pe
 to bound. Each list holds ``capacity`` pairs (0: sized to start from the triangles and nodes);
 every append is counted even past the end, the counts are read back after each level, and a
 full list is retried larger (``on_overflow=retry``, in the notes and ``list_retries``) or fails
-(``on_overflow=fail``): never a silently lit sample.
+(``on_overflow=fail``): never a silently lit sample. The counts are 32-bit atomics, so before each
+level (and the samples pass) an upper bound on what it may count is formed (the pairs in × the
+children of a node, the triangles × the top level's nodes, the leaf pairs × a tile's samples) and a
+pass that could reach 2^32 is refused with an error rather than let a count wrap.
 
 **Culling (``cull=closed``).** Soups need every triangle, but on a closed, consistently oriented
 mesh the triangles facing away from the light may be skipped: a segment whose ends are both
@@ -88,7 +91,8 @@ way (d_L, d_o: the light's and the origin's distances from the plane), well befo
 end). Degenerate planes (an edge seen end-on from the light, a zero-area triangle, a light in or
 near the triangle's plane, a triangle touching the light) are not used: the tiles descend and the
 leaves decide. So the masks with and without tile-level accepts are equal (a test says so), and
-both equal the truth's up to the segment test's own ties (none on the scenes tested).
+both equal the truth's except where the segment test itself ties (the tests require equality on the
+scenes they render).
 
 Counters: ``triangles_culled``; ``tile_tests`` (node–volume tests; empty nodes are skipped) = ``tiles_accepted`` +
 ``tiles_rejected`` + ``tiles_descended``; ``sample_tests`` (leaf segment tests: every sample of a
@@ -120,6 +124,9 @@ MAX_LEVELS, FANOUT = 5, 4
 PER_LEVEL = ("tests", "accepted", "rejected", "descended")
 COUNTER_SLOTS = 4 * MAX_LEVELS + 3
 SAMPLE_TESTS, SAMPLE_HITS, CULLED = 4 * MAX_LEVELS, 4 * MAX_LEVELS + 1, 4 * MAX_LEVELS + 2
+#: Counts a 32-bit counter holds exactly: a dispatch that could add this many is refused
+#: (:meth:`PerTriangleVolume._check_count`) rather than let a counter wrap.
+COUNTER_RANGE = 2 ** 32
 #: ``ray_origin[s].w`` of a slot without a ray (NO_RAY).
 NO_RAY = -1.0
 #: Compute invocations per work group of the passes over triangles, pairs and slots.
@@ -203,6 +210,8 @@ class PerTriangleVolume(Technique):
                 f"levels={self.levels}) are more than one invocation may loop over on llvmpipe (it stops "
                 f"after {programs.LLVMPIPE_LOOP_LIMIT:,} iterations); use more levels or a larger tile")
         self.level_sizes, self.level_counts = sizes, counts
+        # children a node of level l + 1 has at level l (a tile's child tiles times their nodes each)
+        self.level_children = [fanout[l + 1] ** 2 * per_tile[l] for l in range(len(sizes) - 1)]
         self.level_offsets = [int(x) for x in np.cumsum([0] + counts[:-1])]
         self.node_count = int(sum(counts))
         self.slot_count = tiles[0] * tiles[1] * tile * tile
@@ -355,6 +364,8 @@ class PerTriangleVolume(Technique):
                 pairs = self._level(level, self.descend_prog, pairs, self.lists[level + 1])
         with self.timed_pass("samples"):
             if pairs:
+                self._check_count("sample_tests", pairs * self.tile * self.tile,
+                                  f"{pairs:,} leaf pairs x up to {self.tile * self.tile} samples each")
                 self.lists[0].bind_to_storage_buffer(BINDING["list_in"])
                 self.samples_prog["u_pairs"].value = pairs
                 programs.dispatch(self.samples_prog, pairs, LOCAL_SIZE)
@@ -374,6 +385,14 @@ class PerTriangleVolume(Technique):
         ctx = self.frame.ctx
         counters = self.buffers["counters"]
         descended = 4 * level + PER_LEVEL.index("descended")
+        # every node test may append a pair: the level's tests and appends are at most this
+        if list_in is None:
+            bound, why = invocations * self.level_counts[level], (
+                f"{invocations:,} triangles x {self.level_counts[level]:,} top-level nodes")
+        else:
+            bound, why = invocations * self.level_children[level], (
+                f"{invocations:,} pairs x {self.level_children[level]} children each")
+        self._check_count(f"level-{level} tile tests and appends", bound, why)
         for attempt in range(MAX_RETRIES + 1):
             if invocations == 0:
                 return 0
@@ -398,7 +417,19 @@ class PerTriangleVolume(Technique):
             self.capacities[level] = asked
             self.lists[level] = self.own(ctx.buffer(reserve=PAIR_BYTES * asked))
             counters.write(np.zeros(4, np.uint32).tobytes(), offset=16 * level)
+            if list_in is None:  # the top pass counts the culled triangles again
+                counters.write(np.zeros(1, np.uint32).tobytes(), offset=4 * CULLED)
         raise AssertionError("unreachable")
+
+    def _check_count(self, what: str, bound: int, why: str) -> None:
+        """Refuse a dispatch whose counter (a 32-bit atomic) could wrap: ``bound`` is an upper
+        bound on what it may add. A wrapped append count would make a full list look as if it fit
+        (samples left lit), and a wrapped work count would be a wrong statistic; neither can be
+        counted exactly past 2^32, so the run fails instead."""
+        if bound >= COUNTER_RANGE:
+            raise TechniqueError(
+                f"{self.name}: the {what} may reach {bound:,} ({why}), more than a 32-bit counter "
+                f"holds exactly; use fewer triangles, a smaller frame, or more levels")
 
     # -- results -------------------------------------------------------------------
     def sample_blocked(self) -> np.ndarray:

@@ -89,13 +89,13 @@ def test_tiles_settled_in_shadow(lab):
 
 
 @pytest.mark.parametrize("scene, size, factor", [
-    ("box_on_plane", MEDIUM, 6.0),                                        # measured 7.9
-    ("sv_camera_in_shadow", MEDIUM, 3.5),                                 # measured 4.3
-    ("sv_colonnade", SMALL, 1.25),                                        # measured 1.35
-    pytest.param("sv_colonnade", MEDIUM, 1.5, marks=pytest.mark.slow),    # measured 1.65 (800x600: 2.4)
+    ("box_on_plane", MEDIUM, 6.0),                                        # one caster: few boundary tiles
+    ("sv_camera_in_shadow", MEDIUM, 3.5),
+    ("sv_colonnade", SMALL, 1.25),                                        # many thin shadows: most tiles boundary
+    pytest.param("sv_colonnade", MEDIUM, 1.5, marks=pytest.mark.slow),    # the share falls as the image grows
 ])
 def test_fewer_volume_fragments_than_the_plain_volume(lab, scene, size, factor):
-    """The point of the technique, measured: per-pixel stencil work only in boundary tiles. On
+    """The point of the technique: per-pixel stencil work only in boundary tiles. On
     sv_colonnade the many thin column shadows and column outlines leave most tiles boundary at
     small sizes; the share falls as the image grows."""
     s = lab.measure(scene, "hierarchical_volume", size).stats

@@ -121,3 +121,28 @@ def test_parameters():
         from_spec("partitioned_volume:query=bvh")
     with pytest.raises(TechniqueError, match="did you mean 'pool'"):
         from_spec("partitioned_volume:pol=10")
+
+
+def test_resumed_queries_give_the_same_answer(lab, monkeypatch):
+    """Queries cut off after a few steps per dispatch and resumed where they stopped (the walk
+    saved per ray) enter the same nodes and give the same mask as queries that finish at once."""
+    from shadowlab.techniques.volumes import partitioned_volume
+    whole = lab.measure("box_on_plane", "partitioned_volume", SMALL)
+    assert not any("resumed" in n for n in whole.notes)
+    monkeypatch.setattr(partitioned_volume, "STEP_BUDGET", 8)
+    for spec in ("partitioned_volume", "partitioned_volume:query=stackless"):
+        cut = lab.measure("box_on_plane", spec, SMALL)
+        np.testing.assert_array_equal(cut.visibility, whole.visibility, err_msg=spec)
+        assert cut.stats["nodes_visited"] == whole.stats["nodes_visited"], spec
+        assert cut.stats["nodes_visited_max"] > 8, spec  # some query needed more than one dispatch
+        assert any("resumed" in n for n in cut.notes), spec
+
+
+def test_a_tree_too_deep_to_walk_up_fails_loudly(lab, monkeypatch):
+    """The build's walk up the ancestors loops as deep as the tree: past half llvmpipe's loop
+    limit the run fails instead of leaving ancestors' depths silently stale (the limit lowered
+    here so that a small scene reaches it)."""
+    from shadowlab.gpu import programs
+    monkeypatch.setattr(programs, "LLVMPIPE_LOOP_LIMIT", 8)
+    with pytest.raises(TechniqueError, match="nodes deep"):
+        lab.measure("box_on_plane", "partitioned_volume", SMALL)

@@ -31,8 +31,8 @@ KNOWN_TIES: dict[str, int] = {}
     "sv_soup",                  # a triangle soup: blades, crossed quads, piercing triangles, non-manifold fans
     "box_on_plane",             # point light, a box in contact with the floor
     "sun_scene",                # directional
-    "spot_scene",               # spot
-    "sm_point_cube",            # point light among casters on every side
+    pytest.param("spot_scene", marks=pytest.mark.slow),     # spot (inner-loop budget: a deep tree)
+    pytest.param("sm_point_cube", marks=pytest.mark.slow),  # point light among casters on every side
     "sv_open_mesh",             # open meshes
     "sv_light_close",           # a light close to its casters: large angular margins
     "sm_thin",                  # a zero-thickness quad 1 cm above the floor
@@ -45,6 +45,7 @@ def test_exact_against_the_truth(lab, scene):
     assert (m.visibility < 0.5).sum() > 20  # not trivially lit (the fewest: target_direct_scene, 63)
 
 
+@pytest.mark.slow  # two renders of spot_scene's deep trees
 def test_another_insertion_order_builds_another_tree_with_the_same_mask(lab):
     scene_order = lab.measure("spot_scene", "partitioned_volume", SMALL)
     light_order = lab.measure("spot_scene", "partitioned_volume:order=light", SMALL)
@@ -59,8 +60,9 @@ def test_the_plain_volume_is_not_exact_on_the_soup(lab):
     assert wrong > 0
 
 
-@pytest.mark.parametrize("scene", ["sv_soup",
-                                   pytest.param("spot_scene", marks=pytest.mark.slow)])  # three more renders
+@pytest.mark.parametrize("scene", ["sm_thin",  # three more renders each: the others with the slow tests
+                                   pytest.param("sv_soup", marks=pytest.mark.slow),
+                                   pytest.param("spot_scene", marks=pytest.mark.slow)])
 def test_stack_and_stackless_enter_the_same_nodes(lab, scene):
     """Same mask, same nodes entered, same exact tests; a two-node stack overflows on most rays
     and the hybrid's stackless remainder still enters the same nodes."""

@@ -57,7 +57,7 @@ def test_accepting_tiles_changes_no_pixel(lab):
     assert m.stats["sample_tests"] < base.stats["sample_tests"]  # the accepted tiles' samples are not tested
 
 
-@pytest.mark.parametrize("scene", ["box_on_plane", "sm_point_cube"])
+@pytest.mark.parametrize("scene", ["box_on_plane", pytest.param("sm_point_cube", marks=pytest.mark.slow)])
 def test_culling_closed_meshes_changes_no_pixel(lab, scene):
     """Closed casters (the light outside): the triangles facing away from it are skipped, and the
     mask is equal bit for bit to the one from every triangle."""
@@ -97,6 +97,7 @@ def test_counters_add_up(lab):
     assert again == st
 
 
+@pytest.mark.slow  # renders with and without clusters at two sizes
 def test_depth_clusters_cut_the_sample_tests(lab):
     """2014's view-sample clusters: boxes split in depth are straddled by fewer volumes, so the
     soup's columns before the far ground need less than half the sample tests."""

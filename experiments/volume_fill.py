@@ -19,10 +19,12 @@ and a few standard scenes, one row per (scene, hard light, technique):
 ``fill.md`` tabulates the saving, plain ``volume_fragments`` / variant ``pixel_ops``, per scene with
 the paper's claim beside it; ``fill.png`` draws the per-pixel work per scene on a log scale.
 
-    python experiments/volume_fill.py [--out results/volumes] [--size 800x600] [--repeat 3]
+    python experiments/volume_fill.py [--out results/volume_fill] [--size 320x240] [--repeat 3]
         [--scenes sv_colonnade,sv_soup,...] [--techniques shadow_volume,cc_volume,...] [--tables-only]
 
 Writes ``fill.csv``, ``fill.md``, ``fill.png`` and the provenance record ``fill.json`` under ``--out``.
+The committed figures (``results/volumes/``, docs/shadow-volumes.md) are
+``--size 800x600 --out results/volumes``; the default is small, for ``make experiments``.
 """
 from __future__ import annotations
 
@@ -193,12 +195,13 @@ def plot(df: pd.DataFrame, path: Path) -> None:
 def main() -> None:
     """Measure, then write the tables and the figure."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", type=Path, default=Path("results/volumes"))
-    ap.add_argument("--size", type=parse_size, default=(800, 600))
+    ap.add_argument("--out", type=Path, default=Path("results/volume_fill"))
+    ap.add_argument("--size", type=parse_size, default=(320, 240))
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--scenes", default=",".join(SCENES))
     ap.add_argument("--techniques", default=",".join(VOLUMES + REFERENCES))
-    ap.add_argument("--tables-only", action="store_true", help="rewrite fill.md and fill.png from fill.csv")
+    ap.add_argument("--tables-only", action="store_true",
+                    help="rewrite fill.md and fill.png from fill.csv (give the --size it was measured at)")
     args = ap.parse_args()
     if args.tables_only:
         df = pd.read_csv(args.out / "fill.csv")

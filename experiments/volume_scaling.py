@@ -11,10 +11,13 @@ against pixels is fitted per technique over the points (least squares on logs): 
 the technique's growth on this machine and scene, not a law to extrapolate from (the full
 scaling laws, every family, come from the ``scaling`` suite: ``experiments/scaling_laws.py``).
 
-    python experiments/volume_scaling.py [--out results/volumes] [--triangles 10000,40000,160000]
-        [--pixel-sizes 320x240,640x480,1280x960] [--pixel-torus 40000] [--repeat 3]
+    python experiments/volume_scaling.py [--out results/volume_scaling] [--triangles 10000,40000]
+        [--pixel-sizes 320x240,640x480] [--pixel-torus 40000] [--repeat 3]
 
 Writes ``scaling.csv``, ``scaling.md`` and the provenance record ``scaling.json`` under ``--out``.
+The committed figures (``results/volumes/``, docs/shadow-volumes.md) are ``--triangles
+10000,40000,160000 --pixel-sizes 320x240,640x480,1280x960 --out results/volumes``; the default is
+small, for ``make experiments``.
 """
 from __future__ import annotations
 
@@ -77,9 +80,9 @@ def slopes(df: pd.DataFrame, axis: str, held: str, held_at: int) -> pd.DataFrame
 def main() -> None:
     """Measure the two sweeps, fit the slopes, write the tables."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", type=Path, default=Path("results/volumes"))
-    ap.add_argument("--triangles", default="10000,40000,160000")
-    ap.add_argument("--pixel-sizes", default="320x240,640x480,1280x960")
+    ap.add_argument("--out", type=Path, default=Path("results/volume_scaling"))
+    ap.add_argument("--triangles", default="10000,40000")
+    ap.add_argument("--pixel-sizes", default="320x240,640x480")
     ap.add_argument("--pixel-torus", type=int, default=40000)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--techniques", default=",".join(VOLUMES))

@@ -67,6 +67,20 @@ def caster_scene(frame):
     return _CASTERS[frame][0]
 
 
+def caster_corners(frame) -> np.ndarray:
+    """Float32 (3T, 4): the casters' triangle corners as :func:`caster_scene` holds them (each
+    object's vertices rounded to float32, in scene order), padded to vec4 for a storage buffer —
+    what the GPU techniques that test the truth's own rays exactly (the irregular z-buffer,
+    per-triangle and partitioned shadow volumes) test them against. One zero triangle when
+    nothing casts, so the buffer is never empty."""
+    tris = [np.asarray(o.vertices, np.float32)[np.asarray(o.faces)].reshape(-1, 3)
+            for o in frame.scene.objects if o.casts]
+    corners = np.concatenate(tris) if tris else np.zeros((3, 3), np.float32)
+    out = np.zeros((len(corners), 4), np.float32)
+    out[:, :3] = corners
+    return out
+
+
 def offset_points(points: np.ndarray, normals: np.ndarray, extent: float,
                   offset_scale: float = DEFAULT_OFFSET_SCALE) -> np.ndarray:
     """The truth's ray-origin rule (module docstring) for float64 ``points`` (K, 3) with unit

@@ -61,7 +61,7 @@ import numpy as np
 from ...gpu import glstate, programs
 from ...gpu.glstate import PassState
 from ...scene.lights import T_LIGHT
-from ...truth.tracing import offset_origins
+from ...truth.tracing import caster_corners, offset_origins
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
 from .toolkit import ATLAS_DEFINES, Atlas
 
@@ -171,7 +171,7 @@ class IrregularZBuffer(Technique):
             "counters": self.own(ctx.buffer(reserve=4 * len(COUNTERS))),
             "texels": self.own(ctx.buffer(reserve=4 * max(1, self.ray_count))),
         }
-        corners = self._caster_triangles(frame)
+        corners = caster_corners(frame)
         self.buffers["triangles"] = self.own(ctx.buffer(corners.tobytes()))
         self.pool = max(1, self.ray_count)  # one node per ray
         self.buffers["nodes"] = self.own(ctx.buffer(reserve=NODE_BYTES * self.pool))
@@ -229,17 +229,6 @@ class IrregularZBuffer(Technique):
         self.subpixel = sub
         points = sub.points.reshape(-1, 3)[index[keep]]
         return origins[keep], directions[keep], tfar[keep], index[keep].astype(np.int32), points
-
-    @staticmethod
-    def _caster_triangles(frame) -> np.ndarray:
-        """Float32 (3T, 4): the casters' triangle corners as the truth's Embree scene holds them
-        (each object's vertices rounded to float32, in scene order), padded to vec4."""
-        tris = [np.asarray(o.vertices, np.float32)[np.asarray(o.faces)].reshape(-1, 3)
-                for o in frame.scene.objects if o.casts]
-        corners = np.concatenate(tris) if tris else np.zeros((3, 3), np.float32)
-        out = np.zeros((len(corners), 4), np.float32)
-        out[:, :3] = corners
-        return out
 
     def _w_min(self, origins: np.ndarray) -> list[float]:
         """Per face the clip plane w of the raster pass (:data:`W_MIN_FRACTION` × the smallest w

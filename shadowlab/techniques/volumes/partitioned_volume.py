@@ -96,7 +96,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...gpu import programs
-from ...truth.tracing import offset_origins
+from ...truth.tracing import caster_corners, offset_origins
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError
 
 #: Storage-buffer bindings (``psv_common.glsl``).
@@ -177,7 +177,7 @@ class PartitionedVolume(Technique):
         directions, tfar = light.shadow_rays(origins, frame.compact_position[idx])
         self.ray_index = idx
         self.ray_count = len(idx)
-        corners = self._caster_triangles(frame)
+        corners = caster_corners(frame)
         if self.order == "light" and len(corners) > 3:
             corners = self._nearest_first(corners, light)
         self.triangle_count = len(corners) // 3 if frame.has_casters else 0
@@ -232,17 +232,6 @@ class PartitionedVolume(Technique):
         self.pool_nodes = nodes
         self.buffers["nodes"] = self.own(self.frame.ctx.buffer(reserve=48 * nodes))
         self.buffers["claims"] = self.own(self.frame.ctx.buffer(reserve=4 * (1 + 3 * nodes)))
-
-    @staticmethod
-    def _caster_triangles(frame) -> np.ndarray:
-        """Float32 (3T, 4): the casters' triangle corners as the truth's Embree scene holds them
-        (each object's vertices rounded to float32, in scene order), padded to vec4."""
-        tris = [np.asarray(o.vertices, np.float32)[np.asarray(o.faces)].reshape(-1, 3)
-                for o in frame.scene.objects if o.casts]
-        corners = np.concatenate(tris) if tris else np.zeros((3, 3), np.float32)
-        out = np.zeros((len(corners), 4), np.float32)
-        out[:, :3] = corners
-        return out
 
     @staticmethod
     def _nearest_first(corners: np.ndarray, light) -> np.ndarray:

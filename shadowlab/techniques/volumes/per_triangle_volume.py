@@ -109,7 +109,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...gpu import programs
-from ...truth.tracing import offset_origins
+from ...truth.tracing import caster_corners, offset_origins
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError
 
 #: Storage-buffer bindings (``per_triangle_volume_common.glsl``).
@@ -229,7 +229,7 @@ class PerTriangleVolume(Technique):
         origin_w[slots, :3], origin_w[slots, 3] = origins, tfar
         dir_w = np.zeros((self.slot_count, 4), np.float32)
         dir_w[slots, :3] = directions
-        corners = self._caster_triangles(frame)
+        corners = caster_corners(frame)
         self.triangle_count = int(sum(len(o.faces) for o in frame.scene.objects if o.casts))
         # D: every distance between two points of the scene (origins, casters, the light) is below it
         extent = [np.abs(origins).max() if len(origins) else 0.0, np.abs(corners[:, :3]).max()]
@@ -325,17 +325,6 @@ class PerTriangleVolume(Technique):
         flags = np.concatenate(out) if out else np.zeros(0, np.int32)
         self.cullable_objects = int(sum(1 for f in out if len(f) and f[0] != 0))
         return flags if len(flags) else np.zeros(1, np.int32)
-
-    @staticmethod
-    def _caster_triangles(frame) -> np.ndarray:
-        """Float32 (3T, 4): the casters' triangle corners as the truth's Embree scene holds them
-        (each object's vertices rounded to float32, in scene order), padded to vec4."""
-        tris = [np.asarray(o.vertices, np.float32)[np.asarray(o.faces)].reshape(-1, 3)
-                for o in frame.scene.objects if o.casts]
-        corners = np.concatenate(tris) if tris else np.zeros((3, 3), np.float32)
-        out = np.zeros((len(corners), 4), np.float32)
-        out[:, :3] = corners
-        return out
 
     # -- rendering -----------------------------------------------------------------
     def render(self) -> None:

@@ -81,7 +81,7 @@ from ...geometry import adjacency as adj
 from ...geometry import transforms as tf
 from ...gpu import programs
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, TuneRange
-from .shadow_volume import ShadowVolume, _flagged, _triangle_indices, near_plane_quad
+from .shadow_volume import ShadowVolume, _flagged, _triangle_indices, near_plane_quad, pack_volume_geometry
 
 #: Invocations per side of a receiver-map work group (LOCAL_SIZE in cc_volume_receivers.glsl).
 LOCAL_SIZE = 8
@@ -405,11 +405,7 @@ class CCVolume(ShadowVolume):
                     if plane is None and not self.light.at_infinity:
                         far.append(_triangle_indices(faces_lit + p.first_triangle, (0, 2, 1)))
                         far.append(_triangle_indices(faces_dark + p.first_triangle))
-            volume = np.concatenate(verts) if verts else np.zeros((0, 4), "f4")
-            cap_idx = _triangle_indices(np.concatenate(caps) if caps else np.zeros(0, np.int64))
-            flip_idx = _triangle_indices(np.concatenate(flipped) if flipped else np.zeros(0, np.int64))
-            far_idx = np.concatenate(far) if far else np.zeros(0, np.int64)
-            out[zfail] = (volume, cap_idx, flip_idx, far_idx)
+            out[zfail] = pack_volume_geometry(verts, caps, flipped, far)
         return out
 
     def _clamps_pay(self, shapes: list) -> dict:

@@ -238,11 +238,7 @@ class ShadowVolume(Technique):
                     if not self.light.at_infinity:  # far cap: the light-facing orientation, reversed
                         far.append(_triangle_indices(faces_lit + p.first_triangle, (0, 2, 1)))
                         far.append(_triangle_indices(faces_dark + p.first_triangle))
-            volume = np.concatenate(verts) if verts else np.zeros((0, 4), "f4")
-            cap_idx = _triangle_indices(np.concatenate(caps) if caps else np.zeros(0, np.int64))
-            flip_idx = _triangle_indices(np.concatenate(flipped) if flipped else np.zeros(0, np.int64))
-            far_idx = np.concatenate(far) if far else np.zeros(0, np.int64)
-            out[zfail] = (volume, cap_idx, flip_idx, far_idx)
+            out[zfail] = pack_volume_geometry(verts, caps, flipped, far)
         return out
 
     @staticmethod
@@ -464,6 +460,18 @@ def volumes_may_reach_near_plane(bounds: np.ndarray, quad: np.ndarray, light, sc
     b_half = half @ np.abs(axes).T
     separated = (p_hi[None] < b_mid - b_half - margin) | (p_lo[None] > b_mid + b_half + margin)
     return ~separated.any(axis=1)
+
+
+def pack_volume_geometry(verts: list, caps: list, flipped: list, far: list) -> tuple:
+    """One counting method's volume geometry as :meth:`ShadowVolume._draw_volumes` takes it, from
+    the per-caster pieces: volume vertices (vec4, concatenated), near-cap and flipped-cap vertex
+    indices (from triangle indices) and far-cap vertex indices (already per vertex). Shared by
+    the subclasses that build their own pieces (``cc_volume``)."""
+    volume = np.concatenate(verts) if verts else np.zeros((0, 4), "f4")
+    cap_idx = _triangle_indices(np.concatenate(caps) if caps else np.zeros(0, np.int64))
+    flip_idx = _triangle_indices(np.concatenate(flipped) if flipped else np.zeros(0, np.int64))
+    far_idx = np.concatenate(far) if far else np.zeros(0, np.int64)
+    return volume, cap_idx, flip_idx, far_idx
 
 
 def _flagged(pts: np.ndarray, extrude: float) -> np.ndarray:

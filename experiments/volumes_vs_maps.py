@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from shadowlab.analysis.aggregate import verdict_table
+from shadowlab.analysis.verdicts import verdict_table
 from shadowlab.study.check import read_results
 from shadowlab.techniques import REGISTRY
 

@@ -1,6 +1,7 @@
 """Study aggregation (docs/contracts.md#study-directory): plain pandas over ``results.csv`` rows — configurations
 pooled over a scene's lights, failed runs, Pareto fronts, per-configuration and per-family
-summaries and the verdicts that open the study page.
+summaries, and what the verdicts (:mod:`shadowlab.analysis.verdicts`) and the pick
+(:mod:`shadowlab.analysis.pick`) build on.
 
 ``results.csv`` has one row per scene × light × configuration, the ground truth's rows
 included with ``reference`` True, plus the study columns ``scene_family, status, error,
@@ -25,19 +26,14 @@ FAIL_ERROR_RATE = 0.01
 #: Soft scenes (an area light: visibility is fractional) are judged on the visibility error
 #: mean |V − G| (``visibility_mae``); a configuration fails one when it exceeds this: 0.02.
 FAIL_VISIBILITY_MAE = 0.02
-#: Errors this close to a row's best count as tied with it (a few pixels of difference say nothing
-#: about a technique): 0.01 % of the evaluated pixels for error_rate, 0.001 for visibility_mae.
-TIE_TOLERANCE = {"error_rate": 1e-4, "visibility_mae": 1e-3}
-#: Times within this fraction of a row's fastest tie with it: a software rasteriser's timings move
-#: by several percent from one run to the next, and a verdict must not flip with them.
-TIME_TIE = 0.10
 
 #: Columns of :func:`per_configuration`, in order.
-CONFIG_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "reference", "lights",
-                  "evaluated_pixels", "error_rate", "false_shadow_rate", "false_lit_rate", "boundary_error_px",
-                  "visibility_mae", "time_ms", "time_iqr_ms", "setup_ms", "preprocess_ms", "moving_ms",
-                  "scene_metric", "scene_metric_value", "wrong_pixels", "degenerate", "run_dir", "shaded_image",
-                  "error_image", "signed_image", "footprint_image"]
+CONFIG_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "spec_label", "reference", "lights",
+                  "evaluated_pixels", "frame_pixels", "error_rate", "edge_error_rate", "false_shadow_rate",
+                  "false_lit_rate", "boundary_error_px", "visibility_mae", "time_ms", "time_iqr_ms", "time_lo_ms",
+                  "time_hi_ms", "setup_ms", "preprocess_ms", "moving_ms", "scene_metric", "scene_metric_value",
+                  "wrong_pixels", "degenerate", "run_dir", "shaded_image", "error_image", "signed_image",
+                  "footprint_image"]
 #: How the pages mark a degenerate configuration (:func:`shadowlab.evaluation.metrics.is_degenerate`: it draws
 #: almost no shadow where the truth has one), beside its name or error, as ✗ marks a failure.
 DEGENERATE_MARK = "✗ degenerate"
@@ -46,8 +42,8 @@ DEGENERATE_WHY = "degenerate: draws almost no shadow where the truth has one"
 
 
 #: (rate, its pixel-count denominator column) — the rates pooled over lights by their denominators.
-_RATE_WEIGHTS = {"error_rate": "evaluated_pixels", "false_shadow_rate": "truth_lit_pixels",
-                 "false_lit_rate": "truth_shadowed_pixels"}
+_RATE_WEIGHTS = {"error_rate": "evaluated_pixels", "edge_error_rate": "truth_boundary_pixels",
+                 "false_shadow_rate": "truth_lit_pixels", "false_lit_rate": "truth_shadowed_pixels"}
 
 
 #: How results.csv's ``config`` names a tuned configuration: ``<spec as written> [tuned <params>]``
@@ -86,6 +82,7 @@ def normalised(results: pd.DataFrame) -> pd.DataFrame:
     absent or empty), ``scene_family`` and ``short_label`` present, and a tuned configuration's
     rows labelled by its ``config`` name (:func:`is_tuned_name`)."""
     df = results.copy()
+    df["spec_label"] = df["label"]  # the spec as run: what tiles.npz names a configuration by
     df["reference"] = truthy(df["reference"]) if "reference" in df.columns else False
     if "status" not in df.columns:
         df["status"] = "ok"
@@ -144,15 +141,18 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
     pixels — the two numbers the study compares configurations by.
 
     Columns (:data:`CONFIG_COLUMNS`): ``scene, scene_family, technique, label, short_label,
-    reference`` (bool: the ground truth) copied; ``lights`` (rows pooled); ``evaluated_pixels``
-    (sum over lights); ``error_rate`` = the evaluated-pixel-weighted mean of the lights'
-    error rates (= pooled wrong / pooled evaluated); ``false_shadow_rate`` and
+    reference`` (bool: the ground truth) copied; ``spec_label`` (the spec as run: a tuned
+    configuration's ``label`` is its entry's name); ``lights`` (rows pooled); ``evaluated_pixels``
+    (sum over lights); ``frame_pixels`` (width × height); ``error_rate`` = the evaluated-pixel-weighted mean of the lights'
+    error rates (= pooled wrong / pooled evaluated); ``edge_error_rate`` weighted by the truth's
+    boundary pixels (= pooled wrong / pooled boundary; NaN in a study without the column); ``false_shadow_rate`` and
     ``false_lit_rate`` weighted likewise by their own denominators, ``truth_lit_pixels`` and
     ``truth_shadowed_pixels``, where those count columns exist (else by evaluated pixels);
     a pooled denominator of 0 gives 0 (docs/metrics.md); ``boundary_error_px`` = the mean over lights;
     ``time_ms`` = sum of ``time_ms_median`` over lights (NaN if any light has no time);
     ``time_iqr_ms`` = sum of ``time_ms_iqr`` (the lights were timed separately, so this is the
-    spread of a frame if their fluctuations go together — a conservative bar); ``setup_ms`` =
+    spread of a frame if their fluctuations go together — a conservative bar); ``time_lo_ms``,
+    ``time_hi_ms``: the repeat interval (:func:`repeat_interval`); ``setup_ms`` =
     sum of the lights' set-up times (NaN where not measured);
     ``visibility_mae`` weighted like ``error_rate``; ``preprocess_ms`` = the lights' summed
     light-dependent preprocessing (0 where a technique has none); ``moving_ms`` = ``time_ms`` +
@@ -176,10 +176,12 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
         g = g.sort_values("light", kind="stable") if "light" in g.columns else g
         first = g.iloc[0]
         ev = numeric(g, "evaluated_pixels")
+        size = numeric(g.iloc[:1], "width") * numeric(g.iloc[:1], "height")
         row = {"scene": scene, "scene_family": as_text(first["scene_family"]), "technique": first["technique"],
                "label": label, "short_label": as_text(first["short_label"]) or label,
-               "reference": bool(g["reference"].any()), "lights": len(g),
-               "evaluated_pixels": float(np.nansum(ev)) if not np.isnan(ev).all() else math.nan}
+               "spec_label": as_text(first["spec_label"]), "reference": bool(g["reference"].any()), "lights": len(g),
+               "evaluated_pixels": float(np.nansum(ev)) if not np.isnan(ev).all() else math.nan,
+               "frame_pixels": float(size[0])}
         for rate, weight in _RATE_WEIGHTS.items():
             w = numeric(g, weight) if weight in g.columns else ev
             row[rate] = pooled(numeric(g, rate), w)
@@ -188,6 +190,7 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
         t, iqr = numeric(g, "time_ms_median"), numeric(g, "time_ms_iqr")
         row["time_ms"] = float(t.sum())  # NaN when any light has no time
         row["time_iqr_ms"] = float(np.nansum(iqr)) if not np.isnan(iqr).all() else math.nan
+        row["time_lo_ms"], row["time_hi_ms"] = repeat_interval(g)
         row["setup_ms"] = float(numeric(g, "setup_ms").sum()) if "setup_ms" in g.columns else math.nan
         vm = numeric(g, "visibility_mae")
         row["visibility_mae"] = pooled(vm, ev) if not np.isnan(vm).all() else math.nan
@@ -207,6 +210,18 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
             row[col] = first[col] if col in g.columns else ""
         rows.append(row)
     return pd.DataFrame(rows, columns=CONFIG_COLUMNS)
+
+
+def repeat_interval(rows: pd.DataFrame) -> tuple[float, float]:
+    """A configuration's repeat interval on a scene (its lights' ``rows``): the sums of the lights'
+    first and third quartiles (``time_ms_q25``, ``time_ms_q75``); median ∓ IQR/2 where a study
+    has no quartile columns; the median itself where it has no IQR either; NaN without a time."""
+    t = numeric(rows, "time_ms_median")
+    q25, q75, iqr = numeric(rows, "time_ms_q25"), numeric(rows, "time_ms_q75"), numeric(rows, "time_ms_iqr")
+    half = np.where(np.isnan(iqr), 0.0, iqr / 2)
+    lo = np.where(np.isnan(q25), t - half, q25)
+    hi = np.where(np.isnan(q75), t + half, q75)
+    return float(lo.sum()), float(hi.sum())
 
 
 def failed_runs(results: pd.DataFrame) -> pd.DataFrame:
@@ -360,151 +375,6 @@ def fail_threshold(metric: str) -> float:
     return FAIL_VISIBILITY_MAE if metric == "visibility_mae" else FAIL_ERROR_RATE
 
 
-#: Columns of :func:`verdict_table`.
-VERDICT_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "metric", "error", "time_ms",
-                   "moving_ms", "setup_ms", "scene_metric", "scene_metric_value", "configurations", "failed", "why",
-                   "degenerate", "best_error", "best_time", "best_moving"]
-
-
-def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None) -> pd.DataFrame:
-    """The study's headline, long form: one row per (scene, technique family) that was asked to
-    run there — the family's *best configuration* on the scene, i.e. the lowest judged error
-    (:func:`judged_metric`), ties broken by time, among its configurations that are not
-    degenerate (:func:`shadowlab.evaluation.metrics.is_degenerate`: they draw almost no shadow where the
-    truth has one, and their error understates what is lost). Only when every configuration of
-    the family is degenerate is one chosen, and then it is marked (``degenerate``) and fails.
-
-    Columns (:data:`VERDICT_COLUMNS`): ``metric`` (the judged column) and ``error`` (its value),
-    ``time_ms`` (static light: per-frame time), ``moving_ms`` (moving light: per-frame time plus
-    light-dependent preprocessing), ``setup_ms``; the scene's own metric and its value;
-    ``configurations`` (how many of the family's configurations ran); ``failed`` (bool: the best
-    configuration's error is above :func:`fail_threshold`, it is degenerate, or every
-    configuration's run failed) and ``why``; ``degenerate`` (bool: the chosen configuration is
-    degenerate); ``best_error`` / ``best_time`` / ``best_moving`` (bool: the lowest error in the
-    scene's row among the families whose choice is not degenerate, within
-    :data:`TIE_TOLERANCE`; the lowest static / moving time among the row's families that do not
-    fail, within :data:`TIME_TIE`)."""
-    cfg = per_configuration(results, scene_metrics)
-    conf = cfg[~cfg["reference"].astype(bool)] if len(cfg) else cfg
-    fails = failed_runs(results)
-    fails = fails[~fails["reference"].astype(bool)] if len(fails) else fails
-    rows = []
-    if results is None or not len(results):
-        return pd.DataFrame(columns=VERDICT_COLUMNS)
-    fam_of = normalised(results).drop_duplicates("scene").set_index("scene")["scene_family"].map(as_text)
-    for scene in scenes_in_order(normalised(results)):
-        metric = judged_metric(fam_of.get(scene, ""))
-        limit = fail_threshold(metric)
-        g = conf[conf["scene"] == scene]
-        f = fails[fails["scene"] == scene] if len(fails) else fails
-        techs = family_order(list(g["technique"]) + list(f["technique"] if len(f) else []))
-        for tech in techs:
-            gt = g[g["technique"] == tech].assign(_err=lambda d: d[metric])
-            ft = f[f["technique"] == tech] if len(f) else f
-            row = dict.fromkeys(VERDICT_COLUMNS, math.nan)
-            row.update(scene=scene, scene_family=fam_of.get(scene, ""), technique=tech, metric=metric,
-                       configurations=len(gt), degenerate=False, best_error=False, best_time=False,
-                       best_moving=False)
-            # a degenerate configuration is never the family's best while a sound one ran
-            scored = gt[gt["_err"].notna()].assign(_deg=lambda d: d["degenerate"].astype(bool)).sort_values(
-                ["_deg", "_err", "time_ms"], kind="stable", na_position="last")
-            if len(scored):
-                best = scored.iloc[0]
-                row.update(label=best["label"], short_label=best["short_label"], error=float(best["_err"]),
-                           time_ms=best["time_ms"], moving_ms=best["moving_ms"], setup_ms=best["setup_ms"],
-                           scene_metric=best["scene_metric"], scene_metric_value=best["scene_metric_value"])
-                row["degenerate"] = bool(best["_deg"])
-                over = bool(best["_err"] > limit)
-                row["failed"] = over or row["degenerate"]
-                row["why"] = "; ".join(([f"{metric} above {fmt_limit(metric, limit)}"] if over else [])
-                                       + ([DEGENERATE_WHY] if row["degenerate"] else []))
-            else:
-                first = ft.iloc[0] if len(ft) else None
-                row.update(label=first["label"] if first is not None else "", short_label=first["short_label"]
-                           if first is not None else "", failed=True,
-                           why=f"run failed: {first['error']}" if first is not None else "no result")
-            rows.append(row)
-    out = pd.DataFrame(rows, columns=VERDICT_COLUMNS)
-    for scene, idx in out.groupby("scene", sort=False).groups.items():
-        part = out.loc[idx]
-        sound = part[~part["degenerate"].astype(bool)]  # a lost shadow's small error is no row's best
-        if sound["error"].notna().any():
-            tol = TIE_TOLERANCE[part["metric"].iloc[0]]
-            out.loc[sound.index, "best_error"] = sound["error"] <= sound["error"].min() + tol
-        ok = part[~part["failed"].astype(bool)]
-        for col, flag in (("time_ms", "best_time"), ("moving_ms", "best_moving")):
-            if ok[col].notna().any():
-                out.loc[ok.index, flag] = ok[col] <= ok[col].min() * (1 + TIME_TIE)
-    return out
-
-
 def fmt_limit(metric: str, limit: float) -> str:
     """A fail threshold as the page states it ("1 %", "0.02")."""
     return f"{100 * limit:g} %" if metric == "error_rate" else f"{limit:g}"
-
-
-def _fastest_names(times: pd.Series) -> list[str]:
-    """The index labels of ``times`` within :data:`TIME_TIE` of the least, fastest first."""
-    best = times.min()
-    return list(times[times <= best * (1 + TIME_TIE)].sort_values(kind="stable").index)
-
-
-def _fastest(times: pd.Series) -> str:
-    """"A (1.20 ms)" or, with ties, "A (1.20 ms), B (1.25 ms), tied within 10 %"."""
-    names = _fastest_names(times)
-    text = ", ".join(f"{n} ({fmt_table_ms(times[n])} ms)" for n in names)
-    return text + (f", tied within {100 * TIME_TIE:g} %" if len(names) > 1 else "")
-
-
-def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
-    """One sentence per scene family, from :func:`verdict_table`: (family, sentence) saying who
-    is most accurate (lowest median best-configuration error over the family's scenes, among the
-    techniques that ran on most of them and fail none — the median would hide a failure; every
-    technique within :data:`TIE_TOLERANCE` of it is named), who is fastest for a static and for a moving light
-    among the techniques that fail none of those scenes (times within :data:`TIME_TIE` tie), and
-    who fails where."""
-    out = []
-    if not len(verdicts):
-        return out
-    for fam, g in verdicts.groupby("scene_family", sort=False):
-        scenes = list(dict.fromkeys(g["scene"]))
-        n = len(scenes)
-        per = g.groupby("technique", sort=False).agg(
-            scenes=("scene", "nunique"), err=("error", "median"), time=("time_ms", "median"),
-            moving=("moving_ms", "median"), fails=("failed", "sum"))
-        per = per.loc[[t for t in family_order(per.index) if t in per.index]]
-        full = per[per["scenes"] == per["scenes"].max()]
-        metric = g["metric"].iloc[0]
-        show = fmt_table_pct if metric == "error_rate" else (lambda v: f"{v:.4f}")
-        where = f"{n} scene{'s' if n != 1 else ''}: {', '.join(scenes)}"
-        parts = []
-        scored = full[full["err"].notna()]
-        if (scored["fails"] == 0).any():  # a technique that fails a scene of the family is not its most accurate
-            scored = scored[scored["fails"] == 0]
-        if len(scored):
-            best = scored["err"].min()
-            winners = list(scored.index[scored["err"] <= best + TIE_TOLERANCE[metric]])
-            tied = f", tied within {fmt_limit(metric, TIE_TOLERANCE[metric])}" if len(winners) > 1 else ""
-            parts.append(f"most accurate: {', '.join(winners)} (median {metric} {show(best)}{tied})")
-        sound = full[(full["fails"] == 0) & full["time"].notna()]
-        if len(sound):
-            parts.append("fastest per frame for a static light: " + _fastest(sound["time"]))
-            static, moving = _fastest_names(sound["time"]), _fastest_names(sound["moving"])
-            if moving != static:
-                slow = [n for n in static if n not in moving]
-                extra = (f"; {', '.join(slow)} {'needs' if len(slow) == 1 else 'need'} "
-                         f"{', '.join(fmt_table_ms(sound.loc[n, 'moving']) + ' ms' for n in slow)} with per-light "
-                         f"preprocessing" if slow else "")
-                parts.append(f"for a moving light: {_fastest(sound['moving'])}{extra}")
-            else:
-                parts.append("the same for a moving light")
-        else:
-            parts.append("no technique passes every scene")
-        failing = per[per["fails"] > 0]
-        if len(failing):
-            parts.append("fails: " + ", ".join(f"{t} on {int(r['fails'])} of {int(r['scenes'])}"
-                                               for t, r in failing.iterrows()))
-        else:
-            parts.append("no technique fails")
-        out.append((fam or "(none)", f"{(fam or 'Other scenes').capitalize()} ({where}) — " + "; ".join(parts) + "."))
-    return out

@@ -84,6 +84,11 @@ class Evaluation:
         return shadow_boundary(self.v_sh, self.ev), shadow_boundary(self.g_sh, self.ev)
 
     @cached_property
+    def truth_boundary_pixels(self) -> int:
+        """Pixels on the truth's shadow boundary (:func:`shadow_boundary` of G thresholded)."""
+        return int(self.boundaries[1].sum())
+
+    @cached_property
     def boundary_figures(self) -> tuple[float, float, float]:
         """(mean distance V → G, symmetric Hausdorff, symmetric 95th percentile), pixels. When
         only one of the two images has a shadow boundary: the image diagonal (the worst case)."""
@@ -352,6 +357,12 @@ COLUMNS: tuple[Column, ...] = (
     Column("time_ms_median", "median time of the technique's timed passes, ms", "ms", contract=True, summary=True,
            report=True),
     Column("time_ms_iqr", "interquartile range of those times, ms", "ms", contract=True, report=True),
+    _metric("edge_error_rate", "wrong pixels per pixel of the truth's shadow boundary (hard-shadow verdicts: what "
+                               "differs between techniques happens along edges); 0 when the truth has no boundary",
+            lambda e: _ratio(e.false_shadow + e.false_lit, e.truth_boundary_pixels), "percent", summary=True,
+            report=True),
+    Column("time_ms_q25", "first quartile of the timed renders, ms (with time_ms_q75: the repeat interval)", "ms"),
+    Column("time_ms_q75", "third quartile of the timed renders, ms", "ms"),
     Column("setup_ms", "set-up for the light (preprocessing, GL objects, programs), ms: paid once for a static "
                        "light, every frame for a moving one", "ms", summary=True, report=True),
     Column("peak_rss_mib", "peak resident memory of the process during the measurement, MiB", "value"),
@@ -365,6 +376,8 @@ COLUMNS: tuple[Column, ...] = (
             _umbra_visibility_std, report=True, tolerance=(0.01, 0.1)),
     _metric("truth_lit_pixels", "evaluated pixels the truth has lit", lambda e: e.g_lit, "count"),
     _metric("truth_shadowed_pixels", "evaluated pixels the truth has shadowed", lambda e: e.g_shadow, "count"),
+    _metric("truth_boundary_pixels", "evaluated pixels on the truth's shadow boundary (edge_error_rate's denominator)",
+            lambda e: e.truth_boundary_pixels, "count"),
     _metric("false_shadow_pixels", "wrongly shadowed pixels", lambda e: e.false_shadow, "count"),
     _metric("false_lit_pixels", "wrongly lit pixels", lambda e: e.false_lit, "count"),
     _metric("boundary_pixels", "pixels on V's shadow boundary", lambda e: int(e.boundaries[0].sum()), "count"),

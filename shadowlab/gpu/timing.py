@@ -17,7 +17,8 @@ from . import gl
 
 #: The metrics columns a timing fills (:meth:`Timing.columns`); with every ``*_ms`` figure they are
 #: what a study's timing phase measures alone on the host and what accuracy comparisons leave out.
-TIMING_COLUMNS = ("time_ms_median", "time_ms_iqr", "time_repeats", "gpu_time_ms_median")
+TIMING_COLUMNS = ("time_ms_median", "time_ms_iqr", "time_ms_q25", "time_ms_q75", "time_repeats",
+                  "gpu_time_ms_median")
 
 
 def is_time_column(name: str) -> bool:
@@ -32,16 +33,22 @@ WALL_CLOCK = "wall clock around ctx.finish() (perf_counter), median and IQR over
 
 @dataclass
 class Timing:
-    """Median and IQR (ms) of the timed runs, and the raw samples (ms)."""
+    """Median and IQR (ms) of the timed runs, and the raw samples (ms); ``q25_ms``/``q75_ms``: the
+    quartiles whose difference is the IQR (the repeat interval two configurations' times are
+    compared by, docs/metrics.md#significance; None where unknown)."""
 
     median_ms: float
     iqr_ms: float
     samples_ms: list[float]
     gpu_median_ms: float | None = None
+    q25_ms: float | None = None
+    q75_ms: float | None = None
 
     def columns(self) -> dict:
         """The metrics.csv columns of this timing."""
         out = {"time_ms_median": self.median_ms, "time_ms_iqr": self.iqr_ms, "time_repeats": len(self.samples_ms)}
+        if self.q25_ms is not None and self.q75_ms is not None:
+            out["time_ms_q25"], out["time_ms_q75"] = self.q25_ms, self.q75_ms
         if self.gpu_median_ms is not None:
             out["gpu_time_ms_median"] = self.gpu_median_ms
         return out
@@ -90,7 +97,8 @@ def time_passes(run: Callable[[], None], repeat: int = 5, warmup: int = 1, gpu: 
         if on_step:
             on_step()
     q1, med, q3 = np.percentile(samples, [25, 50, 75])
-    return Timing(float(med), float(q3 - q1), samples, float(np.median(gpu_samples)) if gpu_samples else None)
+    return Timing(float(med), float(q3 - q1), samples, float(np.median(gpu_samples)) if gpu_samples else None,
+                  float(q1), float(q3))
 
 
 def pass_timing_method() -> str:

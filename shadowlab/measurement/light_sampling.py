@@ -106,8 +106,8 @@ class VisibilityAverage:
 
 
 def combined_timing(timings: list[timing.Timing]) -> timing.Timing:
-    """One frame's timing of N renders: median and IQR are the sums of the samples' (the IQRs
-    added: a conservative spread), ``samples_ms`` run by run sums (run j of every sample), the
+    """One frame's timing of N renders: median, IQR and quartiles are the sums of the samples' (the
+    IQRs added: a conservative spread), ``samples_ms`` run by run sums (run j of every sample), the
     GL-query median the sum when every sample has one."""
     if not timings:
         raise ValueError("no timing to combine")
@@ -115,7 +115,15 @@ def combined_timing(timings: list[timing.Timing]) -> timing.Timing:
     gpu = [t.gpu_median_ms for t in timings]
     return timing.Timing(float(sum(t.median_ms for t in timings)), float(sum(t.iqr_ms for t in timings)),
                          [float(sum(t.samples_ms[j] for t in timings)) for j in range(runs)],
-                         float(sum(gpu)) if all(g is not None for g in gpu) else None)
+                         float(sum(gpu)) if all(g is not None for g in gpu) else None,
+                         *_summed_quartiles(timings))
+
+
+def _summed_quartiles(timings: list[timing.Timing]) -> tuple[float | None, float | None]:
+    """The sums of the timings' quartiles, (None, None) when one is unknown."""
+    if any(t.q25_ms is None or t.q75_ms is None for t in timings):
+        return None, None
+    return float(sum(t.q25_ms for t in timings)), float(sum(t.q75_ms for t in timings))
 
 
 def combined_stats(stats: list[dict], rules: dict[str, str], owner: str = "technique") -> dict:

@@ -28,7 +28,7 @@ from ..util.files import replacing
 from ..scene import PRIMITIVES
 
 #: Bumped when the layout or meaning of cached entries changes.
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2
 
 
 def scene_mesh_files(path: Path) -> list[tuple[str, Path]]:

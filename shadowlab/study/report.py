@@ -27,10 +27,12 @@ from ..evaluation import perceptual
 from ..evaluation.metrics import COLUMN_BY_NAME
 from ..output.pareto import pareto_plot
 from ..analysis.aggregate import (
-    DEGENERATE_MARK, FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, TIE_TOLERANCE, TIME_TIE, as_text, failed_runs,
-    family_order, family_table, fmt_limit, judged_metric, names_text,
-    normalised, per_configuration, scenes_in_order, summary_table, verdict_sentences, verdict_table,
+    DEGENERATE_MARK, FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, as_text, failed_runs, family_order, family_table,
+    fmt_limit, judged_metric, names_text, normalised, per_configuration, scenes_in_order, summary_table,
 )
+from ..analysis import significance
+from ..analysis.verdicts import verdict_sentences, verdict_table
+from .tiles import read_tiles
 from ..util.files import write_text_atomic
 from ..util.format import fmt_ms, fmt_num, fmt_table_ms, fmt_table_pct, is_missing
 from .agreement import MIN_CONFIGURATIONS, agreement_sentences, rank_agreement
@@ -75,14 +77,14 @@ def _meta_lines(meta: dict) -> list[tuple[str, str]]:
     return [(k, v) for k, v in items if v]
 
 
-def verdict_markdown(results: pd.DataFrame, meta: dict | None = None) -> list[str]:
+def verdict_markdown(results: pd.DataFrame, meta: dict | None = None, tiles: dict | None = None) -> list[str]:
     """The verdicts as markdown lines: a table of scenes × technique families (each cell the
     family's best configuration's error and time, the best per row in bold, ✗ where it fails;
     :func:`~shadowlab.analysis.aggregate.verdict_table`) and one sentence per scene family. The
     README's headline is made of these lines."""
     meta = meta or {}
     scenes_meta = meta.get("scenes") or {}
-    verdicts = verdict_table(results, {k: v.get("metric") for k, v in scenes_meta.items()})
+    verdicts = verdict_table(results, {k: v.get("metric") for k, v in scenes_meta.items()}, tiles)
     if not len(verdicts):
         return []
     grid = verdict_grid(verdicts, scenes_meta)
@@ -125,7 +127,7 @@ def tuned_markdown(meta: dict) -> list[str]:
     return lines
 
 
-def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> Path:
+def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tiles: dict | None = None) -> Path:
     """Write ``summary.md``: the study at a glance, readable as plain text.
 
     Header: suite name, description and the facts of ``meta`` (size, device, revision, date,
@@ -148,7 +150,7 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None) -> P
     lines = [f"# Study: {meta.get('name', '(unnamed)')}", ""]
     if meta.get("description"):
         lines += [str(meta["description"]), ""]
-    lines += verdict_markdown(results, meta)
+    lines += verdict_markdown(results, meta, tiles)
     lines += tuned_markdown(meta)
     lines += [f"- {k}: {v}" for k, v in _meta_lines(meta)]
     n_scenes = len(scenes_in_order(results)) if len(results) else 0
@@ -463,7 +465,7 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
     df = normalised(results) if len(results) else results
     cfg = per_configuration(results, scene_metrics)
     fails = failed_runs(results)
-    verdicts = verdict_table(results, scene_metrics)
+    verdicts = verdict_table(results, scene_metrics, read_tiles(study_dir))
     sections = []
     for scene in (scenes_in_order(df) if len(df) else []):
         family = as_text(df.loc[df["scene"].astype(str) == scene, "scene_family"].iloc[0])
@@ -478,7 +480,7 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
         verdicts=verdict_grid(verdicts, scenes_meta), sentences=[s for _, s in verdict_sentences(verdicts)],
         thresholds={"error_rate": fmt_limit("error_rate", FAIL_ERROR_RATE),
                     "visibility_mae": fmt_limit("visibility_mae", FAIL_VISIBILITY_MAE),
-                    "tie": fmt_limit("error_rate", TIE_TOLERANCE["error_rate"]), "time": f"{100 * TIME_TIE:g} %"},
+                    "level": f"{100 * significance.LEVEL:g} %"},
         pareto=_rel(study_dir, pareto_png) or quote(Path(pareto_png).as_posix()),
         summary=_summary_rows(results),
         failed=[[as_text(r["scene"]), as_text(r["label"]), as_text(r["error"])] for _, r in fails.iterrows()],
@@ -527,6 +529,6 @@ def write_study_report(study_dir, results: pd.DataFrame, meta: dict) -> dict:
     study_dir.mkdir(parents=True, exist_ok=True)
     pareto = pareto_plot(results, study_dir / "pareto.png")
     write_text_atomic(study_dir / "rank_agreement.csv", rank_agreement(results).to_csv(index=False))
-    summary = write_summary_md(results, study_dir / "summary.md", meta)
+    summary = write_summary_md(results, study_dir / "summary.md", meta, read_tiles(study_dir))
     page = write_study_html(study_dir, results, meta, pareto.name)
     return {"pareto": pareto, "html": page, "summary": summary}

@@ -43,6 +43,7 @@ from ..output.cache import Cache, run_key, scene_content_hash
 from .executors import DaskExecutor, LocalExecutor, cores, lost_result
 from ..scene import scene_purpose
 from .suite import Suite, load_suite
+from .tiles import TILES_FILE, write_tiles
 from .tuning_phase import run_tuning_phase, tuned_rows_under_their_name, tuning_summary, with_tuned
 
 #: Columns a study adds to every metrics row in results.csv (docs/contracts.md#study-directory).
@@ -192,7 +193,8 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
               "pass_timing": timing.pass_timing_method_for(renderer) if suite.pass_timing else None,
               "repeat": suite.repeat, "warmup": suite.warmup, "study": suite.name, "size": list(suite.size),
               **provenance.record(gl_info=False)}
-    results, problems = _assemble(suite, runs, cache, failed, timing_failed, out, record)
+    tiles = {}
+    results, problems = _assemble(suite, runs, cache, failed, timing_failed, out, record, tiles)
     results = tuned_rows_under_their_name(suite, tuned, results)
     elapsed = time.perf_counter() - t_start
     meta = {"name": suite.name, "description": suite.description, "size": list(suite.size), "repeat": suite.repeat,
@@ -204,7 +206,7 @@ def run_study(suite_ref, out: Path | None = None, workers: int | None = None, da
             "scenes": {e.name: {"family": e.family, "metric": e.metric, "purpose": scene_purpose(e.path)}
                        for e in suite.scenes},
             "tuned": tuning_summary(suite, tuned, results)}
-    report_files = _write_study_files(out, results, meta, record)
+    report_files = _write_study_files(out, results, meta, record, tiles)
     failures = [f"{scene} / {spec}: {err}" for (scene, spec), err in problems.items()]
     phases["report_s"] = time.perf_counter() - t_start - elapsed
     return StudyOutcome(out, results, n_tasks, 2 * len(runs) - n_tasks, failures, time.perf_counter() - t_start,
@@ -353,10 +355,11 @@ def _failed_row(scene, spec: str, error: str, light: int, suite: Suite, renderer
 
 
 def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, timing_failed: dict, out: Path,
-              record: dict) -> tuple[pd.DataFrame, dict]:
+              record: dict, tiles: dict) -> tuple[pd.DataFrame, dict]:
     """Per scene: rows with timings, the run directory; all rows as results.csv's DataFrame, and
     every run that did not finish — failed, untimed, or whose cache entry could not be read —
-    with its error ((scene, spec) → error)."""
+    with its error ((scene, spec) → error). Fills ``tiles`` ({(scene, label): per-tile error
+    sums of every light}, :mod:`shadowlab.study.tiles`) for the configurations that have them."""
     all_rows = []
     problems = dict(failed)
     by_scene: dict[str, list[_Run]] = {}
@@ -386,6 +389,9 @@ def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, timing
                                                        "run the study again")
             if not r.reference:
                 sr.configs[r.spec] = res
+                light_tiles = [res["arrays"].get(f"tiles_{li}") for li in range(len(res["meta"]["rows"]))]
+                if all(t is not None for t in light_tiles):
+                    tiles[(name, res["meta"]["rows"][0]["label"])] = np.concatenate(light_tiles, axis=1)
             sr.keys += [r.acc_key, r.time_key if tim is not None else "untimed"]
             stem = GROUND_TRUTH_KEY if r.reference else rundir.image_stem(res["meta"]["rows"][0]["short_label"])
             columns = tim["columns"] if tim is not None else [{}] * len(res["meta"]["rows"])
@@ -416,9 +422,10 @@ def _assemble(suite: Suite, runs: list[_Run], cache: Cache, failed: dict, timing
     return results, problems
 
 
-def _write_study_files(out: Path, results: pd.DataFrame, meta: dict, record: dict) -> dict:
-    """results.csv, study.json and the report, each written to a temporary name and renamed."""
+def _write_study_files(out: Path, results: pd.DataFrame, meta: dict, record: dict, tiles: dict) -> dict:
+    """results.csv, tiles.npz, study.json and the report, each written to a temporary name and renamed."""
     out.mkdir(parents=True, exist_ok=True)
+    write_tiles(out / TILES_FILE, tiles)
     with replacing(out / "results.csv") as (tmp,):
         results.to_csv(tmp, index=False)
     study = {**meta, "record": record, "date_finished": _dt.datetime.now().astimezone().isoformat(timespec="seconds")}

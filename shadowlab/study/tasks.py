@@ -202,7 +202,10 @@ def _truth(task: dict) -> dict:
 
 def _config(task: dict) -> dict:
     """One configuration on every light of a scene: visibility, metrics rows against the given
-    truth (``task["truth"]``: one float32 (H, W) image per light), cost figures, notes, images."""
+    truth (``task["truth"]``: one float32 (H, W) image per light), cost figures, notes, images,
+    and per light its per-tile error sums (``tiles_<light>``,
+    :func:`shadowlab.evaluation.tiles.tile_sums`)."""
+    from ..evaluation.tiles import tile_sums
     from ..measurement.pipeline import Evaluator, measure
     from ..techniques import from_spec
 
@@ -222,6 +225,9 @@ def _config(task: dict) -> dict:
         row.update(judged)
     ev0 = frame.evaluated(0)
     arrays = {"mask_0": np.where(ev0, ms[0].visibility, np.nan).astype(np.float32)}
+    # per light, the per-tile error sums the study's significance tests resample
+    for li, m in enumerate(ms):
+        arrays[f"tiles_{li}"] = tile_sums(m.visibility, task["truth"][li], frame.evaluated_image(frame.slot(li)))
     # the evaluator's notes on the result (degenerate, bias beyond the casters) name the
     # configuration themselves: the run notes take them without the spec prefix
     meta = {"rows": rows, "notes": list(dict.fromkeys(tech.notes)),

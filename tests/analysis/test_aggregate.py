@@ -5,6 +5,7 @@ import math
 import pandas as pd
 
 from shadowlab.analysis import aggregate as agg
+from shadowlab.analysis import verdicts as ver
 
 
 def _row(scene, label, err, time, family="shadow maps", setup=5.0, pre=None, vmae=None, status="ok", **extra):
@@ -36,7 +37,7 @@ def _table():
 
 
 def test_verdict_best_configuration_per_family_and_failures():
-    v = agg.verdict_table(_table()).set_index(["scene", "technique"])
+    v = ver.verdict_table(_table()).set_index(["scene", "technique"])
     # the family's best configuration is its lowest error, not its first
     assert v.loc[("s1", "shadow_map"), "label"] == "shadow_map:variant=slope"
     assert v.loc[("s1", "shadow_map"), "error"] == 0.0005
@@ -56,7 +57,7 @@ def test_verdict_best_configuration_per_family_and_failures():
 
 
 def test_soft_scenes_are_judged_on_visibility_error():
-    v = agg.verdict_table(_table()).set_index(["scene", "technique"])
+    v = ver.verdict_table(_table()).set_index(["scene", "technique"])
     assert v.loc[("soft", "pcss"), "metric"] == "visibility_mae"
     assert not bool(v.loc[("soft", "pcss"), "failed"])          # 30 % thresholded error, but mean |V-G| 0.01
     assert bool(v.loc[("soft", "blob"), "failed"])              # mean |V-G| 0.05 > 0.02
@@ -67,7 +68,7 @@ def test_soft_scenes_are_judged_on_visibility_error():
 
 
 def test_verdict_sentences_name_winners_and_failures():
-    sentences = dict(agg.verdict_sentences(agg.verdict_table(_table())))
+    sentences = dict(ver.verdict_sentences(ver.verdict_table(_table())))
     maps = sentences["shadow maps"]
     # planar is as accurate on s1 but fails s2: the median would hide it, the sentence does not
     assert "most accurate: shadow_polygons, shadow_volume" in maps
@@ -86,7 +87,7 @@ def test_scene_metric_is_pooled_and_carried():
     s1 = cfg[cfg["scene"] == "s1"]
     assert (s1["scene_metric"] == "contact_gap_px").all() and (s1["scene_metric_value"] == 0.5).all()
     assert (cfg[cfg["scene"] == "s2"]["scene_metric"] == "").all()
-    v = agg.verdict_table(t, {"s1": "contact_gap_px"}).set_index(["scene", "technique"])
+    v = ver.verdict_table(t, {"s1": "contact_gap_px"}).set_index(["scene", "technique"])
     assert v.loc[("s1", "planar"), "scene_metric_value"] == 0.5
 
 
@@ -98,10 +99,10 @@ def test_summary_table_reports_the_worst_case_beside_the_median():
 def test_times_within_the_time_tie_share_the_verdict():
     rows = [_row("t", "raytrace", 0.0, 10.0), _row("t", "shadow_volume", 0.0, 3.0),
             _row("t", "shadow_map", 0.0, 3.2), _row("t", "planar", 0.0, 4.0)]
-    v = agg.verdict_table(pd.DataFrame(rows)).set_index("technique")
+    v = ver.verdict_table(pd.DataFrame(rows)).set_index("technique")
     assert v.loc["shadow_volume", "best_time"] and v.loc["shadow_map", "best_time"]   # 3.2 <= 3.0 * 1.1
     assert not v.loc["planar", "best_time"]
-    (_, sentence), = agg.verdict_sentences(agg.verdict_table(pd.DataFrame(rows)))
+    (_, sentence), = ver.verdict_sentences(ver.verdict_table(pd.DataFrame(rows)))
     assert "shadow_volume (3.000 ms), shadow_map (3.200 ms), tied within 10 %" in sentence
 
 
@@ -122,7 +123,7 @@ def _degenerate_table():
 
 
 def test_a_degenerate_configuration_is_never_a_silent_best():
-    v = agg.verdict_table(_degenerate_table()).set_index(["scene", "technique"])
+    v = ver.verdict_table(_degenerate_table()).set_index(["scene", "technique"])
     # a sound configuration is chosen over a degenerate one, whatever their errors
     assert v.loc[("s1", "shadow_map"), "label"] == "shadow_map"
     assert v.loc[("s2", "shadow_map"), "label"] == "shadow_map" and v.loc[("s2", "shadow_map"), "error"] == 0.003
@@ -138,7 +139,7 @@ def test_a_degenerate_configuration_is_never_a_silent_best():
     assert [s for s, _ in table.loc["shadow_map:bias=1", "fails"]] == ["s1", "s2"]
     assert agg.DEGENERATE_MARK in table.loc["shadow_map:bias=1", "fails"][1][1]
     # results.csv of a study before issue 35 (no column): nothing is degenerate
-    old = agg.verdict_table(_table())
+    old = ver.verdict_table(_table())
     assert not old["degenerate"].astype(bool).any()
 
 

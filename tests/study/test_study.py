@@ -480,7 +480,8 @@ def test_the_family_comes_from_the_scene_file_and_the_name_is_only_a_fallback(tm
     is in the soft family and judged on visibility_mae; a scene file without a family falls back
     on its name's prefix with a warning naming the file; a misspelt family refuses the suite in
     one line naming the file and the key, with the closest family."""
-    from shadowlab.analysis.aggregate import judged_metric, verdict_table
+    from shadowlab.analysis.aggregate import judged_metric
+    from shadowlab.analysis.verdicts import verdict_table
     from shadowlab.scene import builtin_scenes
 
     soft = builtin_scenes()["soft_overlap"].read_text()

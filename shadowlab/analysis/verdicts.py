@@ -1,0 +1,267 @@
+"""The study's verdicts (docs/metrics.md#verdicts): per scene and technique family its best
+configuration, who is best in each scene's row by error and by time — ties decided by the tests
+of :mod:`shadowlab.analysis.significance`, not by fixed tolerances — and one sentence per scene
+family with medians and their intervals over the family's scenes.
+
+Plain pandas over ``results.csv`` (:mod:`shadowlab.analysis.aggregate`) and, where the study has
+it, ``tiles.npz`` (:mod:`shadowlab.study.tiles`): without tiles, errors tie only when equal.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+from ..util.format import fmt_table_ms, fmt_table_pct, is_missing
+from . import significance as sig
+from .aggregate import (
+    DEGENERATE_WHY, as_text, fail_threshold, failed_runs, family_order, fmt_limit, judged_metric, normalised,
+    per_configuration, scenes_in_order,
+)
+
+#: The frame the tooltips restate a wrong-pixel count at: the same share of a 1920×1080 frame.
+FULL_HD = (1920, 1080)
+
+
+def verdict_metric(scene_family: str, configurations: pd.DataFrame | None = None) -> str:
+    """The error a scene's verdicts are decided by: ``visibility_mae`` on a soft scene
+    (:func:`~shadowlab.analysis.aggregate.judged_metric`), else ``edge_error_rate`` — wrong pixels
+    per pixel of the truth's shadow boundary: what differs between hard-shadow techniques happens
+    along edges, and as a share of every evaluated pixel their errors are tiny numbers nobody can
+    read. ``error_rate`` where ``configurations`` (per-configuration rows) have no edge figures
+    (a study older than the column)."""
+    metric = judged_metric(scene_family)
+    if metric != "error_rate":
+        return metric
+    if configurations is not None and ("edge_error_rate" not in configurations.columns
+                                       or configurations["edge_error_rate"].isna().all()):
+        return "error_rate"
+    return "edge_error_rate"
+
+
+def numerator_row(metric: str) -> int:
+    """The row of a tile array (:func:`shadowlab.evaluation.tiles.tile_sums`) holding ``metric``'s
+    numerator: wrong pixels for the thresholded rates, Σ|V − G| for ``visibility_mae``."""
+    from ..evaluation.tiles import ABS_DIFF, WRONG
+
+    return ABS_DIFF if metric == "visibility_mae" else WRONG
+
+
+#: Columns of :func:`verdict_table`.
+VERDICT_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "metric", "error", "error_rate",
+                   "wrong_full_hd", "time_ms", "time_lo_ms", "time_hi_ms", "moving_ms", "moving_lo_ms", "moving_hi_ms",
+                   "setup_ms", "scene_metric", "scene_metric_value", "configurations", "failed", "why", "degenerate",
+                   "best_error", "best_time", "best_moving", "tested", "tiles"]
+
+
+def _tiles_of(tiles: dict | None, scene: str, spec_label: str, metric: str):
+    arr = (tiles or {}).get((scene, spec_label))
+    return None if arr is None else np.asarray(arr)[numerator_row(metric)]
+
+
+def errors_tie(a: pd.Series, b: pd.Series) -> bool:
+    """Whether two verdict rows of one scene tie on error: the paired tile bootstrap
+    (:func:`shadowlab.analysis.significance.errors_tie`) where both have tiles, else equal values."""
+    ta, tb = a.get("tiles"), b.get("tiles")
+    if ta is not None and tb is not None and not is_missing(ta) and not is_missing(tb) and ta.shape == tb.shape:
+        return sig.errors_tie(ta, tb)
+    return bool(a["error"] == b["error"])
+
+
+def _interval(row, col: str) -> tuple[float, float]:
+    return float(row[f"{col}_lo_ms"]), float(row[f"{col}_hi_ms"])
+
+
+def times_tie(a, b, col: str = "time") -> bool:
+    """Whether two verdict rows tie on static (``col`` 'time') or moving ('moving') time: their
+    repeat intervals overlap (:func:`shadowlab.analysis.significance.intervals_overlap`)."""
+    return sig.intervals_overlap(_interval(a, col), _interval(b, col))
+
+
+def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None, tiles: dict | None = None) -> pd.DataFrame:
+    """The study's headline, long form: one row per (scene, technique family) that was asked to
+    run there — the family's *best configuration* on the scene, i.e. the lowest verdict error
+    (:func:`verdict_metric`), ties broken by time, among its configurations that are not
+    degenerate (:func:`shadowlab.evaluation.metrics.is_degenerate`: they draw almost no shadow where
+    the truth has one, and their error understates what is lost). Only when every configuration of
+    the family is degenerate is one chosen, and then it is marked (``degenerate``) and fails.
+
+    Columns (:data:`VERDICT_COLUMNS`): ``metric`` (the verdict error's column) and ``error`` (its
+    value); ``error_rate`` (the share of all evaluated pixels) and ``wrong_full_hd`` (the wrong
+    pixels per light restated for a 1920×1080 frame: the same share of the frame); ``time_ms``
+    (static light: per-frame time), ``moving_ms`` (moving light: plus the light-dependent
+    preprocessing), each with its repeat interval (``*_lo_ms``, ``*_hi_ms``); ``setup_ms``; the
+    scene's own metric and its value; ``configurations`` (how many of the family's ran);
+    ``failed`` (bool: the chosen configuration's error is above
+    :func:`~shadowlab.analysis.aggregate.fail_threshold` — thresholded ``error_rate`` above 1 %,
+    soft scenes mean |V − G| above 0.02 —, it is degenerate, or every run failed) and ``why``;
+    ``degenerate``; ``best_error`` (bool: the lowest error of the scene's row among the families
+    whose choice is not degenerate, or not told apart from it by the paired tile bootstrap at
+    95 %, :mod:`shadowlab.analysis.significance`); ``best_time`` / ``best_moving`` (the fastest of
+    the row among the families that do not fail, or whose repeat interval overlaps its);
+    ``tested`` (the error tie was tested on tiles, not by equality); ``tiles`` (the per-tile
+    numerators of the verdict error, or None: ``tiles`` not given or missing for it)."""
+    if results is None or not len(results):
+        return pd.DataFrame(columns=VERDICT_COLUMNS)
+    cfg = per_configuration(results, scene_metrics)
+    conf = cfg[~cfg["reference"].astype(bool)] if len(cfg) else cfg
+    fails = failed_runs(results)
+    fails = fails[~fails["reference"].astype(bool)] if len(fails) else fails
+    df = normalised(results)
+    fam_of = df.drop_duplicates("scene").set_index("scene")["scene_family"].map(as_text)
+    rows = []
+    for scene in scenes_in_order(df):
+        g = conf[conf["scene"] == scene]
+        metric = verdict_metric(fam_of.get(scene, ""), g)
+        fail_metric = judged_metric(fam_of.get(scene, ""))
+        limit = fail_threshold(fail_metric)
+        f = fails[fails["scene"] == scene] if len(fails) else fails
+        techs = family_order(list(g["technique"]) + list(f["technique"] if len(f) else []))
+        for tech in techs:
+            gt = g[g["technique"] == tech].assign(_err=lambda d: d[metric])
+            ft = f[f["technique"] == tech] if len(f) else f
+            row = dict.fromkeys(VERDICT_COLUMNS, math.nan)
+            row.update(scene=scene, scene_family=fam_of.get(scene, ""), technique=tech, metric=metric,
+                       configurations=len(gt), degenerate=False, best_error=False, best_time=False,
+                       best_moving=False, tested=False, tiles=None)
+            # a degenerate configuration is never the family's best while a sound one ran
+            scored = gt[gt["_err"].notna()].assign(_deg=lambda d: d["degenerate"].astype(bool)).sort_values(
+                ["_deg", "_err", "time_ms"], kind="stable", na_position="last")
+            if len(scored):
+                best = scored.iloc[0]
+                row.update(label=best["label"], short_label=best["short_label"], error=float(best["_err"]),
+                           error_rate=best["error_rate"], time_ms=best["time_ms"], time_lo_ms=best["time_lo_ms"],
+                           time_hi_ms=best["time_hi_ms"], moving_ms=best["moving_ms"],
+                           moving_lo_ms=best["time_lo_ms"] + best["preprocess_ms"],
+                           moving_hi_ms=best["time_hi_ms"] + best["preprocess_ms"], setup_ms=best["setup_ms"],
+                           scene_metric=best["scene_metric"], scene_metric_value=best["scene_metric_value"],
+                           tiles=_tiles_of(tiles, scene, best["spec_label"], metric))
+                pixels, lights = best["frame_pixels"], best["lights"]
+                if not (is_missing(best["wrong_pixels"]) or is_missing(pixels)) and pixels > 0:
+                    row["wrong_full_hd"] = best["wrong_pixels"] / lights * FULL_HD[0] * FULL_HD[1] / pixels
+                row["degenerate"] = bool(best["_deg"])
+                over = bool(best[fail_metric] > limit)
+                row["failed"] = over or row["degenerate"]
+                row["why"] = "; ".join(([f"{fail_metric} above {fmt_limit(fail_metric, limit)}"] if over else [])
+                                       + ([DEGENERATE_WHY] if row["degenerate"] else []))
+            else:
+                first = ft.iloc[0] if len(ft) else None
+                row.update(label=first["label"] if first is not None else "", short_label=first["short_label"]
+                           if first is not None else "", failed=True,
+                           why=f"run failed: {first['error']}" if first is not None else "no result")
+            rows.append(row)
+    out = pd.DataFrame(rows, columns=VERDICT_COLUMNS)
+    for _, idx in out.groupby("scene", sort=False).groups.items():
+        part = out.loc[idx]
+        sound = part[~part["degenerate"].astype(bool) & part["error"].notna()]  # a lost shadow's small error is no row's best
+        if len(sound):
+            best = sound.loc[sound["error"].idxmin()]
+            for i, r in sound.iterrows():
+                out.at[i, "best_error"] = bool(i == best.name or errors_tie(r, best))
+                out.at[i, "tested"] = r["tiles"] is not None and best["tiles"] is not None
+        ok = part[~part["failed"].astype(bool)]
+        for col, flag in (("time", "best_time"), ("moving", "best_moving")):
+            timed = ok[ok[f"{col}_ms"].notna()]
+            if len(timed):
+                fastest = timed.loc[timed[f"{col}_ms"].idxmin()]
+                for i, r in timed.iterrows():
+                    out.at[i, flag] = bool(i == fastest.name or times_tie(r, fastest, col))
+    return out
+
+
+# --------------------------------------------------------------------------- sentences
+
+def _range_text(show, med: float, lo: float, hi: float) -> str:
+    if lo == hi:
+        return show(med)
+    return f"{show(med)}, {100 * sig.LEVEL:g} % interval {show(lo)}–{show(hi)}"
+
+
+def _per_scene_diffs(g: pd.DataFrame, tech: str, best: str, tie, value: str) -> list[float]:
+    """Per scene of ``g`` (verdict rows of one scene family) where both ran: ``tech``'s ``value``
+    minus ``best``'s, 0 where ``tie`` (a per-scene test of the two rows) says they tie."""
+    out = []
+    for _, s in g.groupby("scene", sort=False):
+        a, b = s[s["technique"] == tech], s[s["technique"] == best]
+        if not (len(a) and len(b)) or is_missing(a.iloc[0][value]) or is_missing(b.iloc[0][value]):
+            continue
+        ra, rb = a.iloc[0], b.iloc[0]
+        out.append(0.0 if tie(ra, rb) else float(ra[value]) - float(rb[value]))
+    return out
+
+
+def _leaders(g: pd.DataFrame, techs: list[str], value: str, tie) -> tuple[str, list[str], tuple]:
+    """The technique with the lowest median ``value`` over the family's scenes, the others it is
+    not :func:`~shadowlab.analysis.significance.separated` from, and its (median, low, high)."""
+    med = {t: sig.median_interval(g.loc[g["technique"] == t, value]) for t in techs}
+    med = {t: m for t, m in med.items() if not math.isnan(m[0])}
+    if not med:
+        return "", [], (math.nan, math.nan, math.nan)
+    best = min(med, key=lambda t: (med[t][0], techs.index(t)))
+    tied = [t for t in med if t != best and not sig.separated(_per_scene_diffs(g, t, best, tie, value))]
+    tied.sort(key=lambda t: (med[t][0], techs.index(t)))
+    return best, tied, med[best]
+
+
+def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
+    """One sentence per scene family, from :func:`verdict_table`: (family, sentence) saying who is
+    most accurate — the lowest median error over the family's scenes, with its bootstrap interval
+    over the scenes, among the techniques that ran on most of them and fail none (the median would
+    hide a failure) — and which techniques cannot be told apart from it
+    (:func:`~shadowlab.analysis.significance.separated` on the per-scene differences, each 0 where
+    that scene's paired test ties); who is fastest for a static and for a moving light among the
+    techniques that fail none of those scenes, likewise; and who fails where."""
+    out = []
+    if not len(verdicts):
+        return out
+    level = f"{100 * sig.LEVEL:g} %"
+    for fam, g in verdicts.groupby("scene_family", sort=False):
+        scenes = list(dict.fromkeys(g["scene"]))
+        n = len(scenes)
+        per = g.groupby("technique", sort=False).agg(scenes=("scene", "nunique"), fails=("failed", "sum"))
+        per = per.loc[[t for t in family_order(per.index) if t in per.index]]
+        full = per[per["scenes"] == per["scenes"].max()]
+        metric = g["metric"].iloc[0]
+        show = fmt_table_pct if metric != "visibility_mae" else (lambda v: f"{v:.4f}")
+        where = f"{n} scene{'s' if n != 1 else ''}: {', '.join(scenes)}"
+        parts = []
+        scored = full[full.index.map(lambda t: g.loc[g["technique"] == t, "error"].notna().any())]
+        if (scored["fails"] == 0).any():  # a technique that fails a scene of the family is not its most accurate
+            scored = scored[scored["fails"] == 0]
+        if len(scored):
+            best, tied, (med, lo, hi) = _leaders(g, list(scored.index), "error", errors_tie)
+            text = f"most accurate: {best} (median {metric} {_range_text(show, med, lo, hi)})"
+            if tied:
+                text += f", not told apart from it at {level}: {', '.join(tied)}"
+            parts.append(text)
+        sound = list(full.index[full["fails"] == 0])
+        sound = [t for t in sound if g.loc[g["technique"] == t, "time_ms"].notna().all()]
+        if sound:
+            ms = lambda v: f"{fmt_table_ms(v)} ms"  # noqa: E731 - a local formatter
+            fast, fast_tied, (m, lo, hi) = _leaders(g, sound, "time_ms", lambda a, b: times_tie(a, b, "time"))
+            text = f"fastest for a static light: {fast} ({_range_text(ms, m, lo, hi)})"
+            if fast_tied:
+                text += f", tied with it: {', '.join(fast_tied)}"
+            parts.append(text)
+            move, move_tied, (m, lo, hi) = _leaders(g, sound, "moving_ms", lambda a, b: times_tie(a, b, "moving"))
+            if [move] + move_tied == [fast] + fast_tied:
+                parts.append("the same for a moving light")
+            else:
+                text = f"for a moving light: {move} ({_range_text(ms, m, lo, hi)})"
+                if move_tied:
+                    text += f", tied with it: {', '.join(move_tied)}"
+                if fast not in [move] + move_tied:
+                    pre = sig.median_interval(g.loc[g["technique"] == fast, "moving_ms"])[0]
+                    text += f"; {fast} needs {ms(pre)} with its per-light preprocessing"
+                parts.append(text)
+        else:
+            parts.append("no technique passes every scene")
+        failing = per[per["fails"] > 0]
+        if len(failing):
+            parts.append("fails: " + ", ".join(f"{t} on {int(r['fails'])} of {int(r['scenes'])}"
+                                               for t, r in failing.iterrows()))
+        else:
+            parts.append("no technique fails")
+        out.append((fam or "(none)", f"{(fam or 'Other scenes').capitalize()} ({where}) — " + "; ".join(parts) + "."))
+    return out

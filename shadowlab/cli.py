@@ -367,7 +367,8 @@ def _cmd_animate(args) -> int:
         repeat=args.repeat, warmup=args.warmup, on_step=step))
     if out is None:
         return EXIT_NO_GL
-    from .util.format import fmt_ms, fmt_pct
+    from .commands.animate import TEMPORAL_ERROR_DECIMALS
+    from .util.format import fmt_fixed, fmt_ms, fmt_pct
 
     summary = pd.read_csv(out / "summary.csv")
     shown = pd.DataFrame({"configuration": summary["short_label"], "light": summary["light"],
@@ -375,7 +376,7 @@ def _cmd_animate(args) -> int:
     for col in ("error_rate_mean", "flip_rate_mean", "flip_rate_p95", "flip_rate_max"):  # rates: percent, as compare
         shown[col] = summary[col].map(fmt_pct)
     for col in ("temporal_error_mean", "temporal_error_max"):  # a visibility difference, not a rate
-        shown[col] = summary[col].map(lambda v: f"{v:.4f}" if v == v else "")
+        shown[col] = summary[col].map(lambda v: fmt_fixed(v, TEMPORAL_ERROR_DECIMALS))
     shown["time_ms"] = summary["time_ms_median"].map(fmt_ms)
     with pd.option_context("display.width", 200, "display.max_colwidth", 60):
         print(shown.to_string(index=False))

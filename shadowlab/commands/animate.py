@@ -16,9 +16,11 @@ light: mean error rate, flip rate mean/p95/max, temporal error mean/max, median 
 ``flicker_<name>.png`` (per technique, first light: per pixel, how many frame pairs flipped where
 the truth did not, coloured over the last frame's shaded truth in grey), ``strip_<name>.gif``
 (per technique, first light: truth | technique | error map, one labelled GIF frame per animation
-frame), ``animation.json`` (provenance, :mod:`shadowlab.output.provenance`) and ``report.html``
-(template ``animate.html``). These names are a contract: users' scripts read them. The strips,
-GIFs and flicker maps are drawn by :mod:`shadowlab.output.animation_pictures`.
+frame), ``animation.json`` (provenance, :mod:`shadowlab.output.provenance`; its ``notes`` hold
+each distinct note once, with the frames it occurred on: "frames 0–23: <spec>: <note>",
+:func:`shadowlab.util.format.group_notes`) and ``report.html`` (template ``animate.html``). These
+names are a contract: users' scripts read them. The strips, GIFs and flicker maps are drawn by
+:mod:`shadowlab.output.animation_pictures`.
 """
 from __future__ import annotations
 
@@ -42,12 +44,14 @@ from ..measurement.pipeline import (
 from ..output.pages import provenance_items
 from ..output.rundir import GROUND_TRUTH_KEY, RunDirectory, error_legend, safe_name
 from ..gpu.shading import ShadingPass
+from ..util.format import group_notes
 from ..util.sizes import ANIMATE_SIZE
 from ..util.validation import RunError
 from ..util.validation import check_size
 from ..scene import Scene
 
-#: Decimals of the temporal error (a visibility difference, not a rate) on the page.
+#: Decimals of the temporal error (a visibility difference, not a rate) on the page and in the
+#: CLI's table; a smaller nonzero value keeps two significant digits (:func:`shadowlab.util.format.fmt_fixed`).
 TEMPORAL_ERROR_DECIMALS = 4
 
 
@@ -183,7 +187,7 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
                         track.prev_vis = m.visibility
                         rows.append(row)
                 for tech in techniques:
-                    notes.extend(f"frame {k}: {tech.spec()}: {x}" for x in dict.fromkeys(tech.notes))
+                    notes.extend((k, f"{tech.spec()}: {x}") for x in dict.fromkeys(tech.notes))
                     tech.notes.clear()
                 prev_geom, prev_eval = geom, evals
                 covered_last = frame.covered.copy()
@@ -239,7 +243,7 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
                      "threshold": metrics.THRESHOLD, "flicker_caption": caption,
                      "images_light": 0},
         "images": images,
-        "notes": list(dict.fromkeys(notes)),
+        "notes": group_notes(notes),  # a note every frame repeats once: "frames 0–23: spec: note"
         **provenance.record(),
     }
     rd.record("animation.json", record)

@@ -3,7 +3,7 @@ one base template (``templates/base.html``: style, heading, the timing banner, p
 footer) and a child template per page (compare, study, animate).
 
 Values reach the templates raw and are escaped by Jinja2; the few formatting filters
-(``pct``, ``ms``, ``num``) are :mod:`shadowlab.util.format`'s, so every page reads alike.
+(``pct``, ``ms``, ``num``, ``fixed``) are :mod:`shadowlab.util.format`'s, so every page reads alike.
 """
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from pathlib import Path
 import jinja2
 
 from ..util.files import write_text_atomic
-from ..util.format import fmt_ms, fmt_num, fmt_pct
+from ..util.format import fmt_fixed, fmt_ms, fmt_num, fmt_pct
 
 TEMPLATES = Path(__file__).parent / "templates"
 
@@ -28,7 +28,7 @@ def environment() -> jinja2.Environment:
     names an error (a typo in a template fails loudly instead of printing nothing)."""
     env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True,
                              undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
-    env.filters.update(pct=fmt_pct, ms=fmt_ms, num=fmt_num)
+    env.filters.update(pct=fmt_pct, ms=fmt_ms, num=fmt_num, fixed=fmt_fixed)
     return env
 
 

@@ -304,6 +304,22 @@ def test_user_strings_are_escaped(pages, kind):
         assert not problems, f"{kind} page {page.name}:\n" + "\n".join(problems)
 
 
+def test_animate_notes_appear_once_with_their_frames(pages):
+    """A note every frame repeats (shadow volumes on the open floor of tm_rotating_sun) is one
+    line, "frames 0–1: <spec>: <note>", not one line per frame (issue 38)."""
+    for page in pages["animate"]:
+        source = page.read_text(encoding="utf-8")
+        notes = re.search(r"<h2>Notes</h2>(.*?)</ul>", source, re.S)
+        assert notes, f"{page.name}: no notes (shadow_volume reports the floor's boundary edges)"
+        items = [html.unescape(i).strip() for i in re.findall(r"<li>(.*?)</li>", notes.group(1), re.S)]
+        assert len(items) == len(set(items)), items
+        floor = [i for i in items if "boundary edges" in i]
+        assert len(floor) == 1 and floor[0].startswith("frames 0–1: shadow_volume"), items
+        assert not [i for i in items if re.match(r"frame \d+:", i)], items  # no note repeated per frame
+        record = json.loads((page.parent / "animation.json").read_text())
+        assert record["notes"] == items
+
+
 def test_the_checks_find_what_they_look_for(tmp_path):
     """The parser checks themselves, on a hand-made broken page: a second <h1>, a missing image,
     a missing inset background, a truncated image, a dangling anchor, a duplicate id, raw markup."""

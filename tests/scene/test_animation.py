@@ -287,7 +287,8 @@ def _summary_rows(html: str) -> list[list[str]]:
 
 def _check_summary_table(html: str, summary: pd.DataFrame) -> None:
     """The page's summary: the short label first (the full spec only as its tooltip), rates in
-    percent, the temporal error with 4 decimals and a time column."""
+    percent (two decimals, more for a small nonzero rate), the temporal error with 4 decimals
+    (more when small and nonzero) and a time column."""
     import html as html_lib
     import re
 
@@ -300,9 +301,12 @@ def _check_summary_table(html: str, summary: pd.DataFrame) -> None:
         assert first == r["short_label"], cells[0]
         assert r["label"] not in html_lib.unescape(first)
         assert f'title="{html_lib.escape(r["label"])}"' in html
-        rates = [c for c in cells if re.fullmatch(r"\d+\.\d\d %", c)]
+        rates = [c for c in cells if re.fullmatch(r"\d+\.\d+ %", c)]
         assert len(rates) == 4, cells  # error rate, flip rate mean / p95 / max
-        assert sum(bool(re.fullmatch(r"\d\.\d{4}", c)) for c in cells) == 2, cells  # temporal error mean / max
+        assert sum(bool(re.fullmatch(r"\d\.\d{4,}", c)) for c in cells) == 2, cells  # temporal error mean / max
+        for c in cells:
+            if re.fullmatch(r"[\d.]+ %", c) and float(c[:-2]) == 0:
+                assert c == "0.00 %", cells  # zero only when exactly zero
         assert re.fullmatch(r"\d+(\.\d+)?", cells[-1]) and float(cells[-1]) > 0, cells  # time, ms
 
 

@@ -1,5 +1,5 @@
 """The ``shadowlab`` command: list scenes, techniques and suites, run comparisons and studies,
-check a study against a baseline.
+pick the cheapest configuration within an error budget, check a study against a baseline.
 
 Bad input (scene, technique spec, size, ...) exits with status 2 and one line naming the
 culprit, before any GL work; a missing GL driver exits with status 3.
@@ -208,6 +208,19 @@ def _parser() -> argparse.ArgumentParser:
     cp = cosub.add_parser("predict", help="predicted time of every row of a study on a model's device")
     cp.add_argument("study_dir", help="a study directory (or a results CSV) with work_ columns")
     cp.add_argument("model", help="a model file written by 'cost fit'")
+    pk = sub.add_parser("pick", help="the cheapest configuration within an error budget, per scene family and "
+                        "scene, from a study's results")
+    pk.add_argument("study_dir", help="a study directory (or its results.csv)")
+    pk.add_argument("--budget", action="append", default=None, metavar="METRIC=VALUE",
+                    help="an error budget, repeatable: edge=1%% (hard scenes: wrong pixels per pixel of the truth's "
+                         "shadow boundary), mae=0.005 (soft scenes: mean |V - G|) or error=0.1%% (share of all "
+                         "pixels); default: edge 10 %%, 1 %%, 0.1 %%, mae 0.02, 0.005")
+    pk.add_argument("--scene", default=None, help="only this scene or scene family")
+    pk.add_argument("--motion", choices=("still", "moving"), default=None,
+                    help="only a still or a moving light (default both; with --model still)")
+    pk.add_argument("--model", default=None, help="a cost model file ('shadowlab cost fit'): rank by its predicted "
+                    "times on its device, labelled as a prediction")
+    pk.add_argument("--csv", default=None, metavar="FILE", help="also write the table as CSV")
     ch = sub.add_parser("check", help="compare a study's artefact metrics with a baseline; exit 1 on regressions")
     ch.add_argument("study_dir", help="a study directory (holds results.csv)")
     ch.add_argument("baseline", help="baseline CSV (scene, light, config, label, held metrics)")
@@ -303,6 +316,21 @@ def _cmd_check(args) -> int:
         print(chk.format_findings(result.regressions))
         return 1
     print(f"ok: {result.checked} metrics within tolerance of {args.baseline}")
+    return 0
+
+
+def _cmd_pick(args) -> int:
+    from pathlib import Path
+
+    from .commands.pick import pick_command, pick_text
+
+    table, what = pick_command(args.study_dir, args.budget, args.model, args.scene, args.motion)
+    print(pick_text(table, what))
+    if args.csv:
+        from .util.files import write_text_atomic
+
+        write_text_atomic(Path(args.csv), table.to_csv(index=False))
+        print(f"table: {Path(args.csv).resolve()}")
     return 0
 
 
@@ -468,6 +496,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_tune(args)
         if args.command == "cost":
             return _cmd_cost(args)
+        if args.command == "pick":
+            return _cmd_pick(args)
         return _cmd_compare(args)
     except (SceneError, TechniqueError, RunError, SuiteError, TuneError) as exc:
         print(f"shadowlab: error: {exc}", file=sys.stderr)

@@ -124,12 +124,33 @@ def scenes_in_order(df: pd.DataFrame) -> list[str]:
     return list(dict.fromkeys(df["scene"].astype(str)))
 
 
+#: The technique folders (docs/architecture.md) in the order tables list their techniques: the lab's
+#: headline comparison — shadow volumes against shadow maps — first.
+HOUSE_ORDER = ("volumes", "maps", "geometric", "rays")
+#: Within a folder, its plain technique comes first, the refinements after it.
+HOUSE_LEADS = ("shadow_volume", "shadow_map")
+
+
+def house_of(name: str) -> str:
+    """The technique folder a registered technique lives in ('' for an unknown name)."""
+    from ..techniques import REGISTRY
+
+    cls = REGISTRY.get(name)
+    parts = cls.__module__.split(".") if cls is not None else []
+    return parts[-2] if len(parts) >= 2 and parts[-2] in HOUSE_ORDER else ""
+
+
 def family_order(names) -> list[str]:
-    """Technique families in the registry's order (unknown names, e.g. failed specs, last, sorted)."""
+    """Technique families as tables list them: by folder in :data:`HOUSE_ORDER` (the headline,
+    volumes and maps, first), the folder's plain technique first, then by name; unknown names
+    (e.g. failed specs) last, sorted."""
     from ..techniques import REGISTRY
 
     names = set(names)
-    return [n for n in REGISTRY if n in names] + sorted(names - set(REGISTRY))
+    known = [n for n in REGISTRY if n in names]
+    rank = {h: i for i, h in enumerate(HOUSE_ORDER)}
+    known.sort(key=lambda n: (rank.get(house_of(n), len(rank)), n not in HOUSE_LEADS, n))
+    return known + sorted(names - set(REGISTRY))
 
 
 def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) -> pd.DataFrame:

@@ -20,6 +20,15 @@ from .aggregate import (
     per_configuration, scenes_in_order,
 )
 
+#: How the pages and sentences name each verdict metric.
+METRIC_NAMES = {"edge_error_rate": "edge error", "error_rate": "error rate", "visibility_mae": "mean |V − G|"}
+
+
+def metric_name(metric: str) -> str:
+    """The words a page uses for a verdict metric ("edge error", "mean |V − G|")."""
+    return METRIC_NAMES.get(metric, metric)
+
+
 #: The frame the tooltips restate a wrong-pixel count at: the same share of a 1920×1080 frame.
 FULL_HD = (1920, 1080)
 
@@ -231,7 +240,7 @@ def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
             scored = scored[scored["fails"] == 0]
         if len(scored):
             best, tied, (med, lo, hi) = _leaders(g, list(scored.index), "error", errors_tie)
-            text = f"most accurate: {best} (median {metric} {_range_text(show, med, lo, hi)})"
+            text = f"most accurate: {best} (median {metric_name(metric)} {_range_text(show, med, lo, hi)})"
             if tied:
                 text += f", not told apart from it at {level}: {', '.join(tied)}"
             parts.append(text)

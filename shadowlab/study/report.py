@@ -31,24 +31,16 @@ from ..analysis.aggregate import (
     fmt_limit, judged_metric, names_text, normalised, per_configuration, scenes_in_order, summary_table,
 )
 from ..analysis import significance
+from ..analysis.pick import pick_table
 from ..analysis.verdicts import verdict_sentences, verdict_table
+from .verdict_views import (
+    pick_legend, pick_markdown, pick_views, thresholds_text, verdict_blocks, verdict_legend,
+)
 from .tiles import read_tiles
 from ..util.files import write_text_atomic
+from ..util.markdown import md_table
 from ..util.format import fmt_ms, fmt_num, fmt_table_ms, fmt_table_pct, is_missing
 from .agreement import MIN_CONFIGURATIONS, agreement_sentences, rank_agreement
-
-
-def _md_cell(value) -> str:
-    return as_text(value).replace("|", "\\|").replace("\n", " ")
-
-
-def _md_table(header: list[str], rows: list[list]) -> str:
-    """A pipe table padded to aligned columns (readable as plain text)."""
-    cells = [[_md_cell(c) for c in header]] + [[_md_cell(c) for c in r] for r in rows]
-    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
-    lines = ["| " + " | ".join(c.ljust(w) for c, w in zip(r, widths)) + " |" for r in cells]
-    lines.insert(1, "|" + "|".join("-" * (w + 2) for w in widths) + "|")
-    return "\n".join(lines)
 
 
 def _wins_text(wins: list[tuple[str, str]]) -> str:
@@ -77,17 +69,19 @@ def _meta_lines(meta: dict) -> list[tuple[str, str]]:
     return [(k, v) for k, v in items if v]
 
 
-def verdict_markdown(results: pd.DataFrame, meta: dict | None = None, tiles: dict | None = None) -> list[str]:
-    """The verdicts as markdown lines: a table of scenes × technique families (each cell the
-    family's best configuration's error and time, the best per row in bold, ✗ where it fails;
-    :func:`~shadowlab.analysis.aggregate.verdict_table`) and one sentence per scene family. The
-    README's headline is made of these lines."""
+def verdict_markdown(results: pd.DataFrame, meta: dict | None = None, tiles: dict | None = None,
+                     pick_level: str = "family") -> list[str]:
+    """The verdicts as markdown lines: per block of scenes a table of technique families × scenes
+    (each cell the family's best configuration's error and time, the best per scene in bold, ✗
+    where it fails; :func:`~shadowlab.analysis.verdicts.verdict_table`,
+    :func:`~shadowlab.study.verdict_views.verdict_blocks`), one sentence per scene family, and the
+    cheapest pick under each default budget per scene family (``pick_level`` 'family') or per family
+    and scene ('all'; :func:`pick_markdown_section`). The README's headline is made of these lines."""
     meta = meta or {}
     scenes_meta = meta.get("scenes") or {}
     verdicts = verdict_table(results, {k: v.get("metric") for k, v in scenes_meta.items()}, tiles)
     if not len(verdicts):
         return []
-    grid = verdict_grid(verdicts, scenes_meta)
 
     def cell(c) -> str:
         if c is None:
@@ -98,16 +92,24 @@ def verdict_markdown(results: pd.DataFrame, meta: dict | None = None, tiles: dic
         mark = f" {DEGENERATE_MARK}" if c["degenerate"] else " ✗" if c["failed"] else ""
         return f"{err}{mark} · {time}{moving}"
 
-    lines = ["## Verdicts", "",
-             _md_table(["scene"] + grid["families"], [[r["scene"]] + [cell(c) for c in r["cells"]] for r in grid["rows"]]),
-             "", f"Each cell: the family's best configuration on the scene — its error (share of wrong pixels; soft "
-             f"scenes: mean |V − G|) and its ms per frame (moving: with its per-light preprocessing). Bold: best in "
-             f"the row; ✗: fails (error above {fmt_limit('error_rate', FAIL_ERROR_RATE)}, soft scenes above "
-             f"{fmt_limit('visibility_mae', FAIL_VISIBILITY_MAE)})"
-             + (f"; {DEGENERATE_MARK}: every configuration of the family draws almost no shadow where the truth "
-                f"has one (a fail)" if verdicts["degenerate"].astype(bool).any() else "") + ".", ""]
+    lines = ["## Verdicts", ""]
+    for block in verdict_blocks(verdicts, scenes_meta):
+        header = ["technique"] + [f"{s['name']} ({s['family']})" for s in block["scenes"]]
+        lines += [md_table(header, [[r["technique"]] + [cell(c) for c in r["cells"]] for r in block["rows"]]), ""]
+    lines += [verdict_legend(verdicts, thresholds_text())
+              + (f" {DEGENERATE_MARK}: every configuration of the family draws almost no shadow where the truth "
+                 f"has one (a fail)." if verdicts["degenerate"].astype(bool).any() else ""), ""]
     lines += [f"- {s}" for _, s in verdict_sentences(verdicts)]
-    return lines + [""]
+    return lines + [""] + pick_markdown_section(results, pick_level)
+
+
+def pick_markdown_section(results: pd.DataFrame, level: str = "family") -> list[str]:
+    """The pick under the default budgets (:func:`shadowlab.analysis.pick.pick_table`) as a
+    markdown section: per scene family (``level`` 'family'), or per family and scene ('all')."""
+    picks = pick_table(results)
+    if not len(picks):
+        return []
+    return ["## The cheapest pick under a budget", "", pick_legend(), ""] + pick_markdown(picks, level)
 
 
 def tuned_markdown(meta: dict) -> list[str]:
@@ -116,7 +118,7 @@ def tuned_markdown(meta: dict) -> list[str]:
     for t in tuned_tables(meta):
         lines += [f"## {t['name']}: tuned against the spec as given", "",
                   f"Objective: {t['objective']}, light 0, each scene tuned on its own.", ""]
-        lines += _md_table(["scene", "as given", "tuned", "regret of the default", "tuned parameters",
+        lines += md_table(["scene", "as given", "tuned", "regret of the default", "tuned parameters",
                             "per-pixel oracle"],
                            [[r["scene"], "failed: " + r["failed"], "", "", "", ""] if r["failed"] else
                             [r["scene"], r["default"], r["tuned"], r["regret"], r["params"], r["oracle"]]
@@ -150,7 +152,7 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tile
     lines = [f"# Study: {meta.get('name', '(unnamed)')}", ""]
     if meta.get("description"):
         lines += [str(meta["description"]), ""]
-    lines += verdict_markdown(results, meta, tiles)
+    lines += verdict_markdown(results, meta, tiles, pick_level="all")
     lines += tuned_markdown(meta)
     lines += [f"- {k}: {v}" for k, v in _meta_lines(meta)]
     n_scenes = len(scenes_in_order(results)) if len(results) else 0
@@ -167,7 +169,7 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tile
     lines += ["## Configurations", ""]
     for tech, g in table.groupby("technique", sort=False):
         lines += [f"### {tech}", ""]
-        lines.append(_md_table(["configuration", "median error", "median time ms", "setup ms", "scenes", "wins",
+        lines.append(md_table(["configuration", "median error", "median time ms", "setup ms", "scenes", "wins",
                                 "fails"],
                                [[r["short_label"], fmt_table_pct(r["median_error_rate"]),
                                  fmt_table_ms(r["median_time_ms"]), fmt_table_ms(r["median_setup_ms"]),
@@ -188,7 +190,7 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tile
                   "Median over the family's scenes, among the configurations that ran on most of them "
                   f"(coverage); \"fastest ≤ {100 * FAIL_ERROR_RATE:g} %\" = the fastest whose median error "
                   "is within the fail threshold.", ""]
-        lines.append(_md_table(
+        lines.append(md_table(
             ["scene family", "scenes", "coverage", "most accurate", "error", "fastest", "ms",
              f"fastest ≤ {100 * FAIL_ERROR_RATE:g} %", "ms"],
             [[r["scene_family"], r["scenes"], r["coverage"], r["best"], fmt_table_pct(r["best_error_rate"]),
@@ -208,11 +210,11 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tile
             rows.append([scene, g["scene_family"].iloc[0], names_text(winners["short_label"]), fmt_table_pct(best),
                          fastest["short_label"].iloc[0] if len(fastest) else "",
                          fmt_table_ms(fastest["time_ms"].iloc[0]) if len(fastest) else "", len(g)])
-        lines.append(_md_table(["scene", "family", "most accurate", "error", "fastest", "ms", "configurations"], rows))
+        lines.append(md_table(["scene", "family", "most accurate", "error", "fastest", "ms", "configurations"], rows))
         lines.append("")
     if len(fails):
         lines += ["## Failed runs", ""]
-        lines.append(_md_table(["scene", "configuration", "error"],
+        lines.append(md_table(["scene", "configuration", "error"],
                                [[r["scene"], r["label"], r["error"]] for _, r in fails.iterrows()]))
         lines.append("")
     write_text_atomic(path, "\n".join(lines))
@@ -232,7 +234,7 @@ def agreement_markdown(results: pd.DataFrame) -> list[str]:
     lines += ["Kendall τ between each perceptual metric (FLIP; SSIM as 1 − SSIM) and each exact metric, taken "
               "per scene over its configurations and averaged over the family's scenes: 1 = the same order, "
               "0 = unrelated, < 0 = reversed.", ""]
-    lines.append(_md_table(["scene family", "perceptual", "exact", "τ (mean)", "τ range", "scenes", "pairs",
+    lines.append(md_table(["scene family", "perceptual", "exact", "τ (mean)", "τ range", "scenes", "pairs",
                             "most discordant pair"], agreement_rows(table)))
     lines += [""] + [f"- {s}" for s in agreement_sentences(table)] + [""] + ([note, ""] if note else [])
     return lines
@@ -329,32 +331,6 @@ def global_sentence(entry: dict) -> str:
             f"{_metric_text(metric, median)} (worst: {_metric_text(metric, worst['regret'])} on {worst['scene']}); "
             f"the default bias {fmt_num(g['default_bias'], 3)} by a median of "
             f"{_metric_text(metric, sorted(h['default_regret'] for h in held)[len(held) // 2])}.")
-
-
-def verdict_grid(verdicts: pd.DataFrame, scenes_meta: dict) -> dict:
-    """The verdict table as the page and summary.md draw it: ``families`` (columns, registry
-    order) and ``rows`` (one per scene, suite order: scene, family, judged metric, the scene's
-    own metric, and per family a cell dict or None where the family did not run there)."""
-    families = family_order(verdicts["technique"]) if len(verdicts) else []
-    rows = []
-    for scene, g in verdicts.groupby("scene", sort=False):
-        info = scenes_meta.get(scene, {})
-        cells = {}
-        for _, r in g.iterrows():
-            cells[r["technique"]] = {
-                "config": "" if as_text(r["short_label"]) == r["technique"] else as_text(r["short_label"]),
-                "error": _error_text(r["metric"], r["error"]),
-                "time": fmt_ms(r["time_ms"]), "moving": fmt_ms(r["moving_ms"]),
-                "moves_differ": not is_missing(r["moving_ms"]) and not is_missing(r["time_ms"])
-                and r["moving_ms"] > r["time_ms"] * 1.05,
-                "scene_metric": _metric_text(as_text(r["scene_metric"]), r["scene_metric_value"]),
-                "failed": bool(r["failed"]), "why": as_text(r["why"]), "best_error": bool(r["best_error"]),
-                "degenerate": bool(r.get("degenerate", False)) if not is_missing(r.get("degenerate")) else False,
-                "best_time": bool(r["best_time"]), "best_moving": bool(r["best_moving"])}
-        rows.append({"scene": scene, "family": as_text(g["scene_family"].iloc[0]), "metric": g["metric"].iloc[0],
-                     "scene_metric": info.get("metric") or "", "purpose": info.get("purpose") or "",
-                     "cells": [cells.get(f) for f in families]})
-    return {"families": families, "rows": rows}
 
 
 def _scene_table(c: pd.DataFrame, metric: str, scene_metric: str) -> dict:
@@ -477,10 +453,9 @@ def write_study_html(study_dir, results: pd.DataFrame, meta: dict, pareto_png: s
     return render_page(
         "study.html", study_dir / out_name, title=f"shadowlab study: {name}", renderer=renderer,
         provenance=_study_provenance(meta), description=as_text(meta.get("description")),
-        verdicts=verdict_grid(verdicts, scenes_meta), sentences=[s for _, s in verdict_sentences(verdicts)],
-        thresholds={"error_rate": fmt_limit("error_rate", FAIL_ERROR_RATE),
-                    "visibility_mae": fmt_limit("visibility_mae", FAIL_VISIBILITY_MAE),
-                    "level": f"{100 * significance.LEVEL:g} %"},
+        verdicts=verdict_blocks(verdicts, scenes_meta), sentences=[s for _, s in verdict_sentences(verdicts)],
+        verdict_legend=verdict_legend(verdicts, thresholds_text()), picks=pick_views(pick_table(results)),
+        pick_legend=pick_legend(),
         pareto=_rel(study_dir, pareto_png) or quote(Path(pareto_png).as_posix()),
         summary=_summary_rows(results),
         failed=[[as_text(r["scene"]), as_text(r["label"]), as_text(r["error"])] for _, r in fails.iterrows()],

@@ -221,10 +221,11 @@ def test_pareto_figure_content():
     texts = " ".join(t.get_text() for t in sv.texts)
     assert "failed: planar" in texts
     assert _gid(sv, "truth")[0].get_xdata()[0] == pytest.approx(60.0)
-    # one legend for the figure: every drawn configuration, family by family (the registry's order)
+    # one legend for the figure: every drawn configuration, family by family (the tables' order:
+    # the headline, volumes then maps, first)
     (legend,) = fig.legends
     labels = [t.get_text() for t in legend.get_texts()]
-    assert labels[:4] == ["planar", ODD, "shadow_map", "shadow_volume"]
+    assert labels[:4] == ["shadow_volume", "shadow_map", "planar", ODD]
     assert any("no wrong pixel" in s for s in labels)
     assert any(f"> {100 * agg.FAIL_ERROR_RATE:g} %" in s for s in labels)
     # the fail threshold: a line at 1 % in every panel with points; shadow_map's 2 % on box_on_plane is
@@ -365,7 +366,8 @@ def test_summary_md(tmp_path):
     planar = table[table["label"] == "planar"].iloc[0]
     assert planar["scenes"] == 2 and planar["failed"] == 1
     assert [s for s, _ in planar["fails"]] == ["sv_two_lights", "sm_thin"]
-    assert table["technique"].tolist()[:2] == ["planar", "planar"]   # grouped by family, in the registry's order
+    # grouped by family, in the tables' order: the headline (volumes, then maps) first
+    assert table["technique"].tolist() == ["shadow_volume", "shadow_map", "planar", "planar"]
 
     fam = agg.family_table(res).set_index("scene_family")
     assert fam.loc["shadow maps", "best"] == "shadow_map"

@@ -1,0 +1,217 @@
+"""The verdicts and the pick as the study page, ``summary.md`` and the README show them: display
+strings only, from :func:`shadowlab.analysis.verdicts.verdict_table` and
+:func:`shadowlab.analysis.pick.pick_table` (nothing here decides anything).
+
+The verdict table is drawn with technique families as rows and scenes as columns, the scenes in
+blocks of at most :data:`SCENES_PER_BLOCK` under their scene family's name: a suite may have a
+dozen families and thirty scenes, and a table must not run off a 1400-pixel screen (nor a
+1024-pixel one). Rows come in the tables' family order, the headline — shadow volumes, then
+shadow maps — first (:func:`shadowlab.analysis.aggregate.family_order`).
+"""
+from __future__ import annotations
+
+import pandas as pd
+
+from ..analysis import significance
+from ..analysis.aggregate import DEGENERATE_MARK, as_text, family_order, fmt_limit
+from ..analysis.verdicts import FULL_HD, metric_name
+from ..evaluation.metrics import COLUMN_BY_NAME
+from ..util.format import fmt_ms, fmt_num, fmt_table_pct, is_missing
+from ..util.markdown import md_table
+
+#: Scene columns per verdict block: with a 150-pixel row header and 130-pixel cells a block fits a
+#: 1024-pixel window, let alone 1400.
+SCENES_PER_BLOCK = 6
+
+def value_text(metric: str, value) -> str:
+    """A verdict metric's value as the pages show it: a percentage for the rates, four decimals
+    for mean |V − G|; '' when missing."""
+    if is_missing(value):
+        return ""
+    return fmt_table_pct(value) if metric != "visibility_mae" else f"{float(value):.4f}"
+
+
+def budget_text(metric: str, value: float) -> str:
+    """A budget as the pick tables head it ("edge error ≤ 1 %")."""
+    shown = f"{100 * value:g} %" if metric != "visibility_mae" else f"{value:g}"
+    return f"{metric_name(metric)} ≤ {shown}"
+
+
+def _scene_metric_text(metric: str, value) -> str:
+    if is_missing(value) or not metric:
+        return ""
+    col = COLUMN_BY_NAME.get(metric)
+    return col.format(float(value)) if col is not None else fmt_num(value)
+
+
+def _cell(r: pd.Series) -> dict:
+    """One verdict cell: what it shows and its tooltip."""
+    error = value_text(r["metric"], r["error"])
+    scene_metric = _scene_metric_text(as_text(r["scene_metric"]), r["scene_metric_value"])
+    tip = [as_text(r["short_label"])]
+    if scene_metric:
+        tip.append(f"{r['scene_metric']} {scene_metric}")
+    if r["metric"] != "visibility_mae" and not is_missing(r["error_rate"]):
+        tip.append(f"{fmt_table_pct(r['error_rate'])} of all evaluated pixels wrong"
+                   + (f" ≈ {float(r['wrong_full_hd']):,.0f} wrong pixels per light at {FULL_HD[0]}×{FULL_HD[1]}"
+                      f" (the same share of the frame)" if not is_missing(r["wrong_full_hd"]) else ""))
+    if not is_missing(r["time_ms"]):
+        tip.append(f"{fmt_ms(r['time_ms'])} ms per frame, repeats {fmt_ms(r['time_lo_ms'])}–{fmt_ms(r['time_hi_ms'])}")
+    if bool(r["failed"]) and as_text(r["why"]):
+        tip.append(f"fails: {r['why']}")
+    moving = r["moving_ms"]
+    return {"config": "" if as_text(r["short_label"]) == r["technique"] else as_text(r["short_label"]),
+            "error": error, "time": fmt_ms(r["time_ms"]), "moving": fmt_ms(moving),
+            "moves_differ": not is_missing(moving) and not is_missing(r["time_ms"]) and moving > r["time_ms"] * 1.05,
+            "scene_metric": scene_metric,
+            "failed": bool(r["failed"]), "why": as_text(r["why"]), "best_error": bool(r["best_error"]),
+            "degenerate": bool(r["degenerate"]) if not is_missing(r["degenerate"]) else False,
+            "best_time": bool(r["best_time"]), "best_moving": bool(r["best_moving"]), "tip": " · ".join(tip)}
+
+
+def _blocks_of(scenes_by_family: dict[str, list[str]]) -> list[list[tuple[str, list[str]]]]:
+    """Scene families packed in order into blocks of at most :data:`SCENES_PER_BLOCK` scenes; a
+    larger family is split over blocks. Each block: [(family, [scene, ...]), ...]."""
+    blocks, current, size = [], [], 0
+    for fam, scenes in scenes_by_family.items():
+        for k in range(0, len(scenes), SCENES_PER_BLOCK):
+            part = scenes[k:k + SCENES_PER_BLOCK]
+            if size + len(part) > SCENES_PER_BLOCK and current:
+                blocks.append(current)
+                current, size = [], 0
+            current.append((fam, part))
+            size += len(part)
+    if current:
+        blocks.append(current)
+    return blocks
+
+
+def verdict_blocks(verdicts: pd.DataFrame, scenes_meta: dict) -> list[dict]:
+    """The verdict table (:func:`~shadowlab.analysis.verdicts.verdict_table`) as blocks: per block
+    ``groups`` ([(scene family, number of scenes)]), ``scenes`` (per column: name, family, verdict
+    metric, the scene's own metric, its index in the suite for the page's anchors) and ``rows``
+    (per technique family that ran on one of the block's scenes: its name and per column a cell
+    dict, or None where it did not run)."""
+    if not len(verdicts):
+        return []
+    order = list(dict.fromkeys(verdicts["scene"]))
+    by_family: dict[str, list[str]] = {}
+    for scene in order:
+        fam = as_text(verdicts.loc[verdicts["scene"] == scene, "scene_family"].iloc[0])
+        by_family.setdefault(fam, []).append(scene)
+    cells = {(r["scene"], r["technique"]): _cell(r) for _, r in verdicts.iterrows()}
+    out = []
+    for block in _blocks_of(by_family):
+        scenes = [s for _, part in block for s in part]
+        techs = family_order(verdicts.loc[verdicts["scene"].isin(scenes), "technique"])
+        columns = []
+        for s in scenes:
+            info = scenes_meta.get(s, {})
+            first = verdicts[verdicts["scene"] == s].iloc[0]
+            columns.append({"name": s, "family": as_text(first["scene_family"]), "metric": first["metric"],
+                            "scene_metric": (info.get("metric") or "").replace("_", " "), "index": order.index(s) + 1})
+        out.append({"groups": [(fam or "(none)", len(part)) for fam, part in block], "scenes": columns,
+                    "rows": [{"technique": t, "cells": [cells.get((s, t)) for s in scenes]} for t in techs]})
+    return out
+
+
+def verdict_legend(verdicts: pd.DataFrame, thresholds: dict) -> str:
+    """The sentence under the verdict table: what a cell holds and how ties are decided."""
+    metrics = list(dict.fromkeys(verdicts["metric"])) if len(verdicts) else []
+    what = "; ".join(f"{metric_name(m)}" + (" (wrong pixels per pixel of the truth's shadow boundary)"
+                                            if m == "edge_error_rate" else
+                                            " (share of the evaluated pixels)" if m == "error_rate" else
+                                            " (soft scenes)") for m in metrics)
+    return (f"Each cell: the family's best configuration on the scene (lowest error) — its error ({what}), its ms "
+            f"per frame for a static light and, where the technique redoes preprocessing whenever the light moves, "
+            f"for a moving light; hover for the configuration, its share of all pixels and the same share of a "
+            f"{FULL_HD[0]}×{FULL_HD[1]} frame. Bold: best in the scene's column, with every family a paired tile "
+            f"bootstrap cannot tell from it at {thresholds['level']}; times whose repeat intervals (first to third "
+            f"quartile) overlap the fastest's, among the families that do not fail. ✗ = fails: error rate above "
+            f"{thresholds['error_rate']} of the evaluated pixels (soft scenes: mean |V − G| above "
+            f"{thresholds['visibility_mae']}) or the run failed.")
+
+
+# --------------------------------------------------------------------------- the pick
+
+def _pick_cell(r: pd.Series) -> dict:
+    """One pick: the configuration, its figures and margins, or what comes closest."""
+    if not as_text(r["label"]):
+        closest = (f"closest: {r['most_accurate']} at {value_text(r['metric'], r['most_accurate_error'])}"
+                   if as_text(r["most_accurate"]) else "")
+        return {"name": "", "text": "nothing within it", "detail": closest, "tip": closest}
+    used = r["error"] / r["budget"] if r["budget"] else 0.0
+    time = f"{fmt_ms(r['time_ms'])} ms" + (" predicted" if bool(r["predicted"]) else "")
+    detail = f"{value_text(r['metric'], r['error'])} ({100 * used:.0f} % of the budget)"
+    if as_text(r["runner_up"]):
+        runner = (f"next: {r['runner_up']} {fmt_ms(r['runner_up_ms'])} ms"
+                  + (" — tied on time" if bool(r["runner_up_ties"]) else ""))
+    else:
+        runner = "the only one within the budget"
+    scope = f"worst of {int(r['scenes'])} scenes; median time" if r["level"] == "family" else ""
+    return {"name": as_text(r["short_label"]), "text": time, "detail": detail, "runner": runner,
+            "tie": bool(r["runner_up_ties"]), "tip": " · ".join(x for x in (scope, runner) if x)}
+
+
+def pick_views(picks: pd.DataFrame) -> list[dict]:
+    """The pick table (:func:`~shadowlab.analysis.pick.pick_table`) as the page draws it: one table
+    per verdict metric, ``columns`` (budget × motion) and ``rows`` (each scene family, then — under
+    it — its scenes when it has more than one; per column a cell dict)."""
+    out = []
+    if not len(picks):
+        return out
+    for metric, g in picks.groupby("metric", sort=False):
+        keys = list(dict.fromkeys(zip(g["budget"], g["motion"])))
+        columns = [{"budget": budget_text(metric, b), "motion": m} for b, m in keys]
+        rows = []
+        for fam, f in g.groupby("scene_family", sort=False):
+            scenes = list(dict.fromkeys(f.loc[f["level"] == "scene", "scene"]))
+            levels = [("family", "")] + ([("scene", s) for s in scenes] if len(scenes) > 1 else [])
+            for level, scene in levels:
+                part = f[(f["level"] == level) & (f["scene"] == scene)] if level == "scene" else f[f["level"] == level]
+                cells = {(b, m): _pick_cell(r) for _, r in part.iterrows() for b, m in [(r["budget"], r["motion"])]}
+                title = (f"{fam or '(none)'} ({len(scenes)} scene{'s' if len(scenes) != 1 else ''}"
+                         + (f": {scenes[0]}" if len(scenes) == 1 else "") + ")") if level == "family" else scene
+                rows.append({"title": title, "level": level, "cells": [cells.get(k) for k in keys]})
+        out.append({"metric": metric, "name": metric_name(metric), "columns": columns, "rows": rows})
+    return out
+
+
+def pick_markdown(picks: pd.DataFrame, level: str = "family") -> list[str]:
+    """The pick as markdown lines: per verdict metric a table of scene families (``level``
+    'family') or of every scene and family ('all') × budget and motion."""
+    lines = []
+    for view in pick_views(picks):
+        header = ["scene family" if level == "family" else "scenes"] + [f"{c['budget']}, {c['motion']} light"
+                                                                         for c in view["columns"]]
+        rows = []
+        for r in view["rows"]:
+            if level == "family" and r["level"] != "family":
+                continue
+            rows.append([r["title"] if r["level"] == "family" else f"· {r['title']}"]
+                        + ["—" if c is None else (f"{c['name']}: {c['text']}, {c['detail']}"
+                                                  + (f"; {c['runner']}" if c.get("runner") else "")
+                                                  if c["name"] else f"{c['text']} ({c['detail']})" if c["detail"]
+                                                  else c["text"]) for c in r["cells"]])
+        lines += [md_table(header, rows), ""]
+    return lines
+
+
+def pick_legend(predicted: str = "") -> str:
+    """The sentence under a pick table."""
+    return ("Per scene family: the configuration with the least median time per frame among those within the "
+            "budget on every scene of the family (its worst scene's error shown, with the share of the budget it "
+            "uses); per scene, likewise on that scene. Every configuration that ran may be picked, not only each "
+            "family's most accurate; degenerate ones never are. Still light: time per frame; moving light: plus the "
+            "per-light preprocessing redone every frame. \"Tied on time\": the runner-up's repeat interval overlaps "
+            "the pick's — on this machine the two are a toss-up." + (f" {predicted}" if predicted else ""))
+
+
+def thresholds_text() -> dict:
+    """The fail thresholds and the test level as the legends print them."""
+    from ..analysis.aggregate import FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE
+
+    return {"error_rate": fmt_limit("error_rate", FAIL_ERROR_RATE),
+            "visibility_mae": fmt_limit("visibility_mae", FAIL_VISIBILITY_MAE),
+            "level": f"{100 * significance.LEVEL:g} %"}
+

@@ -16,7 +16,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from ..util.format import fmt_table_ms, fmt_table_pct, is_missing
+from ..util.format import fmt_table_pct, is_missing
 
 #: A configuration *fails* a scene when its run failed or its error rate (pooled over the scene's
 #: lights) exceeds this fraction of the evaluated pixels: 1 %.

@@ -120,13 +120,6 @@ def pick_table(results: pd.DataFrame, budgets: list[Budget] | None = None, times
             for motion in motions:
                 time_col = MOTIONS[motion]
                 pre = "preprocess_ms" if motion == "moving" else None
-                for scene in fam_scenes:
-                    g = cand[cand["scene"] == scene].assign(
-                        _lo=lambda d: d["time_lo_ms"] + (d[pre] if pre else 0.0),
-                        _hi=lambda d: d["time_hi_ms"] + (d[pre] if pre else 0.0))
-                    rows.append({"level": "scene", "scene_family": fam, "scene": scene, "metric": metric,
-                                 "budget": budget.value, "motion": motion, "scenes": 1,
-                                 "predicted": times is not None, **_choose(g, metric, time_col, budget.value)})
                 g = cand[cand["scene"].isin(fam_scenes)]
                 covers = g.groupby("label", sort=False)["scene"].nunique()
                 g = g[g["label"].isin(covers.index[covers == len(fam_scenes)])]
@@ -140,4 +133,11 @@ def pick_table(results: pd.DataFrame, budgets: list[Budget] | None = None, times
                              "predicted": times is not None,
                              **_choose(pooled.rename(columns={"err": metric, "t": time_col}), metric, time_col,
                                        budget.value)})
+                for scene in fam_scenes:
+                    g = cand[cand["scene"] == scene].assign(
+                        _lo=lambda d: d["time_lo_ms"] + (d[pre] if pre else 0.0),
+                        _hi=lambda d: d["time_hi_ms"] + (d[pre] if pre else 0.0))
+                    rows.append({"level": "scene", "scene_family": fam, "scene": scene, "metric": metric,
+                                 "budget": budget.value, "motion": motion, "scenes": 1,
+                                 "predicted": times is not None, **_choose(g, metric, time_col, budget.value)})
     return pd.DataFrame(rows, columns=PICK_COLUMNS)

@@ -1,4 +1,4 @@
-"""When two configurations' figures differ for real (docs/metrics.md#significance): the tests
+"""When two configurations' figures differ for real (docs/metrics.md#verdicts-and-significance): the tests
 behind the study's verdicts, instead of fixed tolerances.
 
 - **Error on one scene** — a paired bootstrap over tiles. Both configurations are judged on the

@@ -1,4 +1,4 @@
-"""The study's verdicts (docs/metrics.md#verdicts): per scene and technique family its best
+"""The study's verdicts (docs/metrics.md#verdicts-and-significance): per scene and technique family its best
 configuration, who is best in each scene's row by error and by time — ties decided by the tests
 of :mod:`shadowlab.analysis.significance`, not by fixed tolerances — and one sentence per scene
 family with medians and their intervals over the family's scenes.

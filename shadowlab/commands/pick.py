@@ -118,9 +118,15 @@ def pick_text(table: pd.DataFrame, what: str) -> str:
     lines = [f"The cheapest configuration within each budget ({what}):"]
     for (metric, budget, motion), g in table.groupby(["metric", "budget", "motion"], sort=False):
         lines += ["", f"{budget_text(metric, budget)}, {motion} light:"]
-        width = max(len(r["scene"] or r["scene_family"]) for _, r in g.iterrows()) + 4
+        width = max(len(r["scene"]) + len(r["scene_family"]) for _, r in g.iterrows()) + 6
+        single = set(g.loc[(g["level"] == "family") & (g["scenes"] == 1), "scene_family"])
         for _, r in g.iterrows():
-            name = f"  {r['scene_family'] or '(none)'}" if r["level"] == "family" else f"    {r['scene']}"
+            if r["level"] == "scene" and r["scene_family"] in single and (g["level"] == "family").any():
+                continue  # a family of one scene: its line says it all
+            only = g.loc[(g["level"] == "scene") & (g["scene_family"] == r["scene_family"]), "scene"]
+            name = (f"  {r['scene_family'] or '(none)'}" + (f" ({r['scenes']} scenes)" if r["scenes"] > 1 else
+                                                              f" ({only.iloc[0]})" if len(only) else "")
+                    if r["level"] == "family" else f"    {r['scene']}")
             if not r["label"]:
                 closest = (f"; closest: {r['most_accurate']} at {value_text(metric, r['most_accurate_error'])}"
                            if r["most_accurate"] else "")
@@ -129,7 +135,7 @@ def pick_text(table: pd.DataFrame, what: str) -> str:
             runner = (f"; next {r['runner_up']} {r['runner_up_ms']:.3g} ms" + (" (tied on time)" if r["runner_up_ties"]
                                                                                else "")
                       if r["runner_up"] else "; the only one within it")
-            scope = f" (worst of {int(r['scenes'])} scenes, median time)" if r["level"] == "family" else ""
+            scope = f" (worst of {int(r['scenes'])} scenes, median time)" if r["level"] == "family" and r["scenes"] > 1 else ""
             lines.append(f"{name:{width}s}  {r['short_label']}: {r['time_ms']:.3g} ms, "
                          f"{value_text(metric, r['error'])} = {100 * r['error'] / r['budget']:.0f} % of the budget"
                          f"{scope}{runner}")

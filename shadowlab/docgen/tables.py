@@ -108,16 +108,18 @@ def layout_table(folder: Path | None = None) -> str:
 
 def headline_verdicts(study: Path = HEADLINE_STUDY) -> str:
     """The README's headline: the verdicts of the committed quick study (``results/quick``:
-    results.csv and study.json), as summary.md opens with them, and where they come from."""
+    results.csv, study.json and the tiles.npz its ties are tested on), as summary.md opens with
+    them, and where they come from."""
     import json
 
     import pandas as pd
 
     from ..study.report import verdict_markdown
+    from ..study.tiles import read_tiles
 
     results = pd.read_csv(study / "results.csv")
     meta = json.loads((study / "study.json").read_text())
-    lines = verdict_markdown(results, meta)[2:]  # without its "## Verdicts" heading
+    lines = verdict_markdown(results, meta, read_tiles(study))[2:]  # without its "## Verdicts" heading
     source = (f"From the committed run in [`results/quick/`](results/quick/) (`shadowlab study quick`, "
               f"{meta['size'][0]}×{meta['size'][1]}, revision {meta['revision']}, renderer {meta['device']}). "
               f"Times are CPU-rasteriser times there: compare techniques with each other, not with a GPU.")

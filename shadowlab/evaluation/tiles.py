@@ -1,5 +1,5 @@
 """Per-tile error sums of a visibility image against the truth: what the study's significance
-tests resample (docs/metrics.md#significance).
+tests resample (docs/metrics.md#verdicts-and-significance).
 
 Errors of neighbouring pixels are not independent — a misplaced shadow edge is wrong along its
 whole length, an acne pattern covers a receiver — so a test that resamples single pixels would

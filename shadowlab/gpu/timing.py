@@ -35,7 +35,7 @@ WALL_CLOCK = "wall clock around ctx.finish() (perf_counter), median and IQR over
 class Timing:
     """Median and IQR (ms) of the timed runs, and the raw samples (ms); ``q25_ms``/``q75_ms``: the
     quartiles whose difference is the IQR (the repeat interval two configurations' times are
-    compared by, docs/metrics.md#significance; None where unknown)."""
+    compared by, docs/metrics.md#verdicts-and-significance; None where unknown)."""
 
     median_ms: float
     iqr_ms: float

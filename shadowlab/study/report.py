@@ -27,10 +27,9 @@ from ..evaluation import perceptual
 from ..evaluation.metrics import COLUMN_BY_NAME
 from ..output.pareto import pareto_plot
 from ..analysis.aggregate import (
-    DEGENERATE_MARK, FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, as_text, failed_runs, family_order, family_table,
-    fmt_limit, judged_metric, names_text, normalised, per_configuration, scenes_in_order, summary_table,
+    DEGENERATE_MARK, FAIL_ERROR_RATE, as_text, failed_runs, family_table, judged_metric, names_text, normalised,
+    per_configuration, scenes_in_order, summary_table,
 )
-from ..analysis import significance
 from ..analysis.pick import pick_table
 from ..analysis.verdicts import verdict_sentences, verdict_table
 from .verdict_views import (

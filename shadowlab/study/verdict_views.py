@@ -13,7 +13,7 @@ from __future__ import annotations
 import pandas as pd
 
 from ..analysis import significance
-from ..analysis.aggregate import DEGENERATE_MARK, as_text, family_order, fmt_limit
+from ..analysis.aggregate import as_text, family_order, fmt_limit
 from ..analysis.verdicts import FULL_HD, metric_name
 from ..evaluation.metrics import COLUMN_BY_NAME
 from ..util.format import fmt_ms, fmt_num, fmt_table_pct, is_missing
@@ -28,7 +28,10 @@ def value_text(metric: str, value) -> str:
     for mean |V − G|; '' when missing."""
     if is_missing(value):
         return ""
-    return fmt_table_pct(value) if metric != "visibility_mae" else f"{float(value):.4f}"
+    if metric == "visibility_mae":
+        return f"{float(value):.4f}"
+    # an edge error can be many times the boundary (a lost or misplaced shadow): whole per cents there
+    return f"{100 * float(value):,.0f} %" if float(value) >= 1 else fmt_table_pct(value)
 
 
 def budget_text(metric: str, value: float) -> str:
@@ -118,11 +121,11 @@ def verdict_blocks(verdicts: pd.DataFrame, scenes_meta: dict) -> list[dict]:
 def verdict_legend(verdicts: pd.DataFrame, thresholds: dict) -> str:
     """The sentence under the verdict table: what a cell holds and how ties are decided."""
     metrics = list(dict.fromkeys(verdicts["metric"])) if len(verdicts) else []
-    what = "; ".join(f"{metric_name(m)}" + (" (wrong pixels per pixel of the truth's shadow boundary)"
+    what = "; ".join(f"{metric_name(m)}" + (": wrong pixels per pixel of the truth's shadow boundary"
                                             if m == "edge_error_rate" else
-                                            " (share of the evaluated pixels)" if m == "error_rate" else
-                                            " (soft scenes)") for m in metrics)
-    return (f"Each cell: the family's best configuration on the scene (lowest error) — its error ({what}), its ms "
+                                            ": share of the evaluated pixels" if m == "error_rate" else
+                                            " on soft scenes") for m in metrics)
+    return (f"Each cell: the family's best configuration on the scene (lowest error) — its error ({what}) —, its ms "
             f"per frame for a static light and, where the technique redoes preprocessing whenever the light moves, "
             f"for a moving light; hover for the configuration, its share of all pixels and the same share of a "
             f"{FULL_HD[0]}×{FULL_HD[1]} frame. Bold: best in the scene's column, with every family a paired tile "
@@ -148,7 +151,7 @@ def _pick_cell(r: pd.Series) -> dict:
                   + (" — tied on time" if bool(r["runner_up_ties"]) else ""))
     else:
         runner = "the only one within the budget"
-    scope = f"worst of {int(r['scenes'])} scenes; median time" if r["level"] == "family" else ""
+    scope = f"worst of {int(r['scenes'])} scenes; median time" if r["level"] == "family" and r["scenes"] > 1 else ""
     return {"name": as_text(r["short_label"]), "text": time, "detail": detail, "runner": runner,
             "tie": bool(r["runner_up_ties"]), "tip": " · ".join(x for x in (scope, runner) if x)}
 

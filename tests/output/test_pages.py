@@ -405,7 +405,13 @@ PROBE_LATE = """<script>(function () {
     });
     window.scrollTo(0, 0);
     var v = document.getElementById("verdict-table");
-    p.verdict = v ? {top: v.getBoundingClientRect().top, bottom: v.getBoundingClientRect().bottom} : null;
+    p.verdict = v ? {top: v.getBoundingClientRect().top, bottom: v.getBoundingClientRect().bottom, right: 0,
+                     columns: 0} : null;
+    if (v) v.querySelectorAll("th, td").forEach(function (c) {
+      var r = c.getBoundingClientRect();
+      p.verdict.right = Math.max(p.verdict.right, r.right);
+      if (c.tagName === "TH" && c.parentElement.rowIndex <= 1) p.verdict.columns += 1;
+    });
     p.viewport = [window.innerWidth, window.innerHeight];
     var buttons = document.querySelectorAll("button[data-show]");
     p.clicks = buttons.length;
@@ -471,6 +477,11 @@ def test_pages_in_a_browser(pages, tmp_path):
     width, height = study["viewport"]
     assert width == WINDOW[0] and 600 < height <= WINDOW[1], study["viewport"]
     assert study["verdict"] is not None, "study page: no element with id verdict-table"
+    # every verdict column (every technique family and scene) within the first screen's width
+    assert study["verdict"]["columns"] > 1
+    assert study["verdict"]["right"] <= width, (
+        f"study page: the verdict table reaches {study['verdict']['right']:.0f} px across, beyond the first screen's "
+        f"{width} px")
     assert study["verdict"]["bottom"] <= height, (
         f"study page: the verdict table ends {study['verdict']['bottom']:.0f} px down, below the first screen "
         f"({width}×{height} px of a {WINDOW[0]}×{WINDOW[1]} window)")

@@ -22,6 +22,8 @@ Every resampling uses the fixed seed :data:`SEED`: a verdict is a function of th
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 #: The confidence level of every interval and test (two-sided).
@@ -46,6 +48,13 @@ def paired_interval(diff_per_tile: np.ndarray) -> tuple[float, float]:
     d = d[d != 0]
     if not d.size:
         return 0.0, 0.0
+    return _interval_of(d.tobytes())
+
+
+@functools.lru_cache(maxsize=4096)
+def _interval_of(nonzero: bytes) -> tuple[float, float]:
+    # a study's page, summary.md and the README each ask for the same pairs: computed once
+    d = np.frombuffer(nonzero, dtype=np.float64)
     rng = np.random.default_rng(SEED)
     sums = rng.poisson(1.0, size=(RESAMPLES, d.size)).astype(np.float64) @ d
     return _quantiles(sums)

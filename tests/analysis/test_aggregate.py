@@ -288,7 +288,8 @@ def test_a_hard_scene_with_boundary_counts_is_judged_on_the_edge_error():
     assert cfg.loc["shadow_map", "edge_error_rate"] == pytest.approx(0.325)
     v = ver.verdict_table(pd.DataFrame(rows)).set_index("technique")
     assert (v["metric"] == "edge_error_rate").all()
-    assert v.loc["shadow_map", "label"] == "shadow_map:size=2048" and v.loc["shadow_map", "error"] == pytest.approx(0.05)
+    assert v.loc["shadow_map", "label"] == "shadow_map:size=2048"
+    assert v.loc["shadow_map", "error"] == pytest.approx(0.05)
     assert v.loc["shadow_map", "error_rate"] == 0.002      # the share of all pixels is still carried
     assert v.loc["shadow_volume", "error"] == pytest.approx(0.015)
     assert v.loc["shadow_volume", "best_error"] and not v.loc["shadow_map", "best_error"]

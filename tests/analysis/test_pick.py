@@ -66,7 +66,8 @@ def test_default_budgets_cover_every_scene_in_its_own_metric():
 def test_the_cheapest_within_the_budget_per_scene():
     t = pick_table(results(), [Budget("edge_error_rate", 0.1), Budget("edge_error_rate", 0.01)], motions=("still",))
     h1 = _one(t, "scene", 0.1, "still", "h1")
-    assert (h1["label"], h1["technique"], h1["error"], h1["time_ms"]) == ("shadow_map:size=512", "shadow_map", 0.05, 1.0)
+    assert (h1["label"], h1["technique"]) == ("shadow_map:size=512", "shadow_map")
+    assert (h1["error"], h1["time_ms"]) == (0.05, 1.0)
     assert (h1["time_lo_ms"], h1["time_hi_ms"]) == pytest.approx((0.9, 1.1))
     # the runner-up's 0.95-1.15 overlaps 0.9-1.1: a toss-up on time
     assert (h1["runner_up"], h1["runner_up_ms"], h1["runner_up_ties"]) == ("shadow_polygons", 1.05, True)

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..analysis.aggregate import truthy
 from ..analysis.pick import Budget, default_budgets, pick_table
 from ..util.validation import RunError, did_you_mean
 
@@ -90,7 +91,9 @@ def pick_command(study, budgets: list[str] | None = None, model: str | None = No
         cv = m.cv_median_rel_error
         what = (f"times PREDICTED for {m.device} by {model} (not measured: the model's leave-one-scene-out median "
                 f"error is {'n/a' if cv != cv else f'{100 * cv:.0f} %'})")
-        unpriced = times[times["time_ms"].isna()]
+        # the truth is never ranked: that the model cannot price it (its rays, CPU work only) leaves nothing out
+        truth = set(results.loc[truthy(results["reference"]), "label"]) if "reference" in results.columns else set()
+        unpriced = times[times["time_ms"].isna() & ~times["spec_label"].isin(truth)]
         if len(unpriced):
             what += f"; {unpriced['spec_label'].nunique()} configuration(s) it cannot price are left out"
     motions = ("still", "moving") if motion is None else (motion,)

@@ -2,7 +2,9 @@
 and technique family, failures, ties, the moving-light time and the generated sentences."""
 import math
 
+import numpy as np
 import pandas as pd
+import pytest
 
 from shadowlab.analysis import aggregate as agg
 from shadowlab.analysis import verdicts as ver
@@ -26,7 +28,7 @@ def _table():
         rows += [_row(scene, "raytrace", 0.0, 10.0),
                  _row(scene, "shadow_map", 0.002, 20.0), _row(scene, "shadow_map:variant=slope", 0.0005, 25.0),
                  _row(scene, "shadow_polygons", 0.00001, 1.0, pre=50.0),
-                 _row(scene, "shadow_volume", 0.00002, 3.0),
+                 _row(scene, "shadow_volume", 0.00002 if scene == "s1" else 0.00001, 3.0),
                  _row(scene, "planar", 0.02 if scene == "s2" else 0.0, 0.5)]
     rows.append(_row("soft", "raytrace", 0.0, 10.0, family="soft shadows"))
     rows.append(_row("soft", "pcss", 0.3, 5.0, family="soft shadows", vmae=0.01))        # hard error high, soft fine
@@ -45,9 +47,15 @@ def test_verdict_best_configuration_per_family_and_failures():
     # planar fails s2 (2 % > 1 %) but not s1
     assert bool(v.loc[("s2", "planar"), "failed"]) and not bool(v.loc[("s1", "planar"), "failed"])
     assert "error_rate above 1 %" in v.loc[("s2", "planar"), "why"]
-    # errors within the tie tolerance are all best; shadow_map's 0.05 % is not
-    assert v.loc[("s1", "shadow_polygons"), "best_error"] and v.loc[("s1", "shadow_volume"), "best_error"]
-    assert v.loc[("s1", "planar"), "best_error"] and not v.loc[("s1", "shadow_map"), "best_error"]
+    # without tiles, errors tie only when equal: on s1 planar's 0 is alone best, 0.001 % and 0.002 % are not
+    assert v.loc[("s1", "planar"), "best_error"]
+    assert not v.loc[("s1", "shadow_polygons"), "best_error"] and not v.loc[("s1", "shadow_volume"), "best_error"]
+    assert not v.loc[("s1", "shadow_map"), "best_error"]
+    # on s2 polygons and volumes are equal (0.001 %): both best; planar fails there and is not
+    assert v.loc[("s2", "shadow_polygons"), "best_error"] and v.loc[("s2", "shadow_volume"), "best_error"]
+    assert not v.loc[("s2", "planar"), "best_error"] and not v.loc[("s2", "shadow_map"), "best_error"]
+    assert not v["tested"].astype(bool).any()            # no tiles: nothing was tested on tiles
+    assert v["tiles"].isna().all()
     # static light: the polygons win on s2; a moving light pays their 50 ms preprocessing
     assert v.loc[("s2", "shadow_polygons"), "best_time"]
     assert v.loc[("s2", "shadow_polygons"), "moving_ms"] == 51.0
@@ -70,11 +78,16 @@ def test_soft_scenes_are_judged_on_visibility_error():
 def test_verdict_sentences_name_winners_and_failures():
     sentences = dict(ver.verdict_sentences(ver.verdict_table(_table())))
     maps = sentences["shadow maps"]
-    # planar is as accurate on s1 but fails s2: the median would hide it, the sentence does not
-    assert "most accurate: shadow_polygons, shadow_volume" in maps
+    # planar is the most accurate on s1 but fails s2: the median would hide it, the sentence does not.
+    # shadow_volume is worse on s1 only and equal on s2: per-scene differences (1e-5, 0) whose
+    # median's interval holds 0 — not told apart from the polygons
+    assert ("most accurate: shadow_polygons (median error rate 0.001 %), not told apart from it at 95 %: "
+            "shadow_volume;") in maps
+    assert "planar" not in maps.split("fails:")[0]
     assert "fails: planar on 1 of 2" in maps
-    assert "fastest per frame for a static light: shadow_polygons" in maps
-    assert "for a moving light: shadow_volume" in maps
+    assert "fastest for a static light: shadow_polygons (1.000 ms);" in maps
+    assert ("for a moving light: shadow_volume (3.000 ms); shadow_polygons needs 51.000 ms with its per-light "
+            "preprocessing") in maps
     assert "no technique passes every scene" not in maps
     soft = sentences["soft shadows"]
     assert "most accurate: pcss" in soft and "blob on 1 of 1" in soft and "shadow_map on 1 of 1" in soft
@@ -96,14 +109,58 @@ def test_summary_table_reports_the_worst_case_beside_the_median():
     assert s.loc["planar", "median_error_rate"] == 0.01 and s.loc["planar", "worst_error_rate"] == 0.02
 
 
-def test_times_within_the_time_tie_share_the_verdict():
-    rows = [_row("t", "raytrace", 0.0, 10.0), _row("t", "shadow_volume", 0.0, 3.0),
-            _row("t", "shadow_map", 0.0, 3.2), _row("t", "planar", 0.0, 4.0)]
+def test_times_whose_repeat_intervals_overlap_share_the_verdict():
+    """Without quartile columns the repeat interval is median ± IQR/2: 3.0 ± 0.25 and 3.2 ± 0.25
+    overlap, 4.0 ± 0.25 does not reach 3.25."""
+    rows = [_row("t", "raytrace", 0.0, 10.0, time_ms_iqr=0.5), _row("t", "shadow_volume", 0.0, 3.0, time_ms_iqr=0.5),
+            _row("t", "shadow_map", 0.0, 3.2, time_ms_iqr=0.5), _row("t", "planar", 0.0, 4.0, time_ms_iqr=0.5)]
     v = ver.verdict_table(pd.DataFrame(rows)).set_index("technique")
-    assert v.loc["shadow_volume", "best_time"] and v.loc["shadow_map", "best_time"]   # 3.2 <= 3.0 * 1.1
+    assert (v.loc["shadow_volume", "time_lo_ms"], v.loc["shadow_volume", "time_hi_ms"]) == (2.75, 3.25)
+    assert v.loc["shadow_volume", "best_time"] and v.loc["shadow_map", "best_time"]
     assert not v.loc["planar", "best_time"]
+    assert v["best_error"].all()                           # equal errors tie without tiles
     (_, sentence), = ver.verdict_sentences(ver.verdict_table(pd.DataFrame(rows)))
-    assert "shadow_volume (3.000 ms), shadow_map (3.200 ms), tied within 10 %" in sentence
+    assert "fastest for a static light: shadow_volume (3.000 ms), tied with it: shadow_map;" in sentence
+    assert "the same for a moving light" in sentence
+    # the same times with the table's usual IQR of 0.1: 3.05 < 3.15, no longer tied
+    narrow = pd.DataFrame([{**r, "time_ms_iqr": 0.1} for r in rows])
+    v = ver.verdict_table(narrow).set_index("technique")
+    assert v.loc["shadow_volume", "best_time"] and not v.loc["shadow_map", "best_time"]
+    (_, sentence), = ver.verdict_sentences(ver.verdict_table(narrow))
+    assert "fastest for a static light: shadow_volume (3.000 ms); the same for a moving light" in sentence
+
+
+def test_quartile_columns_give_the_repeat_interval_when_present():
+    """time_ms_q25 / q75 are summed over the lights and used instead of median ± IQR/2: with IQR
+    0.1 per light (2 lights: ± 0.1) 3.0 and 3.25 would not tie, with their quartiles (2.9-3.5 and
+    3.1-3.4) they do; and quartiles can also separate what the IQR would tie."""
+    def two_lights(label, time, q25, q75, **kw):
+        return [_row("t", label, 0.0, time / 2, light=i, time_ms_q25=q25 / 2, time_ms_q75=q75 / 2, **kw)
+                for i in range(2)]
+
+    rows = (two_lights("raytrace", 10.0, 9.0, 11.0) + two_lights("shadow_volume", 3.0, 2.9, 3.5)
+            + two_lights("shadow_map", 3.25, 3.1, 3.4) + two_lights("planar", 3.4, 3.35, 3.45, time_ms_iqr=5.0)
+            + two_lights("shadow_polygons", 3.3, 3.25, 3.35, pre=1.0))
+    cfg = agg.per_configuration(pd.DataFrame(rows)).set_index("label")
+    assert cfg.loc["shadow_volume", "time_ms"] == 3.0
+    assert cfg.loc["shadow_volume", "time_lo_ms"] == pytest.approx(2.9)
+    assert cfg.loc["shadow_volume", "time_hi_ms"] == pytest.approx(3.5)
+    v = ver.verdict_table(pd.DataFrame(rows)).set_index("technique")
+    assert v.loc["shadow_volume", "best_time"] and v.loc["shadow_map", "best_time"]
+    assert v.loc["planar", "best_time"]                   # quartiles 3.35-3.45 overlap 2.9-3.5
+    # moving: the polygons' 2 × 1 ms preprocessing shifts their interval to 5.25-5.35
+    assert v.loc["shadow_polygons", "moving_lo_ms"] == pytest.approx(5.25)
+    assert v.loc["shadow_polygons", "moving_hi_ms"] == pytest.approx(5.35)
+    assert v.loc["shadow_polygons", "best_time"] and not v.loc["shadow_polygons", "best_moving"]
+    assert v.loc["shadow_volume", "best_moving"]
+    late = [{**r, "time_ms_q25": 1.8, "time_ms_q75": 1.9} if r["label"] == "planar" else r for r in rows]
+    v = ver.verdict_table(pd.DataFrame(late)).set_index("technique")
+    assert not v.loc["planar", "best_time"]               # 3.6-3.8 misses 2.9-3.5; its IQR (± 5) would have tied it
+    # without the quartile columns the IQR gives 2.9-3.1 and 3.15-3.35: shadow_map is not tied
+    plain = pd.DataFrame(rows).drop(columns=["time_ms_q25", "time_ms_q75"])
+    v = ver.verdict_table(plain).set_index("technique")
+    assert v.loc["shadow_volume", "best_time"] and not v.loc["shadow_map", "best_time"]
+    assert v.loc["planar", "best_time"]                   # 3.4 ± 5 reaches everything
 
 
 def _degenerate_table():
@@ -150,3 +207,122 @@ def test_the_study_pages_mark_a_degenerate_cell(tmp_path):
     assert f"0.900 % {agg.DEGENERATE_MARK}" in lines
     html = report.write_study_html(tmp_path, _degenerate_table(), {"name": "t"}).read_text()
     assert html.count(agg.DEGENERATE_MARK) >= 3   # the planar cell, the legend, the scene table's row
+
+
+# --------------------------------------------------------------------------- ties tested on tiles
+
+_TILES, _PER_TILE = 20, 256     # a scene of 20 tiles of 16 × 16 evaluated pixels
+
+
+def _tile_array(wrong, abs_diff=None):
+    """(3, N) per-tile sums as study/tiles.py stores them: evaluated, wrong, Σ|V − G| (here 0
+    unless given: a hard scene's verdict must test the wrong-pixel row)."""
+    wrong = np.asarray(wrong, np.float32)
+    diff = np.zeros(_TILES, np.float32) if abs_diff is None else np.asarray(abs_diff, np.float32)
+    return np.stack([np.full(_TILES, _PER_TILE, np.float32), wrong, diff])
+
+
+def _tiled_study():
+    """One hard scene: shadow_volume wrong 4 pixels in tile 0; shadow_map those and 3 more in
+    each of tiles 1 and 2 (differs in 2 tiles); planar those and 1 more in each of tiles 1-10
+    (differs in 10 tiles). Errors 4, 10 and 14 wrong pixels of 5120."""
+    base = np.zeros(_TILES)
+    base[0] = 4
+    maps, planar = base.copy(), base.copy()
+    maps[1:3] += 3
+    planar[1:11] += 1
+    n = _TILES * _PER_TILE
+    rows = [_row("t", "raytrace", 0.0, 10.0), _row("t", "shadow_volume", 4 / n, 3.0),
+            _row("t", "shadow_map", 10 / n, 2.0), _row("t", "planar", 14 / n, 1.0)]
+    for r in rows:
+        r["evaluated_pixels"] = n
+    tiles = {("t", "shadow_volume"): _tile_array(base), ("t", "shadow_map"): _tile_array(maps),
+             ("t", "planar"): _tile_array(planar), ("t", "raytrace"): _tile_array(np.zeros(_TILES))}
+    return pd.DataFrame(rows), tiles
+
+
+def test_errors_tie_by_the_tile_bootstrap_when_tiles_are_given():
+    results, tiles = _tiled_study()
+    v = ver.verdict_table(results, tiles=tiles).set_index("technique")
+    assert v.loc["shadow_volume", "best_error"]
+    assert v.loc["shadow_map", "best_error"]              # 6 more wrong pixels, but in 2 tiles: not told apart
+    assert not v.loc["planar", "best_error"]              # 10 more, spread over 10 tiles: told apart
+    assert v["tested"].all()
+    assert v.loc["shadow_map", "tiles"].tolist() == [4, 3, 3] + [0] * 17   # the verdict error's numerators
+    # without tiles the three differ and only the lowest is best
+    plain = ver.verdict_table(results).set_index("technique")
+    assert plain["best_error"].tolist() == [True, False, False] and not plain["tested"].any()
+    assert list(plain.index) == ["shadow_volume", "shadow_map", "planar"]   # volumes first, then maps
+    # a family without tiles falls back to equality (and is not marked tested)
+    partial = {k: a for k, a in tiles.items() if k[1] != "shadow_map"}
+    v = ver.verdict_table(results, tiles=partial).set_index("technique")
+    assert not v.loc["shadow_map", "best_error"] and not v.loc["shadow_map", "tested"]
+    assert v.loc["shadow_volume", "tested"] and v.loc["planar", "tested"]
+
+
+def test_the_sentence_names_the_ties_of_the_tile_test():
+    results, tiles = _tiled_study()
+    (_, sentence), = ver.verdict_sentences(ver.verdict_table(results, tiles=tiles))
+    assert "most accurate: shadow_volume (median error rate " in sentence
+    assert "not told apart from it at 95 %: shadow_map;" in sentence
+    assert "planar" not in sentence.split("fastest")[0]
+    assert "fastest for a static light: planar (1.000 ms)" in sentence
+    (_, plain), = ver.verdict_sentences(ver.verdict_table(results))
+    assert "not told apart" not in plain
+
+
+def _edge_rows(scene, label, err, edge, time, boundary=(100, 300), **kw):
+    """Two lights of a hard scene with edge figures; ``edge``: the two lights' edge error rates."""
+    return [_row(scene, label, err, time / 2, light=i, edge_error_rate=edge[i], truth_boundary_pixels=boundary[i],
+                 **kw) for i in range(2)]
+
+
+def test_a_hard_scene_with_boundary_counts_is_judged_on_the_edge_error():
+    # shadow_map: the default has the lower error rate, size=2048 the lower edge error — the one judged
+    rows = (_edge_rows("e", "raytrace", 0.0, (0.0, 0.0), 10.0)
+            + _edge_rows("e", "shadow_map", 0.001, (0.1, 0.4), 2.0)
+            + _edge_rows("e", "shadow_map:size=2048", 0.002, (0.05, 0.05), 4.0)
+            + _edge_rows("e", "shadow_volume", 0.003, (0.0, 0.02), 3.0))
+    cfg = agg.per_configuration(pd.DataFrame(rows)).set_index("label")
+    # pooled by the truth's boundary pixels: (0.1·100 + 0.4·300) / 400, not the plain mean 0.25
+    assert cfg.loc["shadow_map", "edge_error_rate"] == pytest.approx(0.325)
+    v = ver.verdict_table(pd.DataFrame(rows)).set_index("technique")
+    assert (v["metric"] == "edge_error_rate").all()
+    assert v.loc["shadow_map", "label"] == "shadow_map:size=2048"
+    assert v.loc["shadow_map", "error"] == pytest.approx(0.05)
+    assert v.loc["shadow_map", "error_rate"] == 0.002      # the share of all pixels is still carried
+    assert v.loc["shadow_volume", "error"] == pytest.approx(0.015)
+    assert v.loc["shadow_volume", "best_error"] and not v.loc["shadow_map", "best_error"]
+    (_, sentence), = ver.verdict_sentences(ver.verdict_table(pd.DataFrame(rows)))
+    assert "most accurate: shadow_volume (median edge error " in sentence
+    # the same study without the edge columns: judged on error_rate, shadow_map's default wins
+    old = pd.DataFrame(rows).drop(columns=["edge_error_rate", "truth_boundary_pixels"])
+    v = ver.verdict_table(old).set_index("technique")
+    assert (v["metric"] == "error_rate").all()
+    assert v.loc["shadow_map", "label"] == "shadow_map" and v.loc["shadow_map", "error"] == 0.001
+    assert v.loc["shadow_map", "best_error"] and not v.loc["shadow_volume", "best_error"]
+    (_, sentence), = ver.verdict_sentences(ver.verdict_table(old))
+    assert "most accurate: shadow_map (median error rate " in sentence
+
+
+def test_a_soft_scene_tests_the_visibility_difference_row():
+    """On a soft scene the tie is tested on Σ|V − G| (row 2), not on the wrong pixels (row 1):
+    pcss and blob have the same wrong pixels, blob's |V − G| is larger in 12 tiles."""
+    fam = "soft shadows"
+    rows = [_row("soft", "raytrace", 0.0, 10.0, family=fam), _row("soft", "pcss", 0.001, 5.0, family=fam, vmae=0.004),
+            _row("soft", "blob", 0.001, 1.0, family=fam, vmae=0.006)]
+    wrong = np.ones(_TILES)
+    diff = np.full(_TILES, 2.0)
+    more = diff.copy()
+    more[:12] += 1.0
+    tiles = {("soft", "pcss"): _tile_array(wrong, diff), ("soft", "blob"): _tile_array(wrong, more)}
+    v = ver.verdict_table(pd.DataFrame(rows), tiles=tiles).set_index("technique")
+    assert (v["metric"] == "visibility_mae").all()
+    assert v.loc["pcss", "best_error"] and not v.loc["blob", "best_error"] and v["tested"].all()
+    assert v.loc["blob", "tiles"].tolist() == more.tolist()
+    # blob's extra error in 3 tiles only: not told apart
+    few = diff.copy()
+    few[:3] += 1.0
+    tiles[("soft", "blob")] = _tile_array(wrong, few)
+    v = ver.verdict_table(pd.DataFrame(rows), tiles=tiles).set_index("technique")
+    assert v.loc["pcss", "best_error"] and v.loc["blob", "best_error"]

@@ -168,7 +168,8 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None, tile
             best = sound.loc[sound["error"].idxmin()]
             for i, r in sound.iterrows():
                 out.at[i, "best_error"] = bool(i == best.name or errors_tie(r, best))
-                out.at[i, "tested"] = r["tiles"] is not None and best["tiles"] is not None
+                out.at[i, "tested"] = (r["tiles"] is not None and best["tiles"] is not None
+                                       and r["tiles"].shape == best["tiles"].shape)
         ok = part[~part["failed"].astype(bool)]
         for col, flag in (("time", "best_time"), ("moving", "best_moving")):
             timed = ok[ok[f"{col}_ms"].notna()]

@@ -105,7 +105,7 @@ def pick_command(study, budgets: list[str] | None = None, model: str | None = No
         if scene not in known:
             raise RunError(f"--scene {scene!r}: no such scene or scene family in {study}"
                            f"{did_you_mean(scene, known)}")
-        table = table[(table["scene"] == scene) | ((table["scene_family"] == scene) & (table["level"] == "family"))]
+        table = table[(table["scene"] == scene) | (table["scene_family"] == scene)]  # a family: with its scenes
     if not len(table):
         metrics = sorted({b.metric for b in parsed})
         raise RunError(f"no scene of {study} is judged on {', '.join(metrics)}: give a budget in its metric "

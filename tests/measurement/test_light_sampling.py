@@ -234,6 +234,25 @@ def test_combined_timing_and_stats():
         combined_stats([{"passes": 1, "mystery": 2}], {"passes": SUM}, "demo")
     with pytest.raises(ValueError, match="no timing"):
         combined_timing([])
+    # the quartiles (the repeat interval the verdicts compare) are summed too, when every sample has them
+    q = combined_timing([Timing(2.0, 0.5, [1.0, 2.0, 3.0], None, 1.5, 2.0),
+                         Timing(4.0, 1.0, [4.0, 4.0, 5.0], None, 3.5, 4.5)])
+    assert (q.q25_ms, q.q75_ms) == (5.0, 6.5)
+    assert q.columns()["time_ms_q25"] == 5.0 and q.columns()["time_ms_q75"] == 6.5
+    assert "time_ms_q25" not in t.columns()  # one sample without them: none
+
+
+def test_a_timing_reports_its_quartiles(monkeypatch):
+    """time_passes' quartiles: the first and third quartile of the timed runs, whose difference is the IQR."""
+    import shadowlab.gpu.timing as timing_module
+
+    clock = iter([0.0, 0.001, 0.0, 0.003, 0.0, 0.002, 0.0, 0.005, 0.0, 0.004])  # runs of 1, 3, 2, 5, 4 ms
+    monkeypatch.setattr(timing_module.time, "perf_counter", lambda: next(clock))
+    t = timing_module.time_passes(lambda: None, repeat=5, warmup=0, gpu=False)
+    assert t.samples_ms == pytest.approx([1.0, 3.0, 2.0, 5.0, 4.0])
+    assert (t.q25_ms, t.median_ms, t.q75_ms) == pytest.approx((2.0, 3.0, 4.0))
+    assert t.iqr_ms == pytest.approx(t.q75_ms - t.q25_ms)
+    assert t.columns()["time_ms_q25"] == pytest.approx(2.0)
 
 
 @pytest.mark.slow  # inner-loop budget (issue 36): among the slowest; make test runs it

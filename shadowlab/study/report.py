@@ -118,10 +118,10 @@ def tuned_markdown(meta: dict) -> list[str]:
         lines += [f"## {t['name']}: tuned against the spec as given", "",
                   f"Objective: {t['objective']}, light 0, each scene tuned on its own.", ""]
         lines += md_table(["scene", "as given", "tuned", "regret of the default", "tuned parameters",
-                            "per-pixel oracle"],
-                           [[r["scene"], "failed: " + r["failed"], "", "", "", ""] if r["failed"] else
-                            [r["scene"], r["default"], r["tuned"], r["regret"], r["params"], r["oracle"]]
-                            for r in t["rows"]]).splitlines()
+                           "per-pixel oracle"],
+                          [[r["scene"], "failed: " + r["failed"], "", "", "", ""] if r["failed"] else
+                           [r["scene"], r["default"], r["tuned"], r["regret"], r["params"], r["oracle"]]
+                           for r in t["rows"]]).splitlines()
         lines.append("")
         if t["global"]:
             lines += [t["global"], ""]
@@ -132,8 +132,10 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tile
     """Write ``summary.md``: the study at a glance, readable as plain text.
 
     Header: suite name, description and the facts of ``meta`` (size, device, revision, date,
-    timing sentence). Then the verdicts (:func:`verdict_markdown`: scenes × technique families,
-    one sentence per scene family), as at the top of study.html. Then per configuration (short label; grouped by technique family, best
+    timing sentence). Then the verdicts (:func:`verdict_markdown`: technique families × scenes,
+    their ties tested on ``tiles`` — the study's tiles.npz, :func:`shadowlab.study.tiles.read_tiles`
+    —, one sentence per scene family, the cheapest pick per scene family and scene), as at the top
+    of study.html. Then per configuration (short label; grouped by technique family, best
     median error first, from :func:`summary_table`): median error rate and median time per
     frame across the scenes it ran on, the number of scenes, wins (scenes where its error rate
     is the lowest of the scene's configurations, per scene family; ties count for each) and
@@ -169,11 +171,11 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tile
     for tech, g in table.groupby("technique", sort=False):
         lines += [f"### {tech}", ""]
         lines.append(md_table(["configuration", "median error", "median time ms", "setup ms", "scenes", "wins",
-                                "fails"],
-                               [[r["short_label"], fmt_table_pct(r["median_error_rate"]),
-                                 fmt_table_ms(r["median_time_ms"]), fmt_table_ms(r["median_setup_ms"]),
-                                 f"{r['scenes']}" + (f" (+{r['failed']} failed)" if r["failed"] else ""),
-                                 _wins_count(r["wins"]), str(len(r["fails"]))] for _, r in g.iterrows()]))
+                               "fails"],
+                              [[r["short_label"], fmt_table_pct(r["median_error_rate"]),
+                                fmt_table_ms(r["median_time_ms"]), fmt_table_ms(r["median_setup_ms"]),
+                                f"{r['scenes']}" + (f" (+{r['failed']} failed)" if r["failed"] else ""),
+                                _wins_count(r["wins"]), str(len(r["fails"]))] for _, r in g.iterrows()]))
         notes = []
         for _, r in g.iterrows():
             parts = []
@@ -214,7 +216,7 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tile
     if len(fails):
         lines += ["## Failed runs", ""]
         lines.append(md_table(["scene", "configuration", "error"],
-                               [[r["scene"], r["label"], r["error"]] for _, r in fails.iterrows()]))
+                              [[r["scene"], r["label"], r["error"]] for _, r in fails.iterrows()]))
         lines.append("")
     write_text_atomic(path, "\n".join(lines))
     return path
@@ -234,7 +236,7 @@ def agreement_markdown(results: pd.DataFrame) -> list[str]:
               "per scene over its configurations and averaged over the family's scenes: 1 = the same order, "
               "0 = unrelated, < 0 = reversed.", ""]
     lines.append(md_table(["scene family", "perceptual", "exact", "τ (mean)", "τ range", "scenes", "pairs",
-                            "most discordant pair"], agreement_rows(table)))
+                           "most discordant pair"], agreement_rows(table)))
     lines += [""] + [f"- {s}" for s in agreement_sentences(table)] + [""] + ([note, ""] if note else [])
     return lines
 

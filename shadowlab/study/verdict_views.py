@@ -156,6 +156,20 @@ def _pick_cell(r: pd.Series) -> dict:
             "tie": bool(r["runner_up_ties"]), "tip": " · ".join(x for x in (scope, runner) if x)}
 
 
+def _one_motion_if_same(g: pd.DataFrame) -> pd.DataFrame:
+    """``g`` (one metric's picks) with the still and moving rows merged into one "still or moving"
+    when every pick and time is the same for both (no candidate redoes work when the light moves):
+    two identical columns say nothing."""
+    key = ["level", "scene_family", "scene", "budget"]
+    still, moving = g[g["motion"] == "still"], g[g["motion"] == "moving"]
+    if not len(still) or not len(moving):
+        return g
+    both = still.merge(moving, on=key, suffixes=("", "_m"))
+    same = len(both) == len(still) == len(moving) and (both["label"] == both["label_m"]).all() and \
+        ((both["time_ms"] == both["time_ms_m"]) | (both["time_ms"].isna() & both["time_ms_m"].isna())).all()
+    return still.assign(motion="still or moving") if same else g
+
+
 def pick_views(picks: pd.DataFrame) -> list[dict]:
     """The pick table (:func:`~shadowlab.analysis.pick.pick_table`) as the page draws it: one table
     per verdict metric, ``columns`` (budget × motion) and ``rows`` (each scene family, then — under
@@ -164,6 +178,7 @@ def pick_views(picks: pd.DataFrame) -> list[dict]:
     if not len(picks):
         return out
     for metric, g in picks.groupby("metric", sort=False):
+        g = _one_motion_if_same(g)
         keys = list(dict.fromkeys(zip(g["budget"], g["motion"])))
         columns = [{"budget": budget_text(metric, b), "motion": m} for b, m in keys]
         rows = []

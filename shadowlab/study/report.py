@@ -33,7 +33,7 @@ from ..analysis.aggregate import (
 from ..analysis.pick import pick_table
 from ..analysis.verdicts import verdict_sentences, verdict_table
 from .verdict_views import (
-    pick_legend, pick_markdown, pick_views, thresholds_text, verdict_blocks, verdict_legend,
+    pick_legend, pick_markdown, pick_views, thresholds_text, value_text, verdict_blocks, verdict_legend,
 )
 from .tiles import read_tiles
 from ..util.files import write_text_atomic
@@ -336,17 +336,22 @@ def global_sentence(entry: dict) -> str:
 
 def _scene_table(c: pd.DataFrame, metric: str, scene_metric: str) -> dict:
     """A scene's configurations pooled over its lights (:func:`per_configuration`) as display
-    strings: the judged error first, the scene's own metric, then times."""
-    columns = ["configuration", metric, "false shadow", "false lit", "boundary px", "visibility MAE"]
+    strings: the judged error first (on a hard scene with the edge error beside it, the error the
+    verdicts decide by), the scene's own metric, then times."""
+    edge = metric == "error_rate" and c["edge_error_rate"].notna().any()
+    columns = ["configuration", metric] + (["edge error"] if edge else []) + ["false shadow", "false lit",
+                                                                             "boundary px", "visibility MAE"]
     if scene_metric:
         columns.append(scene_metric)
     columns += ["ms per frame", "set-up ms", "moving-light ms"]
     rows = []
     for _, r in c.iterrows():
         name = as_text(r["short_label"]) + (f" {DEGENERATE_MARK}" if r.get("degenerate") else "")
-        row = [name, _error_text(metric, r[metric]), _metric_text("false_shadow_rate",
-               r["false_shadow_rate"]), _metric_text("false_lit_rate", r["false_lit_rate"]),
-               _metric_text("boundary_error_px", r["boundary_error_px"]), fmt_num(r["visibility_mae"])]
+        row = [name, _error_text(metric, r[metric])] + ([value_text("edge_error_rate", r["edge_error_rate"])]
+                                                        if edge else [])
+        row += [_metric_text("false_shadow_rate", r["false_shadow_rate"]),
+                _metric_text("false_lit_rate", r["false_lit_rate"]),
+                _metric_text("boundary_error_px", r["boundary_error_px"]), fmt_num(r["visibility_mae"])]
         if scene_metric:
             row.append(_metric_text(scene_metric, r["scene_metric_value"]))
         row += [fmt_ms(r["time_ms"]), fmt_ms(r["setup_ms"]), fmt_ms(r["moving_ms"])]

@@ -20,6 +20,7 @@ import pandas as pd
 
 from shadowlab.analysis.verdicts import verdict_table
 from shadowlab.study.check import read_results
+from shadowlab.study.tiles import read_tiles
 from shadowlab.techniques import REGISTRY
 
 FAMILIES = ("volumes", "maps")
@@ -30,9 +31,10 @@ EXACT_MAPS = ("irregular_zbuffer",)
 PLAIN_VOLUMES = ("shadow_volume",)
 
 
-def standings(results: pd.DataFrame) -> pd.DataFrame:
-    """Per scene: the best verdict row of each family (technique, error, time) and the winners."""
-    verdicts = verdict_table(results)
+def standings(results: pd.DataFrame, tiles: dict | None = None) -> pd.DataFrame:
+    """Per scene: the best verdict row of each family (technique, error, time) and the winners
+    (``tiles``: the study's tiles.npz, for the verdicts' own significance tests)."""
+    verdicts = verdict_table(results, tiles=tiles)
     verdicts["family"] = verdicts["technique"].map(lambda t: getattr(REGISTRY.get(t), "FAMILY", ""))
     sampled = verdicts[(verdicts.family == "maps") & ~verdicts.technique.isin(EXACT_MAPS)].assign(family="sampled")
     plain = verdicts[verdicts.technique.isin(PLAIN_VOLUMES)].assign(family="plain")
@@ -81,7 +83,7 @@ def main() -> None:
     args = ap.parse_args()
     parts = []
     for study in args.studies:
-        table = standings(read_results(study))
+        table = standings(read_results(study), read_tiles(study))
         parts.append(f"## {study.name}\n\n" + markdown(table))
         wins = table.lower_error.value_counts().to_dict()
         exact = {fam: int((table[f"{fam}_error"] == 0).sum()) for fam in ("volumes", "plain", "maps", "sampled")}

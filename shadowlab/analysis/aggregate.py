@@ -29,8 +29,8 @@ FAIL_VISIBILITY_MAE = 0.02
 
 #: Columns of :func:`per_configuration`, in order.
 CONFIG_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "spec_label", "reference", "lights",
-                  "evaluated_pixels", "frame_pixels", "error_rate", "edge_error_rate", "false_shadow_rate",
-                  "false_lit_rate", "boundary_error_px", "visibility_mae", "time_ms", "time_iqr_ms", "time_lo_ms",
+                  "evaluated_pixels", "frame_pixels", "truth_boundary_pixels", "error_rate", "edge_error_rate",
+                  "false_shadow_rate", "false_lit_rate", "boundary_error_px", "visibility_mae", "time_ms", "time_iqr_ms", "time_lo_ms",
                   "time_hi_ms", "setup_ms", "preprocess_ms", "moving_ms", "scene_metric", "scene_metric_value",
                   "wrong_pixels", "degenerate", "run_dir", "shaded_image", "error_image", "signed_image",
                   "footprint_image"]
@@ -165,8 +165,9 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
     reference`` (bool: the ground truth) copied; ``spec_label`` (the spec as run: a tuned
     configuration's ``label`` is its entry's name); ``lights`` (rows pooled); ``evaluated_pixels``
     (sum over lights); ``frame_pixels`` (width × height); ``error_rate`` = the evaluated-pixel-weighted mean of the lights'
-    error rates (= pooled wrong / pooled evaluated); ``edge_error_rate`` weighted by the truth's
-    boundary pixels (= pooled wrong / pooled boundary; NaN in a study without the column); ``false_shadow_rate`` and
+    error rates (= pooled wrong / pooled evaluated); ``truth_boundary_pixels`` (sum over lights) and
+    ``edge_error_rate`` = pooled wrong / pooled boundary, from the counts (NaN in a study without
+    the columns, or when no light's truth has a boundary and some pixel is wrong); ``false_shadow_rate`` and
     ``false_lit_rate`` weighted likewise by their own denominators, ``truth_lit_pixels`` and
     ``truth_shadowed_pixels``, where those count columns exist (else by evaluated pixels);
     a pooled denominator of 0 gives 0 (docs/metrics.md); ``boundary_error_px`` = the mean over lights;
@@ -206,6 +207,11 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
         for rate, weight in _RATE_WEIGHTS.items():
             w = numeric(g, weight) if weight in g.columns else ev
             row[rate] = pooled(numeric(g, rate), w)
+        tb = numeric(g, "truth_boundary_pixels")
+        row["truth_boundary_pixels"] = float(tb.sum()) if not np.isnan(tb).any() else math.nan
+        edge = _pooled_edge(g)
+        if edge is not None:
+            row["edge_error_rate"] = edge
         be = numeric(g, "boundary_error_px")
         row["boundary_error_px"] = float(np.nanmean(be)) if not np.isnan(be).all() else math.nan
         t, iqr = numeric(g, "time_ms_median"), numeric(g, "time_ms_iqr")
@@ -231,6 +237,22 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
             row[col] = first[col] if col in g.columns else ""
         rows.append(row)
     return pd.DataFrame(rows, columns=CONFIG_COLUMNS)
+
+
+def _pooled_edge(rows: pd.DataFrame) -> float | None:
+    """The edge error rate of a configuration's lights pooled from their counts: Σ wrong / Σ
+    boundary, so that a light whose truth has no boundary loses none of its wrong pixels; NaN when
+    there is no boundary to count against and some pixel is wrong; None when a count is missing
+    (the rate column's own pooling stands then)."""
+    cols = ("truth_boundary_pixels", "false_shadow_pixels", "false_lit_pixels")
+    if not all(c in rows.columns for c in cols):
+        return None
+    boundary = numeric(rows, cols[0])
+    wrong = numeric(rows, cols[1]) + numeric(rows, cols[2])
+    if np.isnan(boundary).any() or np.isnan(wrong).any():
+        return None
+    b, w = float(boundary.sum()), float(wrong.sum())
+    return w / b if b > 0 else (0.0 if w == 0 else math.nan)
 
 
 def repeat_interval(rows: pd.DataFrame) -> tuple[float, float]:
@@ -330,9 +352,11 @@ def summary_table(results: pd.DataFrame) -> pd.DataFrame:
 
 def family_table(results: pd.DataFrame) -> pd.DataFrame:
     """Per scene family (in suite order): ``scene_family, scenes`` (count), ``best`` (the
-    configurations with the lowest median error rate over the family's scenes; ties all listed),
-    ``best_error_rate``, ``fastest`` (lowest median time), ``fastest_time_ms``, ``fastest_ok``
-    (fastest with median error ≤ :data:`FAIL_ERROR_RATE`; '' if none) and ``fastest_ok_time_ms``.
+    configurations with the lowest median judged error — error rate, or mean |V − G| on soft
+    scenes, :func:`judged_metric` — over the family's scenes; equal values all listed),
+    ``best_error_rate`` (that median, in the judged metric), ``fastest`` (lowest median time),
+    ``fastest_time_ms``, ``fastest_ok`` (fastest with median error within :func:`fail_threshold`;
+    '' if none) and ``fastest_ok_time_ms``.
     Candidates: the non-reference configurations that ran on the most of the family's scenes
     (all of them when any did), so that one lucky scene cannot win a family; ``coverage`` =
     "ran / scenes". Names are short labels."""
@@ -348,7 +372,7 @@ def family_table(results: pd.DataFrame) -> pd.DataFrame:
         scenes = list(fam_of.index[fam_of == fam])
         g = conf[conf["scene"].isin(scenes)]
         med = g.groupby("label", sort=False).agg(short_label=("short_label", "first"), n=("scene", "nunique"),
-                                                 err=("error_rate", "median"), time=("time_ms", "median"))
+                                                 err=(judged_metric(fam), "median"), time=("time_ms", "median"))
         row = {"scene_family": fam or "(none)", "scenes": len(scenes), "coverage": "", "best": "",
                "best_error_rate": math.nan, "fastest": "", "fastest_time_ms": math.nan, "fastest_ok": "",
                "fastest_ok_time_ms": math.nan}
@@ -363,7 +387,8 @@ def family_table(results: pd.DataFrame) -> pd.DataFrame:
             if len(timed):
                 fast = timed.sort_values(["time", "err"], kind="stable").iloc[0]
                 row["fastest"], row["fastest_time_ms"] = fast["short_label"], fast["time"]
-                good = timed[timed["err"] <= FAIL_ERROR_RATE].sort_values(["time", "err"], kind="stable")
+                good = timed[timed["err"] <= fail_threshold(judged_metric(fam))].sort_values(["time", "err"],
+                                                                                             kind="stable")
                 if len(good):
                     row["fastest_ok"], row["fastest_ok_time_ms"] = good.iloc[0]["short_label"], good.iloc[0]["time"]
         rows.append(row)

@@ -87,8 +87,8 @@ def pick_table(results: pd.DataFrame, budgets: list[Budget] | None = None, times
     ``budgets`` whose metric is the scene's verdict metric
     (:func:`~shadowlab.analysis.verdicts.verdict_metric`) and each motion of ``motions``
     ('still', 'moving'). ``times``: per (scene, spec_label) a ``time_ms`` to rank by instead of the
-    measured one (a cost model's prediction: ``predicted`` is then True and the repeat intervals
-    are the prediction itself); configurations without one are left out.
+    measured one, with its band ``time_lo_ms``, ``time_hi_ms`` (a cost model's prediction and its
+    error: ``predicted`` is then True); configurations without one are left out.
 
     Columns (:data:`PICK_COLUMNS`): ``level`` ('scene' or 'family'), ``scene_family``, ``scene``
     ('' for a family), ``metric``, ``budget``, ``motion``; the pick (``label``, ``short_label``,
@@ -102,11 +102,10 @@ def pick_table(results: pd.DataFrame, budgets: list[Budget] | None = None, times
     cfg = per_configuration(results)
     cand = _candidates(cfg)
     if times is not None:
-        cand = cand.drop(columns=["time_ms"]).merge(times[["scene", "spec_label", "time_ms"]],
-                                                    on=["scene", "spec_label"])
+        cand = cand.drop(columns=["time_ms", "time_lo_ms", "time_hi_ms"]).merge(
+            times[["scene", "spec_label", "time_ms", "time_lo_ms", "time_hi_ms"]], on=["scene", "spec_label"])
         cand = cand[cand["time_ms"].notna()]
-        cand = cand.assign(moving_ms=cand["time_ms"] + cand["preprocess_ms"], time_lo_ms=cand["time_ms"],
-                           time_hi_ms=cand["time_ms"])
+        cand = cand.assign(moving_ms=cand["time_ms"] + cand["preprocess_ms"])
     rows = []
     df = normalised(results) if len(results) else results
     scenes = scenes_in_order(df) if len(df) else []
@@ -120,14 +119,15 @@ def pick_table(results: pd.DataFrame, budgets: list[Budget] | None = None, times
             for motion in motions:
                 time_col = MOTIONS[motion]
                 pre = "preprocess_ms" if motion == "moving" else None
-                g = cand[cand["scene"].isin(fam_scenes)]
+                # a family's candidates: a value on every one of its scenes (NaN is no value)
+                g = cand[cand["scene"].isin(fam_scenes) & cand[metric].notna()]
                 covers = g.groupby("label", sort=False)["scene"].nunique()
                 g = g[g["label"].isin(covers.index[covers == len(fam_scenes)])]
-                pooled = g.assign(_pre=g["preprocess_ms"] if pre else 0.0).groupby("label", sort=False).agg(
+                g = g.assign(_lo=g["time_lo_ms"] + (g[pre] if pre else 0.0),
+                             _hi=g["time_hi_ms"] + (g[pre] if pre else 0.0))
+                pooled = g.groupby("label", sort=False).agg(
                     short_label=("short_label", "first"), technique=("technique", "first"), err=(metric, "max"),
-                    t=(time_col, "median"), _lo=("time_lo_ms", "median"), _hi=("time_hi_ms", "median"),
-                    _pre=("_pre", "median")).reset_index()
-                pooled = pooled.assign(_lo=pooled["_lo"] + pooled["_pre"], _hi=pooled["_hi"] + pooled["_pre"])
+                    t=(time_col, "median"), _lo=("_lo", "median"), _hi=("_hi", "median")).reset_index()
                 rows.append({"level": "family", "scene_family": fam, "scene": "", "metric": metric,
                              "budget": budget.value, "motion": motion, "scenes": len(fam_scenes),
                              "predicted": times is not None,

@@ -1,5 +1,5 @@
 """The study's verdicts (docs/metrics.md#verdicts-and-significance): per scene and technique family its best
-configuration, who is best in each scene's row by error and by time — ties decided by the tests
+configuration, who is best on each scene by error and by time — ties decided by the tests
 of :mod:`shadowlab.analysis.significance`, not by fixed tolerances — and one sentence per scene
 family with medians and their intervals over the family's scenes.
 
@@ -34,18 +34,20 @@ FULL_HD = (1920, 1080)
 
 
 def verdict_metric(scene_family: str, configurations: pd.DataFrame | None = None) -> str:
-    """The error a scene's verdicts are decided by: ``visibility_mae`` on a soft scene
+    """The error a scene family's verdicts are decided by: ``visibility_mae`` on soft scenes
     (:func:`~shadowlab.analysis.aggregate.judged_metric`), else ``edge_error_rate`` — wrong pixels
     per pixel of the truth's shadow boundary: what differs between hard-shadow techniques happens
     along edges, and as a share of every evaluated pixel their errors are tiny numbers nobody can
-    read. ``error_rate`` where ``configurations`` (per-configuration rows) have no edge figures
-    (a study older than the column)."""
+    read. ``error_rate`` where ``configurations`` (the family's per-configuration rows) have no
+    edge figures (a study older than the column) or a scene whose truth has no shadow boundary
+    (no edge to count errors against)."""
     metric = judged_metric(scene_family)
     if metric != "error_rate":
         return metric
-    if configurations is not None and ("edge_error_rate" not in configurations.columns
-                                       or configurations["edge_error_rate"].isna().all()):
-        return "error_rate"
+    if configurations is not None and len(configurations):
+        boundary = configurations.groupby("scene")["truth_boundary_pixels"].max()
+        if configurations["edge_error_rate"].isna().all() or not (boundary > 0).all():
+            return "error_rate"
     return "edge_error_rate"
 
 
@@ -59,9 +61,9 @@ def numerator_row(metric: str) -> int:
 
 #: Columns of :func:`verdict_table`.
 VERDICT_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "metric", "error", "error_rate",
-                   "wrong_full_hd", "time_ms", "time_lo_ms", "time_hi_ms", "moving_ms", "moving_lo_ms", "moving_hi_ms",
+                   "wrong_per_light", "wrong_full_hd", "time_ms", "time_lo_ms", "time_hi_ms", "moving_ms", "moving_lo_ms", "moving_hi_ms",
                    "setup_ms", "scene_metric", "scene_metric_value", "configurations", "failed", "why", "degenerate",
-                   "best_error", "best_time", "best_moving", "tested", "tiles"]
+                   "best_error", "best_time", "best_moving", "tested", "tiles", "denominator"]
 
 
 def _tiles_of(tiles: dict | None, scene: str, spec_label: str, metric: str):
@@ -69,9 +71,10 @@ def _tiles_of(tiles: dict | None, scene: str, spec_label: str, metric: str):
     return None if arr is None else np.asarray(arr)[numerator_row(metric)]
 
 
-def errors_tie(a: pd.Series, b: pd.Series) -> bool:
+def rows_tie_on_error(a: pd.Series, b: pd.Series) -> bool:
     """Whether two verdict rows of one scene tie on error: the paired tile bootstrap
-    (:func:`shadowlab.analysis.significance.errors_tie`) where both have tiles, else equal values."""
+    (:func:`shadowlab.analysis.significance.errors_tie`) where both have tiles of the same layout,
+    else equal values."""
     ta, tb = a.get("tiles"), b.get("tiles")
     if ta is not None and tb is not None and not is_missing(ta) and not is_missing(tb) and ta.shape == tb.shape:
         return sig.errors_tie(ta, tb)
@@ -82,7 +85,7 @@ def _interval(row, col: str) -> tuple[float, float]:
     return float(row[f"{col}_lo_ms"]), float(row[f"{col}_hi_ms"])
 
 
-def times_tie(a, b, col: str = "time") -> bool:
+def rows_tie_on_time(a, b, col: str = "time") -> bool:
     """Whether two verdict rows tie on static (``col`` 'time') or moving ('moving') time: their
     repeat intervals overlap (:func:`shadowlab.analysis.significance.intervals_overlap`)."""
     return sig.intervals_overlap(_interval(a, col), _interval(b, col))
@@ -97,20 +100,23 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None, tile
     the family is degenerate is one chosen, and then it is marked (``degenerate``) and fails.
 
     Columns (:data:`VERDICT_COLUMNS`): ``metric`` (the verdict error's column) and ``error`` (its
-    value); ``error_rate`` (the share of all evaluated pixels) and ``wrong_full_hd`` (the wrong
-    pixels per light restated for a 1920×1080 frame: the same share of the frame); ``time_ms``
+    value); ``error_rate`` (the share of all evaluated pixels), ``wrong_per_light`` (the wrong
+    pixels per light) and ``wrong_full_hd`` (those restated for a 1920×1080 frame with the same
+    share of its pixels wrong); ``time_ms``
     (static light: per-frame time), ``moving_ms`` (moving light: plus the light-dependent
     preprocessing), each with its repeat interval (``*_lo_ms``, ``*_hi_ms``); ``setup_ms``; the
     scene's own metric and its value; ``configurations`` (how many of the family's ran);
     ``failed`` (bool: the chosen configuration's error is above
     :func:`~shadowlab.analysis.aggregate.fail_threshold` — thresholded ``error_rate`` above 1 %,
     soft scenes mean |V − G| above 0.02 —, it is degenerate, or every run failed) and ``why``;
-    ``degenerate``; ``best_error`` (bool: the lowest error of the scene's row among the families
+    ``degenerate``; ``best_error`` (bool: the lowest error of the scene among the families
     whose choice is not degenerate, or not told apart from it by the paired tile bootstrap at
     95 %, :mod:`shadowlab.analysis.significance`); ``best_time`` / ``best_moving`` (the fastest of
-    the row among the families that do not fail, or whose repeat interval overlaps its);
+    the scene among the families that do not fail, or whose repeat interval overlaps its);
     ``tested`` (the error tie was tested on tiles, not by equality); ``tiles`` (the per-tile
-    numerators of the verdict error, or None: ``tiles`` not given or missing for it)."""
+    numerators of the verdict error, or None: ``tiles`` not given or missing for it);
+    ``denominator`` (the verdict error's pooled denominator: the truth's boundary pixels or the
+    evaluated pixels). The verdict metric is decided per scene family (:func:`verdict_metric`)."""
     if results is None or not len(results):
         return pd.DataFrame(columns=VERDICT_COLUMNS)
     cfg = per_configuration(results, scene_metrics)
@@ -120,9 +126,11 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None, tile
     df = normalised(results)
     fam_of = df.drop_duplicates("scene").set_index("scene")["scene_family"].map(as_text)
     rows = []
+    family_metric = {fam: verdict_metric(fam, conf[conf["scene"].isin(fam_of.index[fam_of == fam])])
+                     for fam in dict.fromkeys(fam_of)}
     for scene in scenes_in_order(df):
         g = conf[conf["scene"] == scene]
-        metric = verdict_metric(fam_of.get(scene, ""), g)
+        metric = family_metric[fam_of.get(scene, "")]
         fail_metric = judged_metric(fam_of.get(scene, ""))
         limit = fail_threshold(fail_metric)
         f = fails[fails["scene"] == scene] if len(fails) else fails
@@ -145,10 +153,13 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None, tile
                            moving_lo_ms=best["time_lo_ms"] + best["preprocess_ms"],
                            moving_hi_ms=best["time_hi_ms"] + best["preprocess_ms"], setup_ms=best["setup_ms"],
                            scene_metric=best["scene_metric"], scene_metric_value=best["scene_metric_value"],
-                           tiles=_tiles_of(tiles, scene, best["spec_label"], metric))
+                           tiles=_tiles_of(tiles, scene, best["spec_label"], metric),
+                           denominator=best["truth_boundary_pixels" if metric == "edge_error_rate"
+                                         else "evaluated_pixels"])
                 pixels, lights = best["frame_pixels"], best["lights"]
                 if not (is_missing(best["wrong_pixels"]) or is_missing(pixels)) and pixels > 0:
-                    row["wrong_full_hd"] = best["wrong_pixels"] / lights * FULL_HD[0] * FULL_HD[1] / pixels
+                    row["wrong_per_light"] = best["wrong_pixels"] / lights
+                    row["wrong_full_hd"] = row["wrong_per_light"] * FULL_HD[0] * FULL_HD[1] / pixels
                 row["degenerate"] = bool(best["_deg"])
                 over = bool(best[fail_metric] > limit)
                 row["failed"] = over or row["degenerate"]
@@ -163,11 +174,11 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None, tile
     out = pd.DataFrame(rows, columns=VERDICT_COLUMNS)
     for _, idx in out.groupby("scene", sort=False).groups.items():
         part = out.loc[idx]
-        sound = part[~part["degenerate"].astype(bool) & part["error"].notna()]  # a lost shadow's small error is no row's best
+        sound = part[~part["degenerate"].astype(bool) & part["error"].notna()]  # a lost shadow's small error is no scene's best
         if len(sound):
             best = sound.loc[sound["error"].idxmin()]
             for i, r in sound.iterrows():
-                out.at[i, "best_error"] = bool(i == best.name or errors_tie(r, best))
+                out.at[i, "best_error"] = bool(i == best.name or rows_tie_on_error(r, best))
                 out.at[i, "tested"] = (r["tiles"] is not None and best["tiles"] is not None
                                        and r["tiles"].shape == best["tiles"].shape)
         ok = part[~part["failed"].astype(bool)]
@@ -176,52 +187,100 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None, tile
             if len(timed):
                 fastest = timed.loc[timed[f"{col}_ms"].idxmin()]
                 for i, r in timed.iterrows():
-                    out.at[i, flag] = bool(i == fastest.name or times_tie(r, fastest, col))
+                    out.at[i, flag] = bool(i == fastest.name or rows_tie_on_time(r, fastest, col))
     return out
 
 
 # --------------------------------------------------------------------------- sentences
 
-def _range_text(show, med: float, lo: float, hi: float) -> str:
-    if lo == hi:
+def _median_text(show, med: float, lo: float, hi: float, coverage: float, n: int) -> str:
+    """A median over the scenes with its interval: "95 % interval" when the order statistics give
+    one, else the range over the scenes (:func:`~shadowlab.analysis.significance.median_interval`)."""
+    if n <= 1 or lo == hi:
         return show(med)
-    return f"{show(med)}, {100 * sig.LEVEL:g} % interval {show(lo)}–{show(hi)}"
+    what = f"{100 * sig.LEVEL:g} % interval" if coverage >= sig.LEVEL else f"range over the {n} scenes"
+    return f"{show(med)}; {what} {show(lo)}–{show(hi)}"
 
 
-def _per_scene_diffs(g: pd.DataFrame, tech: str, best: str, tie, value: str) -> list[float]:
-    """Per scene of ``g`` (verdict rows of one scene family) where both ran: ``tech``'s ``value``
-    minus ``best``'s, 0 where ``tie`` (a per-scene test of the two rows) says they tie."""
-    out = []
+def _pairs(g: pd.DataFrame, tech: str, best: str):
+    """Per scene of ``g`` (verdict rows of one scene family) where both ran with a value: the two
+    verdict rows."""
     for _, s in g.groupby("scene", sort=False):
         a, b = s[s["technique"] == tech], s[s["technique"] == best]
-        if not (len(a) and len(b)) or is_missing(a.iloc[0][value]) or is_missing(b.iloc[0][value]):
+        if len(a) and len(b):
+            yield a.iloc[0], b.iloc[0]
+
+
+def _outcomes(g: pd.DataFrame, tech: str, best: str, value: str, tie) -> tuple[list[float], int, int]:
+    """``tech`` against ``best`` scene by scene: the differences of ``value`` (0 where ``tie`` says
+    the scene's own test ties them), and on how many scenes ``tech`` is worse and better."""
+    diffs = []
+    for a, b in _pairs(g, tech, best):
+        if is_missing(a[value]) or is_missing(b[value]):
             continue
-        ra, rb = a.iloc[0], b.iloc[0]
-        out.append(0.0 if tie(ra, rb) else float(ra[value]) - float(rb[value]))
-    return out
+        diffs.append(0.0 if tie(a, b) else float(a[value]) - float(b[value]))
+    return diffs, sum(d > 0 for d in diffs), sum(d < 0 for d in diffs)
 
 
-def _leaders(g: pd.DataFrame, techs: list[str], value: str, tie) -> tuple[str, list[str], tuple]:
-    """The technique with the lowest median ``value`` over the family's scenes, the others it is
-    not :func:`~shadowlab.analysis.significance.separated` from, and its (median, low, high)."""
+def _errors_separated(g: pd.DataFrame, tech: str, best: str) -> bool | None:
+    """Whether ``tech``'s error differs from ``best``'s over the family's scenes by the tile
+    bootstrap of all of them at once (:func:`~shadowlab.analysis.significance.stratified_interval`);
+    None when a scene lacks tiles (the caller then compares scene by scene)."""
+    pairs = []
+    for a, b in _pairs(g, tech, best):
+        ta, tb = a["tiles"], b["tiles"]
+        if ta is None or tb is None or is_missing(a["denominator"]) or ta.shape != tb.shape:
+            return None
+        pairs.append((ta, tb, float(a["denominator"])))
+    if not pairs:
+        return None
+    lo, hi = sig.stratified_interval(pairs)
+    return not (lo <= 0.0 <= hi)
+
+
+def _leaders(g: pd.DataFrame, techs: list[str], value: str, tie,
+             pooled_test=None) -> tuple[str, list[tuple[str, int, int, int]], tuple, int]:
+    """The technique with the lowest median ``value`` over the family's scenes; the others it is not
+    told apart from, each with (name, scenes compared, scenes where it is worse, better) —
+    ``pooled_test`` (tech, best) → separated or None decides where it can, else
+    :func:`~shadowlab.analysis.significance.separated` on the per-scene differences; and the
+    leader's (median, low, high, coverage) with its scene count."""
     med = {t: sig.median_interval(g.loc[g["technique"] == t, value]) for t in techs}
     med = {t: m for t, m in med.items() if not math.isnan(m[0])}
     if not med:
-        return "", [], (math.nan, math.nan, math.nan)
+        return "", [], (math.nan, math.nan, math.nan, math.nan), 0
     best = min(med, key=lambda t: (med[t][0], techs.index(t)))
-    tied = [t for t in med if t != best and not sig.separated(_per_scene_diffs(g, t, best, tie, value))]
-    tied.sort(key=lambda t: (med[t][0], techs.index(t)))
-    return best, tied, med[best]
+    tied = []
+    for t in sorted((t for t in med if t != best), key=lambda t: (med[t][0], techs.index(t))):
+        diffs, worse, better = _outcomes(g, t, best, value, tie)
+        apart = pooled_test(t, best) if pooled_test is not None else None
+        if not (sig.separated(diffs) if apart is None else apart):
+            tied.append((t, len(diffs), worse, better))
+    return best, tied, med[best], int(g.loc[g["technique"] == best, value].notna().sum())
+
+
+def _tied_text(tied, lead: str, level: str) -> str:
+    """", not told apart from it at 95 %: A (worse on 2 of 3 scenes), B" — each with its record."""
+    def record(name, n, worse, better):
+        if n <= 1 or not (worse or better):
+            return name
+        parts = ([f"worse on {worse}"] if worse else []) + ([f"better on {better}"] if better else [])
+        return f"{name} ({' and '.join(parts)} of {n} scenes)"
+
+    return f", {lead} at {level}: " + ", ".join(record(*t) for t in tied) if tied else ""
 
 
 def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
     """One sentence per scene family, from :func:`verdict_table`: (family, sentence) saying who is
-    most accurate — the lowest median error over the family's scenes, with its bootstrap interval
-    over the scenes, among the techniques that ran on most of them and fail none (the median would
-    hide a failure) — and which techniques cannot be told apart from it
-    (:func:`~shadowlab.analysis.significance.separated` on the per-scene differences, each 0 where
-    that scene's paired test ties); who is fastest for a static and for a moving light among the
-    techniques that fail none of those scenes, likewise; and who fails where."""
+    most accurate — the lowest median error over the family's scenes, with its order-statistic
+    interval over the scenes (or their range), among the techniques that ran on most of them and
+    fail none (the median would hide a failure) — and which techniques cannot be told apart from
+    it (the tile bootstrap over all the family's scenes at once,
+    :func:`~shadowlab.analysis.significance.stratified_interval`; without tiles,
+    :func:`~shadowlab.analysis.significance.separated` on the per-scene differences), each with
+    the scenes where it is worse or better; who is fastest for a static and for a moving light
+    among the techniques that fail none of those scenes (per-scene differences, 0 where the repeat
+    intervals overlap, :func:`~shadowlab.analysis.significance.separated`); and who fails where."""
     out = []
     if not len(verdicts):
         return out
@@ -240,28 +299,28 @@ def verdict_sentences(verdicts: pd.DataFrame) -> list[tuple[str, str]]:
         if (scored["fails"] == 0).any():  # a technique that fails a scene of the family is not its most accurate
             scored = scored[scored["fails"] == 0]
         if len(scored):
-            best, tied, (med, lo, hi) = _leaders(g, list(scored.index), "error", errors_tie)
-            text = f"most accurate: {best} (median {metric_name(metric)} {_range_text(show, med, lo, hi)})"
-            if tied:
-                text += f", not told apart from it at {level}: {', '.join(tied)}"
-            parts.append(text)
+            best, tied, (med, lo, hi, cover), k = _leaders(g, list(scored.index), "error", rows_tie_on_error,
+                                                           lambda t, b: _errors_separated(g, t, b))
+            parts.append(f"most accurate: {best} (median {metric_name(metric)} "
+                         f"{_median_text(show, med, lo, hi, cover, k)})"
+                         + _tied_text(tied, "not told apart from it", level))
         sound = list(full.index[full["fails"] == 0])
         sound = [t for t in sound if g.loc[g["technique"] == t, "time_ms"].notna().all()]
         if sound:
             ms = lambda v: f"{fmt_table_ms(v)} ms"  # noqa: E731 - a local formatter
-            fast, fast_tied, (m, lo, hi) = _leaders(g, sound, "time_ms", lambda a, b: times_tie(a, b, "time"))
-            text = f"fastest for a static light: {fast} ({_range_text(ms, m, lo, hi)})"
-            if fast_tied:
-                text += f", tied with it: {', '.join(fast_tied)}"
-            parts.append(text)
-            move, move_tied, (m, lo, hi) = _leaders(g, sound, "moving_ms", lambda a, b: times_tie(a, b, "moving"))
-            if [move] + move_tied == [fast] + fast_tied:
+            fast, fast_tied, (m, lo, hi, cover), k = _leaders(g, sound, "time_ms",
+                                                              lambda a, b: rows_tie_on_time(a, b, "time"))
+            parts.append(f"fastest for a static light: {fast} ({_median_text(ms, m, lo, hi, cover, k)})"
+                         + _tied_text(fast_tied, "tied with it", level))
+            move, move_tied, (m, lo, hi, cover), k = _leaders(g, sound, "moving_ms",
+                                                              lambda a, b: rows_tie_on_time(a, b, "moving"))
+            names = lambda lead, ties: [lead] + [t[0] for t in ties]  # noqa: E731
+            if names(move, move_tied) == names(fast, fast_tied):
                 parts.append("the same for a moving light")
             else:
-                text = f"for a moving light: {move} ({_range_text(ms, m, lo, hi)})"
-                if move_tied:
-                    text += f", tied with it: {', '.join(move_tied)}"
-                if fast not in [move] + move_tied:
+                text = (f"for a moving light: {move} ({_median_text(ms, m, lo, hi, cover, k)})"
+                        + _tied_text(move_tied, "tied with it", level))
+                if fast not in names(move, move_tied):
                     pre = sig.median_interval(g.loc[g["technique"] == fast, "moving_ms"])[0]
                     text += f"; {fast} needs {ms(pre)} with its per-light preprocessing"
                 parts.append(text)

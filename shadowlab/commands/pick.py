@@ -41,6 +41,8 @@ def parse_budget(text: str) -> Budget:
     metric = BUDGET_METRICS[name]
     if pct and metric == "visibility_mae":
         raise RunError(f"--budget {text!r}: mean |V − G| is not a percentage (e.g. mae=0.005)")
+    if not pct and metric != "visibility_mae" and value >= 1:
+        raise RunError(f"--budget {text!r} would be {100 * value:g} % of the pixels; did you mean {name}={number}%?")
     value = value / 100 if pct else value
     if not (np.isfinite(value) and value > 0):
         raise RunError(f"--budget {text!r}: the budget must be a positive number")
@@ -63,7 +65,9 @@ def _read(study: Path) -> pd.DataFrame:
 
 def predicted_times(results: pd.DataFrame, model_path: Path) -> tuple[pd.DataFrame, object]:
     """Per (scene, configuration as run) the model's predicted time per frame — the sum over the
-    scene's lights, NaN where a light has none — and the model."""
+    scene's lights, NaN where a light has none — with a band of the model's leave-one-scene-out
+    median relative error either side (two picks tie on time when their bands overlap), and the
+    model."""
     from ..analysis import cost
 
     try:
@@ -71,10 +75,14 @@ def predicted_times(results: pd.DataFrame, model_path: Path) -> tuple[pd.DataFra
         table = cost.predict(results, model)
     except (cost.CostModelError, ValueError) as exc:
         raise RunError(str(exc)) from None
-    table = table.assign(spec_label=table["label"])
+    # a tuned entry's copies of a spec's rows (same label, light) would count the light twice
+    table = table.drop_duplicates(["scene", "label", "light"]).assign(spec_label=table["label"])
     col = f"{cost.PREDICTED_LABEL}_ms"
     per = table.groupby(["scene", "spec_label"], sort=False)[col].agg(lambda v: v.sum(min_count=len(v)))
-    return per.rename("time_ms").reset_index(), model
+    per = per.rename("time_ms").reset_index()
+    # the prediction's band: its cross-validated median relative error either side
+    band = model.cv_median_rel_error if model.cv_median_rel_error == model.cv_median_rel_error else 0.0
+    return per.assign(time_lo_ms=per["time_ms"] * (1 - band), time_hi_ms=per["time_ms"] * (1 + band)), model
 
 
 def pick_command(study, budgets: list[str] | None = None, model: str | None = None, scene: str | None = None,
@@ -96,13 +104,20 @@ def pick_command(study, budgets: list[str] | None = None, model: str | None = No
         unpriced = times[times["time_ms"].isna() & ~times["spec_label"].isin(truth)]
         if len(unpriced):
             what += f"; {unpriced['spec_label'].nunique()} configuration(s) it cannot price are left out"
-    motions = ("still", "moving") if motion is None else (motion,)
-    if model is not None and motion is None:
-        motions = ("still",)  # the model prices a frame's GPU work, not the CPU preprocessing of a moving light
+    if model is not None and motion == "moving":
+        raise RunError("--model predicts a still light's time per frame only: a moving light adds CPU "
+                       "preprocessing measured on this machine, which the model does not price (drop --motion moving)")
+    # the model prices a frame's GPU work, not the CPU preprocessing of a moving light
+    motions = ("still",) if model is not None else ("still", "moving") if motion is None else (motion,)
     table = pick_table(results, parsed, times, motions)
     if scene is not None:
         known = sorted(set(table["scene"]) - {""} | set(table["scene_family"]))
         if scene not in known:
+            everything = pick_table(results, default_budgets(), None, ("still",))
+            judged = everything[(everything["scene"] == scene) | (everything["scene_family"] == scene)]
+            if len(judged):
+                raise RunError(f"--scene {scene!r} is judged on {judged['metric'].iloc[0]}: give a budget in it "
+                               f"(hard scenes: edge=…, soft scenes: mae=…)")
             raise RunError(f"--scene {scene!r}: no such scene or scene family in {study}"
                            f"{did_you_mean(scene, known)}")
         table = table[(table["scene"] == scene) | (table["scene_family"] == scene)]  # a family: with its scenes
@@ -115,8 +130,9 @@ def pick_command(study, budgets: list[str] | None = None, model: str | None = No
 
 def pick_text(table: pd.DataFrame, what: str) -> str:
     """The pick table as the command prints it: per metric, budget and motion a block with one
-    line per scene family (its scenes indented under it)."""
-    from ..study.verdict_views import budget_text, value_text
+    line per scene family (its scenes indented under it; a family of one scene on one line), each
+    pick in the words of the page (:func:`shadowlab.study.verdict_views.pick_line`)."""
+    from ..study.verdict_views import budget_text, pick_line
 
     lines = [f"The cheapest configuration within each budget ({what}):"]
     for (metric, budget, motion), g in table.groupby(["metric", "budget", "motion"], sort=False):
@@ -130,16 +146,5 @@ def pick_text(table: pd.DataFrame, what: str) -> str:
             name = (f"  {r['scene_family'] or '(none)'}" + (f" ({r['scenes']} scenes)" if r["scenes"] > 1 else
                                                               f" ({only.iloc[0]})" if len(only) else "")
                     if r["level"] == "family" else f"    {r['scene']}")
-            if not r["label"]:
-                closest = (f"; closest: {r['most_accurate']} at {value_text(metric, r['most_accurate_error'])}"
-                           if r["most_accurate"] else "")
-                lines.append(f"{name:{width}s}  nothing within the budget{closest}")
-                continue
-            runner = (f"; next {r['runner_up']} {r['runner_up_ms']:.3g} ms" + (" (tied on time)" if r["runner_up_ties"]
-                                                                               else "")
-                      if r["runner_up"] else "; the only one within it")
-            scope = f" (worst of {int(r['scenes'])} scenes, median time)" if r["level"] == "family" and r["scenes"] > 1 else ""
-            lines.append(f"{name:{width}s}  {r['short_label']}: {r['time_ms']:.3g} ms, "
-                         f"{value_text(metric, r['error'])} = {100 * r['error'] / r['budget']:.0f} % of the budget"
-                         f"{scope}{runner}")
+            lines.append(f"{name:{width}s}  {pick_line(r)}")
     return "\n".join(lines)

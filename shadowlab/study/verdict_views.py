@@ -40,7 +40,9 @@ def budget_text(metric: str, value: float) -> str:
     return f"{metric_name(metric)} ≤ {shown}"
 
 
-def _scene_metric_text(metric: str, value) -> str:
+def metric_text(metric: str, value) -> str:
+    """A value of metrics column ``metric`` as the tables show it (its format in
+    :data:`shadowlab.evaluation.metrics.COLUMNS`); '' when missing."""
     if is_missing(value) or not metric:
         return ""
     col = COLUMN_BY_NAME.get(metric)
@@ -50,22 +52,26 @@ def _scene_metric_text(metric: str, value) -> str:
 def _cell(r: pd.Series) -> dict:
     """One verdict cell: what it shows and its tooltip."""
     error = value_text(r["metric"], r["error"])
-    scene_metric = _scene_metric_text(as_text(r["scene_metric"]), r["scene_metric_value"])
+    scene_metric = metric_text(as_text(r["scene_metric"]), r["scene_metric_value"])
     tip = [as_text(r["short_label"])]
     if scene_metric:
         tip.append(f"{r['scene_metric']} {scene_metric}")
     if r["metric"] != "visibility_mae" and not is_missing(r["error_rate"]):
-        tip.append(f"{fmt_table_pct(r['error_rate'])} of all evaluated pixels wrong"
-                   + (f" ≈ {float(r['wrong_full_hd']):,.0f} wrong pixels per light at {FULL_HD[0]}×{FULL_HD[1]}"
-                      f" (the same share of the frame)" if not is_missing(r["wrong_full_hd"]) else ""))
+        tip.append(f"{fmt_table_pct(r['error_rate'])} of the evaluated pixels wrong"
+                   + (f"; {float(r['wrong_per_light']):,.0f} wrong pixels per light in this frame, "
+                      f"≈ {float(r['wrong_full_hd']):,.0f} in a {FULL_HD[0]}×{FULL_HD[1]} frame with the same share of "
+                      f"its pixels wrong" if not is_missing(r["wrong_full_hd"]) else ""))
     if not is_missing(r["time_ms"]):
         tip.append(f"{fmt_ms(r['time_ms'])} ms per frame, repeats {fmt_ms(r['time_lo_ms'])}–{fmt_ms(r['time_hi_ms'])}")
     if bool(r["failed"]) and as_text(r["why"]):
         tip.append(f"fails: {r['why']}")
     moving = r["moving_ms"]
-    return {"config": "" if as_text(r["short_label"]) == r["technique"] else as_text(r["short_label"]),
+    differs = not is_missing(moving) and not is_missing(r["time_ms"]) and moving > r["time_ms"] * 1.05
+    label = as_text(r["short_label"])
+    return {"config": "" if label == r["technique"] else label.split(":", 1)[-1],
             "error": error, "time": fmt_ms(r["time_ms"]), "moving": fmt_ms(moving),
-            "moves_differ": not is_missing(moving) and not is_missing(r["time_ms"]) and moving > r["time_ms"] * 1.05,
+            # the moving time is shown where it differs, and where it wins (bold) though it does not
+            "moves_differ": differs or bool(r["best_moving"]),
             "scene_metric": scene_metric,
             "failed": bool(r["failed"]), "why": as_text(r["why"]), "best_error": bool(r["best_error"]),
             "degenerate": bool(r["degenerate"]) if not is_missing(r["degenerate"]) else False,
@@ -89,17 +95,19 @@ def _blocks_of(scenes_by_family: dict[str, list[str]]) -> list[list[tuple[str, l
     return blocks
 
 
-def verdict_blocks(verdicts: pd.DataFrame, scenes_meta: dict) -> list[dict]:
+def verdict_blocks(verdicts: pd.DataFrame, scenes_meta: dict, scene_order: list[str] | None = None) -> list[dict]:
     """The verdict table (:func:`~shadowlab.analysis.verdicts.verdict_table`) as blocks: per block
     ``groups`` ([(scene family, number of scenes)]), ``scenes`` (per column: name, family, verdict
-    metric, the scene's own metric, its index in the suite for the page's anchors) and ``rows``
+    metric, the scene's own metric, its index in ``scene_order`` — the page's scene sections, the
+    anchors' targets — or else among the verdicts' scenes) and ``rows``
     (per technique family that ran on one of the block's scenes: its name and per column a cell
     dict, or None where it did not run)."""
     if not len(verdicts):
         return []
-    order = list(dict.fromkeys(verdicts["scene"]))
+    order = list(dict.fromkeys(list(scene_order or []) + list(verdicts["scene"])))
+    shown = list(dict.fromkeys(verdicts["scene"]))
     by_family: dict[str, list[str]] = {}
-    for scene in order:
+    for scene in shown:
         fam = as_text(verdicts.loc[verdicts["scene"] == scene, "scene_family"].iloc[0])
         by_family.setdefault(fam, []).append(scene)
     cells = {(r["scene"], r["technique"]): _cell(r) for _, r in verdicts.iterrows()}
@@ -118,42 +126,70 @@ def verdict_blocks(verdicts: pd.DataFrame, scenes_meta: dict) -> list[dict]:
     return out
 
 
-def verdict_legend(verdicts: pd.DataFrame, thresholds: dict) -> str:
-    """The sentence under the verdict table: what a cell holds and how ties are decided."""
+def verdict_legend(verdicts: pd.DataFrame, thresholds: dict, page: bool = True) -> str:
+    """The sentence under the verdict table: what a cell holds and how ties are decided — by the
+    paired tile bootstrap where the study has tiles (``verdicts['tested']``), else by equality;
+    ``page``: the HTML page (hover for details) rather than markdown (the configuration in the
+    cell)."""
     metrics = list(dict.fromkeys(verdicts["metric"])) if len(verdicts) else []
     what = "; ".join(f"{metric_name(m)}" + (": wrong pixels per pixel of the truth's shadow boundary"
                                             if m == "edge_error_rate" else
                                             ": share of the evaluated pixels" if m == "error_rate" else
                                             " on soft scenes") for m in metrics)
+    tested = bool(len(verdicts) and verdicts["tested"].astype(bool).any())
+    ties = (f"with every family a paired tile bootstrap cannot tell from it at {thresholds['level']}" if tested else
+            "with every family of exactly the same error (this study has no tiles.npz: no significance test)")
+    details = (f"hover for the configuration, its share of the evaluated pixels and the same share of a "
+               f"{FULL_HD[0]}×{FULL_HD[1]} frame" if page else
+               "the configuration's parameters in brackets where it is not the family's default")
     return (f"Each cell: the family's best configuration on the scene (lowest error) — its error ({what}) —, its ms "
-            f"per frame for a static light and, where the technique redoes preprocessing whenever the light moves, "
-            f"for a moving light; hover for the configuration, its share of all pixels and the same share of a "
-            f"{FULL_HD[0]}×{FULL_HD[1]} frame. Bold: best in the scene's column, with every family a paired tile "
-            f"bootstrap cannot tell from it at {thresholds['level']}; times whose repeat intervals (first to third "
-            f"quartile) overlap the fastest's, among the families that do not fail. ✗ = fails: error rate above "
-            f"{thresholds['error_rate']} of the evaluated pixels (soft scenes: mean |V − G| above "
-            f"{thresholds['visibility_mae']}) or the run failed.")
+            f"per frame for a static light and (↻, moving) for a moving light, where the technique redoes "
+            f"preprocessing whenever the light moves or wins there; {details}. Bold: best in the scene's column, "
+            f"{ties}; times whose repeat intervals (first to third quartile) overlap the fastest's, among the families "
+            f"that do not fail. ✗ = fails — decided by the share of the evaluated pixels, not by the edge error shown: "
+            f"error rate above {thresholds['error_rate']} (soft scenes: mean |V − G| above "
+            f"{thresholds['visibility_mae']}), or the run failed.")
 
 
 # --------------------------------------------------------------------------- the pick
 
-def _pick_cell(r: pd.Series) -> dict:
-    """One pick: the configuration, its figures and margins, or what comes closest."""
+def pick_phrases(r: pd.Series) -> dict:
+    """One pick (a row of :func:`~shadowlab.analysis.pick.pick_table`) in the words every output
+    uses — the page, summary.md, the README and ``shadowlab pick``: ``name``, ``time``, ``share``
+    (its error and the share of the budget it uses), ``scope`` (a family's: its worst scene and
+    median time), ``runner`` (the runner-up, and whether it is a toss-up on time), ``tie``; or, when
+    nothing is within the budget, ``name`` '' and ``closest``."""
     if not as_text(r["label"]):
-        closest = (f"closest: {r['most_accurate']} at {value_text(r['metric'], r['most_accurate_error'])}"
-                   if as_text(r["most_accurate"]) else "")
-        return {"name": "", "text": "nothing within it", "detail": closest, "tip": closest}
+        return {"name": "", "closest": (f"closest: {r['most_accurate']} at "
+                                        f"{value_text(r['metric'], r['most_accurate_error'])}"
+                                        if as_text(r["most_accurate"]) else "")}
     used = r["error"] / r["budget"] if r["budget"] else 0.0
-    time = f"{fmt_ms(r['time_ms'])} ms" + (" predicted" if bool(r["predicted"]) else "")
-    detail = f"{value_text(r['metric'], r['error'])} ({100 * used:.0f} % of the budget)"
-    if as_text(r["runner_up"]):
-        runner = (f"next: {r['runner_up']} {fmt_ms(r['runner_up_ms'])} ms"
-                  + (" — tied on time" if bool(r["runner_up_ties"]) else ""))
-    else:
-        runner = "the only one within the budget"
-    scope = f"worst of {int(r['scenes'])} scenes; median time" if r["level"] == "family" and r["scenes"] > 1 else ""
-    return {"name": as_text(r["short_label"]), "text": time, "detail": detail, "runner": runner,
-            "tie": bool(r["runner_up_ties"]), "tip": " · ".join(x for x in (scope, runner) if x)}
+    runner = (f"next {r['runner_up']} {fmt_ms(r['runner_up_ms'])} ms"
+              + (" (tied on time)" if bool(r["runner_up_ties"]) else "")
+              if as_text(r["runner_up"]) else "the only one within the budget")
+    many = r["level"] == "family" and r["scenes"] > 1
+    return {"name": as_text(r["short_label"]),
+            "time": f"{fmt_ms(r['time_ms'])} ms" + (" predicted" if bool(r["predicted"]) else ""),
+            "share": f"{value_text(r['metric'], r['error'])} = {100 * used:.0f} % of the budget",
+            "scope": f"worst of {int(r['scenes'])} scenes, median time" if many else "",
+            "runner": runner, "tie": bool(r["runner_up_ties"])}
+
+
+def pick_line(r: pd.Series) -> str:
+    """One pick as a line of text: "A: 1.50 ms, 0.05 % = 5 % of the budget; next B 2.00 ms"."""
+    p = pick_phrases(r)
+    if not p["name"]:
+        return "nothing within the budget" + (f"; {p['closest']}" if p["closest"] else "")
+    return f"{p['name']}: {p['time']}, {p['share']}" + (f" ({p['scope']})" if p["scope"] else "") + f"; {p['runner']}"
+
+
+def _pick_cell(r: pd.Series) -> dict:
+    """One pick as a page cell: its phrases and a tooltip."""
+    p = pick_phrases(r)
+    if not p["name"]:
+        return {"name": "", "text": "nothing within it", "detail": p["closest"], "tip": p["closest"]}
+    return {"name": p["name"], "text": p["time"], "detail": p["share"], "runner": p["runner"], "tie": p["tie"],
+            "tip": " · ".join(x for x in (p["scope"], p["runner"]) if x)}
 
 
 def _one_motion_if_same(g: pd.DataFrame) -> pd.DataFrame:
@@ -187,7 +223,8 @@ def pick_views(picks: pd.DataFrame) -> list[dict]:
             levels = [("family", "")] + ([("scene", s) for s in scenes] if len(scenes) > 1 else [])
             for level, scene in levels:
                 part = f[(f["level"] == level) & (f["scene"] == scene)] if level == "scene" else f[f["level"] == level]
-                cells = {(b, m): _pick_cell(r) for _, r in part.iterrows() for b, m in [(r["budget"], r["motion"])]}
+                cells = {(b, m): {**_pick_cell(r), "line": pick_line(r)} for _, r in part.iterrows()
+                         for b, m in [(r["budget"], r["motion"])]}
                 title = (f"{fam or '(none)'} ({len(scenes)} scene{'s' if len(scenes) != 1 else ''}"
                          + (f": {scenes[0]}" if len(scenes) == 1 else "") + ")") if level == "family" else scene
                 rows.append({"title": title, "level": level, "cells": [cells.get(k) for k in keys]})
@@ -207,10 +244,7 @@ def pick_markdown(picks: pd.DataFrame, level: str = "family") -> list[str]:
             if level == "family" and r["level"] != "family":
                 continue
             rows.append([r["title"] if r["level"] == "family" else f"· {r['title']}"]
-                        + ["—" if c is None else (f"{c['name']}: {c['text']}, {c['detail']}"
-                                                  + (f"; {c['runner']}" if c.get("runner") else "")
-                                                  if c["name"] else f"{c['text']} ({c['detail']})" if c["detail"]
-                                                  else c["text"]) for c in r["cells"]])
+                        + ["—" if c is None else c["line"] for c in r["cells"]])
         lines += [md_table(header, rows), ""]
     return lines
 

@@ -80,9 +80,9 @@ def test_verdict_sentences_name_winners_and_failures():
     maps = sentences["shadow maps"]
     # planar is the most accurate on s1 but fails s2: the median would hide it, the sentence does not.
     # shadow_volume is worse on s1 only and equal on s2: per-scene differences (1e-5, 0) whose
-    # median's interval holds 0 — not told apart from the polygons
+    # median's interval holds 0 — not told apart from the polygons, its record said
     assert ("most accurate: shadow_polygons (median error rate 0.001 %), not told apart from it at 95 %: "
-            "shadow_volume;") in maps
+            "shadow_volume (worse on 1 of 2 scenes);") in maps
     assert "planar" not in maps.split("fails:")[0]
     assert "fails: planar on 1 of 2" in maps
     assert "fastest for a static light: shadow_polygons (1.000 ms);" in maps
@@ -120,7 +120,7 @@ def test_times_whose_repeat_intervals_overlap_share_the_verdict():
     assert not v.loc["planar", "best_time"]
     assert v["best_error"].all()                           # equal errors tie without tiles
     (_, sentence), = ver.verdict_sentences(ver.verdict_table(pd.DataFrame(rows)))
-    assert "fastest for a static light: shadow_volume (3.000 ms), tied with it: shadow_map;" in sentence
+    assert "fastest for a static light: shadow_volume (3.000 ms), tied with it at 95 %: shadow_map;" in sentence
     assert "the same for a moving light" in sentence
     # the same times with the table's usual IQR of 0.1: 3.05 < 3.15, no longer tied
     narrow = pd.DataFrame([{**r, "time_ms_iqr": 0.1} for r in rows])
@@ -326,3 +326,61 @@ def test_a_soft_scene_tests_the_visibility_difference_row():
     tiles[("soft", "blob")] = _tile_array(wrong, few)
     v = ver.verdict_table(pd.DataFrame(rows), tiles=tiles).set_index("technique")
     assert v.loc["pcss", "best_error"] and v.loc["blob", "best_error"]
+
+
+def test_edge_errors_pool_wrong_pixels_over_the_truths_boundary_from_the_counts():
+    """From the counts, a light whose truth has no boundary keeps its wrong pixels in the pooled
+    edge error (its own rate is 0 by convention); a family with a scene whose truth has no boundary
+    at all is judged on the share of all pixels instead (no edge to count errors against)."""
+    def counted(scene, label, wrong, boundary):
+        return [_row(scene, label, w / 10000, 1.0, light=i, truth_boundary_pixels=b, false_shadow_pixels=w,
+                     false_lit_pixels=0, edge_error_rate=w / b if b else 0.0)
+                for i, (w, b) in enumerate(zip(wrong, boundary))]
+
+    rows = counted("s", "raytrace", (0, 0), (200, 0)) + counted("s", "shadow_map", (10, 30), (200, 0))
+    cfg = agg.per_configuration(pd.DataFrame(rows)).set_index("label")
+    assert cfg.loc["shadow_map", "edge_error_rate"] == pytest.approx(40 / 200)   # not 10 / 200
+    assert cfg.loc["shadow_map", "truth_boundary_pixels"] == 200
+    assert ver.verdict_table(pd.DataFrame(rows))["metric"].eq("edge_error_rate").all()
+    # a second scene of the family without any boundary: the whole family on error_rate
+    rows += counted("u", "raytrace", (0, 0), (0, 0)) + counted("u", "shadow_map", (5, 0), (0, 0))
+    v = ver.verdict_table(pd.DataFrame(rows))
+    assert v["metric"].eq("error_rate").all()
+    cfg = agg.per_configuration(pd.DataFrame(rows)).set_index(["scene", "label"])
+    assert math.isnan(cfg.loc[("u", "shadow_map"), "edge_error_rate"])   # wrong pixels, no boundary: no rate
+
+
+def test_the_family_test_pools_every_scenes_tiles():
+    """Three scenes on which shadow_map is worse than shadow_volume in 2 tiles each: no scene's
+    own test separates them (two tiles always tie), the family's test over all six tiles does; its
+    record says worse on none of the 3 scenes significantly."""
+    rows, tiles = [], {}
+    n = _TILES * _PER_TILE
+    for s in ("a", "b", "c"):
+        worse = np.zeros(_TILES)
+        worse[:2] = 5
+        rows += [_row(s, "raytrace", 0.0, 10.0), _row(s, "shadow_volume", 0.0, 3.0),
+                 _row(s, "shadow_map", 10 / n, 2.0)]
+        for r in rows[-3:]:
+            r["evaluated_pixels"] = n
+        tiles[(s, "shadow_volume")] = _tile_array(np.zeros(_TILES))
+        tiles[(s, "shadow_map")] = _tile_array(worse)
+    v = ver.verdict_table(pd.DataFrame(rows), tiles=tiles)
+    assert v["best_error"].all()                                   # tied scene by scene
+    (_, sentence), = ver.verdict_sentences(v)
+    assert "most accurate: shadow_volume (median error rate 0.000 %); fastest" in sentence   # not told apart: none
+    # with two bad tiles on one scene only, the family's test ties too
+    for s in ("b", "c"):
+        tiles[(s, "shadow_map")] = _tile_array(np.zeros(_TILES))
+    (_, sentence), = ver.verdict_sentences(ver.verdict_table(pd.DataFrame(rows), tiles=tiles))
+    assert "not told apart from it at 95 %: shadow_map;" in sentence
+
+
+def test_the_legend_says_when_no_tiles_were_tested():
+    from shadowlab.study.verdict_views import thresholds_text, verdict_legend
+
+    results, tiles = _tiled_study()
+    tested = verdict_legend(ver.verdict_table(results, tiles=tiles), thresholds_text())
+    untested = verdict_legend(ver.verdict_table(results), thresholds_text(), page=False)
+    assert "paired tile bootstrap cannot tell from it at 95 %" in tested and "hover" in tested
+    assert "no tiles.npz: no significance test" in untested and "hover" not in untested

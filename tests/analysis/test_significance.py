@@ -71,13 +71,19 @@ def test_tiles_of_different_shapes_are_refused():
 
 
 def test_median_interval():
-    assert sig.median_interval([0.25]) == (0.25, 0.25, 0.25)
-    assert sig.median_interval([0.25, math.nan]) == (0.25, 0.25, 0.25)   # NaNs left out
+    """The order-statistic interval: the range (with its coverage 1 − 2^(1−n)) for five values or
+    fewer, where no pair of order statistics covers the median with 95 %; inner order statistics
+    from nine values on."""
+    assert sig.median_interval([0.25]) == (0.25, 0.25, 0.25, 0.0)
+    assert sig.median_interval([0.25, math.nan]) == (0.25, 0.25, 0.25, 0.0)   # NaNs left out
     assert all(math.isnan(x) for x in sig.median_interval([math.nan, math.nan]))
     assert all(math.isnan(x) for x in sig.median_interval([]))
-    med, lo, hi = sig.median_interval([1.0, 2.0, 3.0, 4.0, 5.0])
-    assert med == 3.0 and 1.0 <= lo < 3.0 < hi <= 5.0
-    assert sig.median_interval([2.0, 2.0, 2.0]) == (2.0, 2.0, 2.0)
+    med, lo, hi, cover = sig.median_interval([5.0, 1.0, 4.0, 2.0, 3.0])
+    assert (med, lo, hi) == (3.0, 1.0, 5.0) and cover == pytest.approx(1 - 2 ** -4)   # the range: 93.75 %
+    assert sig.median_interval([2.0, 3.0, 1.0])[3] == pytest.approx(0.75)
+    med, lo, hi, cover = sig.median_interval(list(range(1, 10)))                      # 9 values: 2nd and 8th
+    assert (med, lo, hi) == (5.0, 2.0, 8.0) and cover == pytest.approx(1 - 2 * 10 / 512)
+    assert sig.median_interval([2.0, 2.0, 2.0])[:3] == (2.0, 2.0, 2.0)
 
 
 def test_separated():

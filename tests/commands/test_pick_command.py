@@ -77,18 +77,18 @@ def test_pick_prints_the_cheapest_within_each_budget(study, capsys):
         "mean |V − G| ≤ 0.02, still light:", "mean |V − G| ≤ 0.02, moving light:"]
     # the scene family first, its scenes indented under it
     still = blocks[1].splitlines()
-    assert still[1].startswith("  hard edges (2 scenes)") and "shadow_polygons: 1.5 ms" in still[1]
+    assert still[1].startswith("  hard edges (2 scenes)") and "shadow_polygons: 1.50 ms" in still[1]
     assert "(worst of 2 scenes, median time)" in still[1]
-    assert still[2].split() == ["h1", "shadow_polygons:", "1.5", "ms,", "0.05", "%", "=", "5", "%", "of", "the",
-                                "budget;", "next", "shadow_map", "2", "ms"]
+    assert still[2].split() == ["h1", "shadow_polygons:", "1.50", "ms,", "0.05", "%", "=", "5", "%", "of", "the",
+                                "budget;", "next", "shadow_map", "2.00", "ms"]
     assert still[2].startswith("    h1") and still[3].startswith("    h2")
     # a moving light pays the polygons' 20 ms preprocessing: shadow_map
     moving = blocks[2].splitlines()
-    assert "shadow_map: 2 ms, 0.500 % = 50 % of the budget; next shadow_volume 10 ms" in moving[2]
+    assert "shadow_map: 2.00 ms, 0.500 % = 50 % of the budget; next shadow_volume 10.0 ms" in moving[2]
     # a family of one scene is one line, naming its scene
     soft = blocks[3].splitlines()
-    assert len(soft) == 2 and soft[1].split()[:5] == ["soft", "shadows", "(soft1)", "blob:", "1"]
-    assert "next pcss 3 ms" in soft[1]
+    assert len(soft) == 2 and soft[1].split()[:5] == ["soft", "shadows", "(soft1)", "blob:", "1.00"]
+    assert "next pcss 3.00 ms" in soft[1]
 
 
 def test_pick_scene_motion_and_csv(study, tmp_path, capsys):
@@ -97,7 +97,7 @@ def test_pick_scene_motion_and_csv(study, tmp_path, capsys):
                  "--csv", str(csv)]) == 0
     out = capsys.readouterr().out
     assert "h1" not in out and "hard edges" not in out
-    assert "shadow_polygons: 1.5 ms, 0.05 % = 50 % of the budget; next shadow_volume 10 ms" in out
+    assert "shadow_polygons: 1.50 ms, 0.05 % = 50 % of the budget; next shadow_volume 10.0 ms" in out
     assert [ln.split()[0] for ln in out.splitlines()[3:4]] == ["h2"]
     assert f"table: {csv.resolve()}" in out
     table = pd.read_csv(csv, keep_default_na=False)
@@ -109,7 +109,7 @@ def test_pick_scene_motion_and_csv(study, tmp_path, capsys):
     # a scene family: its line and its scenes
     assert main(["pick", str(study), "--budget", "edge=1%", "--scene", HARD, "--motion", "moving"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[3].startswith("  hard edges") and "shadow_map: 2 ms" in out[3] and len(out) == 6
+    assert out[3].startswith("  hard edges") and "shadow_map: 2.00 ms" in out[3] and len(out) == 6
     assert [ln.split()[0] for ln in out[4:]] == ["h1", "h2"]
 
 
@@ -127,6 +127,7 @@ def test_nothing_within_the_budget_names_the_closest(study, capsys):
     ("edge=e", "'e' is not a number"),
     ("mae=1%", "mean |V − G| is not a percentage"),
     ("edge=0", "the budget must be a positive number"),
+    ("edge=1", "would be 100 % of the pixels; did you mean edge=1%?"),
 ])
 def test_a_bad_budget_exits_2(study, capsys, budget, words):
     line = _bad(capsys, ["pick", str(study), "--budget", budget])
@@ -154,6 +155,14 @@ def test_bad_studies_and_scenes_exit_2(study, tmp_path, capsys):
     r[r["scene_family"] == HARD].to_csv(hard / "results.csv", index=False)
     line = _bad(capsys, ["pick", str(hard), "--budget", "mae=0.01"])
     assert "is judged on visibility_mae" in line
+    # a scene that exists but is judged on another metric than the budget's: the line says which
+    line = _bad(capsys, ["pick", str(study), "--budget", "mae=0.01", "--scene", "h1"])
+    assert "--scene 'h1' is judged on edge_error_rate: give a budget in it" in line
+
+
+def test_a_model_prices_a_still_light_only(study, tmp_path, capsys):
+    line = _bad(capsys, ["pick", str(study), "--model", str(_model(tmp_path / "m.json")), "--motion", "moving"])
+    assert "--model predicts a still light's time per frame only" in line
 
 
 def _model(path, unseen=("rays",)):
@@ -175,12 +184,12 @@ def test_pick_with_a_model_ranks_by_predicted_times(study, tmp_path, capsys):
     # still light only: the model prices the GPU work, not a moving light's preprocessing
     assert "moving light" not in out and "edge error ≤ 1 %, still light:" in out
     # predicted: volumes 0.05 + 10 × 0.01 = 0.15 ms, polygons 1.05 ms (measured 10 and 1.5 ms)
-    assert "    h1" in out and "shadow_volume: 0.15 ms, 0.02 % = 2 % of the budget; next shadow_polygons 1.05 ms" in out
-    assert "shadow_polygons: 1.5 ms" not in out
+    assert "    h1" in out and "shadow_volume: 0.15 ms predicted, 0.02 % = 2 % of the budget; next shadow_polygons 1.05 ms" in out
+    assert "shadow_polygons: 1.50 ms" not in out
     # shadow_map does ray work the model has no cost for: left out, though measured it would be runner-up
     assert "shadow_map" not in out
     # soft: pcss 0.55 ms predicted against blob's 3.05 (measured blob 1 ms is cheaper)
-    assert "soft shadows (soft1)   pcss: 0.55 ms" in out and "next blob 3.05 ms" in out
+    assert "soft shadows (soft1)   pcss: 0.55 ms predicted" in out and "next blob 3.05 ms" in out
     # a model that can price every configuration leaves nothing out; the truth's rays unpriced do not count
     only_truth = _results()
     only_truth.loc[only_truth["label"] == "shadow_map", "work_rays"] = 0
@@ -191,7 +200,7 @@ def test_pick_with_a_model_ranks_by_predicted_times(study, tmp_path, capsys):
     assert main(["pick", str(study), "--budget", "edge=1%", "--model", str(full), "--scene", "h1"]) == 0
     out = capsys.readouterr().out
     assert "left out" not in out.splitlines()[0] and "PREDICTED" in out.splitlines()[0]
-    assert "shadow_volume: 0.15 ms, 0.02 % = 2 % of the budget; next shadow_map 0.55 ms" in out
+    assert "shadow_volume: 0.15 ms predicted, 0.02 % = 2 % of the budget; next shadow_map 0.55 ms" in out
 
 
 def test_a_bad_model_exits_2(study, tmp_path, capsys):

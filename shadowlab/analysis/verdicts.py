@@ -240,7 +240,8 @@ def _errors_separated(g: pd.DataFrame, tech: str, best: str) -> bool | None:
 
 def _leaders(g: pd.DataFrame, techs: list[str], value: str, tie,
              pooled_test=None) -> tuple[str, list[tuple[str, int, int, int]], tuple, int]:
-    """The technique with the lowest median ``value`` over the family's scenes; the others it is not
+    """The technique with the lowest median ``value`` over the family's scenes (then the lowest
+    mean); the others it is not
     told apart from, each with (name, scenes compared, scenes where it is worse, better) —
     ``pooled_test`` (tech, best) → separated or None decides where it can, else
     :func:`~shadowlab.analysis.significance.separated` on the per-scene differences; and the
@@ -249,9 +250,12 @@ def _leaders(g: pd.DataFrame, techs: list[str], value: str, tie,
     med = {t: m for t, m in med.items() if not math.isnan(m[0])}
     if not med:
         return "", [], (math.nan, math.nan, math.nan, math.nan), 0
-    best = min(med, key=lambda t: (med[t][0], techs.index(t)))
+    # equal medians (several exact techniques at 0) are told apart by the mean: the leader is never
+    # worse than a technique the tests then separate from it
+    mean = {t: float(np.nanmean(pd.to_numeric(g.loc[g["technique"] == t, value], errors="coerce"))) for t in med}
+    best = min(med, key=lambda t: (med[t][0], mean[t], techs.index(t)))
     tied = []
-    for t in sorted((t for t in med if t != best), key=lambda t: (med[t][0], techs.index(t))):
+    for t in sorted((t for t in med if t != best), key=lambda t: (med[t][0], mean[t], techs.index(t))):
         diffs, worse, better = _outcomes(g, t, best, value, tie)
         apart = pooled_test(t, best) if pooled_test is not None else None
         if not (sig.separated(diffs) if apart is None else apart):

@@ -384,3 +384,16 @@ def test_the_legend_says_when_no_tiles_were_tested():
     untested = verdict_legend(ver.verdict_table(results), thresholds_text(), page=False)
     assert "paired tile bootstrap cannot tell from it at 95 %" in tested and "hover" in tested
     assert "no tiles.npz: no significance test" in untested and "hover" not in untested
+
+
+def test_equal_medians_lead_by_the_mean():
+    """Two techniques exact on two scenes of three: the one exact on all three leads the sentence
+    (the median alone would pick the first in the tables' order, shadow_volume, which is worse)."""
+    rows = []
+    for s, sv in (("a", 0.0), ("b", 0.0), ("c", 0.002)):
+        rows += [_row(s, "raytrace", 0.0, 10.0), _row(s, "shadow_volume", sv, 3.0),
+                 _row(s, "irregular_zbuffer", 0.0, 30.0)]
+    (_, sentence), = ver.verdict_sentences(ver.verdict_table(pd.DataFrame(rows)))
+    assert "most accurate: irregular_zbuffer (median error rate 0.000 %)" in sentence
+    # shadow_volume differs on one scene of three: not consistent, not told apart
+    assert "not told apart from it at 95 %: shadow_volume (worse on 1 of 3 scenes)" in sentence

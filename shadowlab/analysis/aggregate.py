@@ -12,6 +12,7 @@ read these tables.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 
 import numpy as np
 import pandas as pd
@@ -153,7 +154,30 @@ def family_order(names) -> list[str]:
     return known + sorted(names - set(REGISTRY))
 
 
+#: The last few :func:`per_configuration` tables, by a hash of their input: a study's report asks
+#: for the same table a dozen times (verdicts, picks, summaries, pages), and on a study of 700
+#: configurations each costs seconds.
+_CONFIG_CACHE: OrderedDict = OrderedDict()
+_CONFIG_CACHE_SIZE = 8
+
+
 def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) -> pd.DataFrame:
+    """:func:`pooled_configurations` of ``results``, computed once per distinct input (a copy is
+    returned, so a caller's changes never reach the cache)."""
+    try:
+        key = (int(pd.util.hash_pandas_object(results, index=True).sum()), tuple(results.columns),
+               tuple(sorted((k, str(v)) for k, v in (scene_metrics or {}).items())))
+    except (TypeError, ValueError, AttributeError):  # unhashable cells, or no table: no caching
+        return pooled_configurations(results, scene_metrics)
+    if key not in _CONFIG_CACHE:
+        _CONFIG_CACHE[key] = pooled_configurations(results, scene_metrics)
+        while len(_CONFIG_CACHE) > _CONFIG_CACHE_SIZE:
+            _CONFIG_CACHE.popitem(last=False)
+    _CONFIG_CACHE.move_to_end(key)
+    return _CONFIG_CACHE[key].copy()
+
+
+def pooled_configurations(results: pd.DataFrame, scene_metrics: dict | None = None) -> pd.DataFrame:
     """One row per (scene, configuration) that ran: the ``status == "ok"`` rows of
     ``results`` (results.csv) pooled over the scene's lights, in the order of ``results``.
 
@@ -192,78 +216,90 @@ def per_configuration(results: pd.DataFrame, scene_metrics: dict | None = None) 
     if results is None or len(results) == 0:
         return pd.DataFrame(columns=CONFIG_COLUMNS)
     df = normalised(results)
-    df = df[df["status"] == "ok"]
+    df = df[df["status"] == "ok"].reset_index(drop=True)
+    # every numeric column converted once (the per-group work is then array slicing): None where
+    # results.csv has no such column
+    converted: dict[str, np.ndarray | None] = {}
+
+    def column(name: str) -> np.ndarray | None:
+        if name not in converted:
+            converted[name] = (pd.to_numeric(df[name], errors="coerce").to_numpy(dtype=float)
+                               if name in df.columns else None)
+        return converted[name]
+
+    def values(name: str, pos: np.ndarray) -> np.ndarray:
+        arr = column(name)
+        return np.full(len(pos), np.nan) if arr is None else arr[pos]
+
+    light = column("light")
+    degenerate = truthy(df["degenerate"]).to_numpy(bool) if "degenerate" in df.columns else None
+    reference = df["reference"].to_numpy(bool)
     rows = []
-    for (scene, label), g in df.groupby(["scene", "label"], sort=False):
-        g = g.sort_values("light", kind="stable") if "light" in g.columns else g
-        first = g.iloc[0]
-        ev = numeric(g, "evaluated_pixels")
-        size = numeric(g.iloc[:1], "width") * numeric(g.iloc[:1], "height")
+    for (scene, label), pos in df.groupby(["scene", "label"], sort=False).indices.items():
+        if light is not None:
+            pos = pos[np.argsort(light[pos], kind="stable")]
+        first = df.iloc[pos[0]]
+        ev = values("evaluated_pixels", pos)
         row = {"scene": scene, "scene_family": as_text(first["scene_family"]), "technique": first["technique"],
                "label": label, "short_label": as_text(first["short_label"]) or label,
-               "spec_label": as_text(first["spec_label"]), "reference": bool(g["reference"].any()), "lights": len(g),
-               "evaluated_pixels": float(np.nansum(ev)) if not np.isnan(ev).all() else math.nan,
-               "frame_pixels": float(size[0])}
+               "spec_label": as_text(first["spec_label"]), "reference": bool(reference[pos].any()),
+               "lights": len(pos), "evaluated_pixels": float(np.nansum(ev)) if not np.isnan(ev).all() else math.nan,
+               "frame_pixels": float(values("width", pos[:1])[0] * values("height", pos[:1])[0])}
         for rate, weight in _RATE_WEIGHTS.items():
-            w = numeric(g, weight) if weight in g.columns else ev
-            row[rate] = pooled(numeric(g, rate), w)
-        tb = numeric(g, "truth_boundary_pixels")
+            w = values(weight, pos) if column(weight) is not None else ev
+            row[rate] = pooled(values(rate, pos), w)
+        tb = values("truth_boundary_pixels", pos)
         row["truth_boundary_pixels"] = float(tb.sum()) if not np.isnan(tb).any() else math.nan
-        edge = _pooled_edge(g)
+        edge = _pooled_edge(tb, values("false_shadow_pixels", pos) + values("false_lit_pixels", pos))
         if edge is not None:
             row["edge_error_rate"] = edge
-        be = numeric(g, "boundary_error_px")
+        be = values("boundary_error_px", pos)
         row["boundary_error_px"] = float(np.nanmean(be)) if not np.isnan(be).all() else math.nan
-        t, iqr = numeric(g, "time_ms_median"), numeric(g, "time_ms_iqr")
+        t, iqr = values("time_ms_median", pos), values("time_ms_iqr", pos)
         row["time_ms"] = float(t.sum())  # NaN when any light has no time
         row["time_iqr_ms"] = float(np.nansum(iqr)) if not np.isnan(iqr).all() else math.nan
-        row["time_lo_ms"], row["time_hi_ms"] = repeat_interval(g)
-        row["setup_ms"] = float(numeric(g, "setup_ms").sum()) if "setup_ms" in g.columns else math.nan
-        vm = numeric(g, "visibility_mae")
+        row["time_lo_ms"], row["time_hi_ms"] = repeat_interval(t, iqr, values("time_ms_q25", pos),
+                                                               values("time_ms_q75", pos))
+        row["setup_ms"] = float(values("setup_ms", pos).sum()) if column("setup_ms") is not None else math.nan
+        vm = values("visibility_mae", pos)
         row["visibility_mae"] = pooled(vm, ev) if not np.isnan(vm).all() else math.nan
-        pre = numeric(g, "preprocess_ms")
+        pre = values("preprocess_ms", pos)
         row["preprocess_ms"] = float(np.nansum(pre)) if not np.isnan(pre).all() else 0.0
         row["moving_ms"] = row["time_ms"] + row["preprocess_ms"]
         metric = (scene_metrics or {}).get(scene)
         row["scene_metric"] = metric or ""
-        mv = numeric(g, metric) if metric else np.array([math.nan])
+        mv = values(metric, pos) if metric else np.array([math.nan])
         row["scene_metric_value"] = float(np.nanmean(mv)) if not np.isnan(mv).all() else math.nan
         n = row["evaluated_pixels"]
         row["wrong_pixels"] = (float(round(row["error_rate"] * n)) if not (is_missing(n) or
                                                                             is_missing(row["error_rate"]))
                                else math.nan)
-        row["degenerate"] = bool(truthy(g["degenerate"]).any()) if "degenerate" in g.columns else False
+        row["degenerate"] = bool(degenerate[pos].any()) if degenerate is not None else False
         for col in _IMAGE_COLUMNS:
-            row[col] = first[col] if col in g.columns else ""
+            row[col] = first[col] if col in df.columns else ""
         rows.append(row)
     return pd.DataFrame(rows, columns=CONFIG_COLUMNS)
 
 
-def _pooled_edge(rows: pd.DataFrame) -> float | None:
-    """The edge error rate of a configuration's lights pooled from their counts: Σ wrong / Σ
-    boundary, so that a light whose truth has no boundary loses none of its wrong pixels; NaN when
-    there is no boundary to count against and some pixel is wrong; None when a count is missing
-    (the rate column's own pooling stands then)."""
-    cols = ("truth_boundary_pixels", "false_shadow_pixels", "false_lit_pixels")
-    if not all(c in rows.columns for c in cols):
-        return None
-    boundary = numeric(rows, cols[0])
-    wrong = numeric(rows, cols[1]) + numeric(rows, cols[2])
+def _pooled_edge(boundary: np.ndarray, wrong: np.ndarray) -> float | None:
+    """The edge error rate of a configuration's lights pooled from their counts (the truth's
+    ``boundary`` pixels and the ``wrong`` pixels, per light): Σ wrong / Σ boundary, so that a light
+    whose truth has no boundary loses none of its wrong pixels; NaN when there is no boundary to
+    count against and some pixel is wrong; None when a count is missing (the rate column's own
+    pooling stands then)."""
     if np.isnan(boundary).any() or np.isnan(wrong).any():
         return None
     b, w = float(boundary.sum()), float(wrong.sum())
     return w / b if b > 0 else (0.0 if w == 0 else math.nan)
 
 
-def repeat_interval(rows: pd.DataFrame) -> tuple[float, float]:
-    """A configuration's repeat interval on a scene (its lights' ``rows``): the sums of the lights'
-    first and third quartiles (``time_ms_q25``, ``time_ms_q75``); median ∓ IQR/2 where a study
+def repeat_interval(median: np.ndarray, iqr: np.ndarray, q25: np.ndarray, q75: np.ndarray) -> tuple[float, float]:
+    """A configuration's repeat interval on a scene from its lights' timing columns: the sums of
+    the first and third quartiles (``time_ms_q25``, ``time_ms_q75``); median ∓ IQR/2 where a study
     has no quartile columns; the median itself where it has no IQR either; NaN without a time."""
-    t = numeric(rows, "time_ms_median")
-    q25, q75, iqr = numeric(rows, "time_ms_q25"), numeric(rows, "time_ms_q75"), numeric(rows, "time_ms_iqr")
     half = np.where(np.isnan(iqr), 0.0, iqr / 2)
-    lo = np.where(np.isnan(q25), t - half, q25)
-    hi = np.where(np.isnan(q75), t + half, q75)
+    lo = np.where(np.isnan(q25), median - half, q25)
+    hi = np.where(np.isnan(q75), median + half, q75)
     return float(lo.sum()), float(hi.sum())
 
 

@@ -23,6 +23,7 @@ from ..util.markdown import md_table
 #: 1024-pixel window, let alone 1400.
 SCENES_PER_BLOCK = 6
 
+
 def value_text(metric: str, value) -> str:
     """A verdict metric's value as the pages show it: a percentage for the rates, four decimals
     for mean |V − G|; '' when missing."""

@@ -203,8 +203,8 @@ def _median_text(show, med: float, lo: float, hi: float, coverage: float, n: int
 
 
 def _pairs(g: pd.DataFrame, tech: str, best: str):
-    """Per scene of ``g`` (verdict rows of one scene family) where both ran with a value: the two
-    verdict rows."""
+    """Per scene of ``g`` (verdict rows of one scene family) where both techniques have a row: the
+    two verdict rows."""
     for _, s in g.groupby("scene", sort=False):
         a, b = s[s["technique"] == tech], s[s["technique"] == best]
         if len(a) and len(b):
@@ -241,10 +241,9 @@ def _errors_separated(g: pd.DataFrame, tech: str, best: str) -> bool | None:
 def _leaders(g: pd.DataFrame, techs: list[str], value: str, tie,
              pooled_test=None) -> tuple[str, list[tuple[str, int, int, int]], tuple, int]:
     """The technique with the lowest median ``value`` over the family's scenes (then the lowest
-    mean); the others it is not
-    told apart from, each with (name, scenes compared, scenes where it is worse, better) —
-    ``pooled_test`` (tech, best) → separated or None decides where it can, else
-    :func:`~shadowlab.analysis.significance.separated` on the per-scene differences; and the
+    mean); the others it is not told apart from, each with (name, scenes compared, scenes where it
+    is worse, better) — ``pooled_test`` (tech, best) → separated, or None, decides where it can,
+    else :func:`~shadowlab.analysis.significance.separated` on the per-scene differences; and the
     leader's (median, low, high, coverage) with its scene count."""
     med = {t: sig.median_interval(g.loc[g["technique"] == t, value]) for t in techs}
     med = {t: m for t, m in med.items() if not math.isnan(m[0])}

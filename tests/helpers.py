@@ -121,3 +121,14 @@ def scene_for(cls, default: str = "multi_light") -> str:
     if {"point", "spot", "directional"} <= cls.LIGHTS:
         return default
     return "sun_scene" if "directional" in cls.LIGHTS else "soft_overlap"
+
+
+def mismatches(lab, scene, spec, size=SMALL, light=0) -> tuple[int, int, object]:
+    """(wrong evaluated pixels, evaluated pixels, the measurement) of ``spec`` against the truth on
+    ``scene`` (``lab``: the tests' session fixture), thresholded at 0.5 as error_rate counts them:
+    the exact techniques' tests count the pixels where they and the truth disagree."""
+    m = lab.measure(scene, spec, size, light)
+    truth = lab.truth(scene, size, light)
+    evaluated = lab.frame(scene, size).evaluated(light)
+    wrong = int(np.sum((m.visibility[evaluated] < 0.5) != (truth[evaluated] < 0.5)))
+    return wrong, int(evaluated.sum()), m

@@ -9,16 +9,8 @@ from shadowlab.scene import builtin_scenes, load_scene
 from shadowlab.techniques import TechniqueError, from_spec
 from shadowlab.techniques.maps.irregular_zbuffer import MAX_SAMPLES, WALK_BUDGET
 
-from helpers import MEDIUM, SMALL
+from helpers import MEDIUM, SMALL, mismatches
 
-
-def _mismatches(lab, scene, spec, size, light=0) -> tuple[int, int, object]:
-    """(wrong evaluated pixels, evaluated pixels, the measurement) of ``spec`` against the truth."""
-    m = lab.measure(scene, spec, size, light)
-    truth = lab.truth(scene, size, light)
-    evaluated = lab.frame(scene, size).evaluated(light)
-    wrong = int(np.sum((m.visibility[evaluated] < 0.5) != (truth[evaluated] < 0.5)))
-    return wrong, int(evaluated.sum()), m
 
 
 @pytest.mark.parametrize("scene,spec", [
@@ -34,7 +26,7 @@ def _mismatches(lab, scene, spec, size, light=0) -> tuple[int, int, object]:
     ("sm_point_cube", "irregular_zbuffer:projection=cube,coverage=polygon"),  # ... and clipped cube faces
 ])
 def test_exact_against_the_truth(lab, scene, spec):
-    wrong, evaluated, m = _mismatches(lab, scene, spec, SMALL)
+    wrong, evaluated, m = mismatches(lab, scene, spec, SMALL)
     assert evaluated > 1000
     assert wrong == 0, f"{wrong} of {evaluated} pixels differ from the truth"
     # and it is not trivially lit: the scene has shadow, which the technique found
@@ -44,7 +36,7 @@ def test_exact_against_the_truth(lab, scene, spec):
 def test_a_shadow_map_is_not_exact_where_the_irregular_zbuffer_is(lab):
     """The same scene and size: the 2048² map's aliasing and bias leave wrong pixels (so the
     comparison above can fail)."""
-    wrong_map, _, _ = _mismatches(lab, "sm_thin", "shadow_map", SMALL)
+    wrong_map, _, _ = mismatches(lab, "sm_thin", "shadow_map", SMALL)
     assert wrong_map > 0
 
 
@@ -67,7 +59,7 @@ def test_exact_on_every_shipped_scene(lab):
         for light, l in enumerate(scene.lights):
             if l.type_name == "area":
                 continue
-            w, e, _ = _mismatches(lab, name, "irregular_zbuffer", MEDIUM, light)
+            w, e, _ = mismatches(lab, name, "irregular_zbuffer", MEDIUM, light)
             allowed = KNOWN_TIES.get((name, light), 0)
             assert w <= allowed, f"{name} light {light}: {w} of {e} pixels differ"
             wrong, evaluated = wrong + w, evaluated + e

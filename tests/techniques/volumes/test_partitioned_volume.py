@@ -9,16 +9,8 @@ import pytest
 from shadowlab.techniques import TechniqueError, from_spec
 from shadowlab.techniques.volumes.partitioned_volume import NODES_PER_TRIANGLE
 
-from helpers import SMALL
+from helpers import SMALL, mismatches
 
-
-def _mismatches(lab, scene, spec, size, light=0) -> tuple[int, int, object]:
-    """(wrong evaluated pixels, evaluated pixels, the measurement) of ``spec`` against the truth."""
-    m = lab.measure(scene, spec, size, light)
-    truth = lab.truth(scene, size, light)
-    evaluated = lab.frame(scene, size).evaluated(light)
-    wrong = int(np.sum((m.visibility[evaluated] < 0.5) != (truth[evaluated] < 0.5)))
-    return wrong, int(evaluated.sum()), m
 
 
 # Known ties (scene -> wrong pixels allowed at 160x120): none. The leaves decide with the
@@ -39,7 +31,7 @@ KNOWN_TIES: dict[str, int] = {}
     "target_direct_scene",      # target-direct: nothing behind the disc casts
 ])
 def test_exact_against_the_truth(lab, scene):
-    wrong, evaluated, m = _mismatches(lab, scene, "partitioned_volume", SMALL)
+    wrong, evaluated, m = mismatches(lab, scene, "partitioned_volume", SMALL)
     assert evaluated > 1000
     assert wrong <= KNOWN_TIES.get(scene, 0), f"{wrong} of {evaluated} pixels differ from the truth"
     assert (m.visibility < 0.5).sum() > 20  # not trivially lit (the fewest: target_direct_scene, 63)
@@ -56,7 +48,7 @@ def test_another_insertion_order_builds_another_tree_with_the_same_mask(lab):
 def test_the_plain_volume_is_not_exact_on_the_soup(lab):
     """The same scene and size: the stencil volume's counts go wrong on the soup (so the test
     above can fail)."""
-    wrong, _, _ = _mismatches(lab, "sv_soup", "shadow_volume", SMALL)
+    wrong, _, _ = mismatches(lab, "sv_soup", "shadow_volume", SMALL)
     assert wrong > 0
 
 
@@ -79,7 +71,7 @@ def test_stack_and_stackless_enter_the_same_nodes(lab, scene):
 
 
 def test_counters_add_up(lab):
-    wrong, evaluated, m = _mismatches(lab, "sv_soup", "partitioned_volume", SMALL)
+    wrong, evaluated, m = mismatches(lab, "sv_soup", "partitioned_volume", SMALL)
     st = m.stats
     assert st["triangles"] == 3278
     inserted = st["triangles"] - st["triangles_culled"] - st["triangles_skipped"]

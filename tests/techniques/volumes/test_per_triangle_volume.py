@@ -8,16 +8,8 @@ import pytest
 
 from shadowlab.techniques import TechniqueError, from_spec
 
-from helpers import SMALL
+from helpers import SMALL, mismatches
 
-
-def _mismatches(lab, scene, spec, size=SMALL, light=0) -> tuple[int, int, object]:
-    """(wrong evaluated pixels, evaluated pixels, the measurement) of ``spec`` against the truth."""
-    m = lab.measure(scene, spec, size, light)
-    truth = lab.truth(scene, size, light)
-    evaluated = lab.frame(scene, size).evaluated(light)
-    wrong = int(np.sum((m.visibility[evaluated] < 0.5) != (truth[evaluated] < 0.5)))
-    return wrong, int(evaluated.sum()), m
 
 
 @pytest.mark.parametrize("scene", [
@@ -33,7 +25,7 @@ def _mismatches(lab, scene, spec, size=SMALL, light=0) -> tuple[int, int, object
     pytest.param("city_wires", marks=pytest.mark.slow),  # tens of thousands of thin casters
 ])
 def test_exact_against_the_truth(lab, scene):
-    wrong, evaluated, m = _mismatches(lab, scene, "per_triangle_volume")
+    wrong, evaluated, m = mismatches(lab, scene, "per_triangle_volume")
     assert evaluated > 1000
     assert wrong == 0, f"{wrong} of {evaluated} pixels differ from the truth"
     assert (m.visibility < 0.5).sum() > 20  # not trivially lit: some shadow to get wrong on every scene
@@ -43,7 +35,7 @@ def test_exact_against_the_truth(lab, scene):
 def test_the_stencil_volume_is_not_exact_on_the_soup(lab):
     """The same scene and size: the plain volume's silhouettes miscount on the soup, so the
     exactness test above can fail."""
-    wrong, _, _ = _mismatches(lab, "sv_soup", "shadow_volume")
+    wrong, _, _ = mismatches(lab, "sv_soup", "shadow_volume")
     assert wrong > 0
 
 

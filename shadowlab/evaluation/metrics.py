@@ -61,10 +61,13 @@ class Evaluation:
     """
 
     def __init__(self, vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray | None = None,
-                 overlap: np.ndarray | None = None):
+                 overlap: np.ndarray | None = None, components: dict | None = None):
         if vis.shape != truth.shape or vis.shape != evaluated.shape:
             raise ValueError(f"shape mismatch: {vis.shape}, {truth.shape}, {evaluated.shape}")
         self.vis, self.truth, self.contact, self.overlap = vis, truth, contact, overlap
+        #: The technique's component images (Technique.component_images): ``base`` and
+        #: ``contact_shadow`` (contact shadows), ``classifier`` (hybrid ray tracing).
+        self.components = dict(components or {})
         self.ev = ev = evaluated.astype(bool)
         self.v_sh = (vis < THRESHOLD) & ev
         self.g_sh = (truth < THRESHOLD) & ev
@@ -238,6 +241,53 @@ def over_darkening(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, co
         return 0.0
     near = ndimage.binary_dilation(lit_contact, iterations=band) & evaluated & (truth >= THRESHOLD)
     return float(np.clip(truth[near] - vis[near], 0.0, None).sum()) / float(lit_contact.sum())
+
+
+# --------------------------------------------------------------------------- the parts of a combined technique
+
+#: Pixels either side of an edge that count as where two shadows' edges meet (:func:`seam_band`).
+SEAM_BAND = 3
+
+
+def seam_band(base: np.ndarray, contact_shadow: np.ndarray, evaluated: np.ndarray, band: int = SEAM_BAND) -> np.ndarray:
+    """Where contact shadows and the map's shadow meet (issue 39; Unity HDRP's docs warn of "a
+    visible seam between the two types of shadow"): evaluated pixels within ``band`` pixels of
+    both the contact shadow's boundary and the map shadow's boundary (each thresholded at 0.5).
+    Bool (H, W); empty where either shadow has no edge."""
+    ev = evaluated.astype(bool)
+    near = []
+    for image in (base, contact_shadow):
+        edge = shadow_boundary(image < THRESHOLD, ev)
+        if not edge.any():
+            return np.zeros_like(ev)
+        near.append(ndimage.binary_dilation(edge, iterations=band))
+    return near[0] & near[1] & ev
+
+
+def _contact_changed(e: Evaluation) -> np.ndarray:
+    """Pixels the contact shadow turned from lit (the map alone) to shadowed (combined)."""
+    return e.ev & (e.components["base"] >= THRESHOLD) & (e.vis < THRESHOLD)
+
+
+def _seam(e: Evaluation) -> tuple[int, int]:
+    """(pixels in the seam band, wrong pixels there)."""
+    band = seam_band(e.components["base"], e.components["contact_shadow"], e.ev)
+    wrong = (e.v_sh != e.g_sh) & band
+    return int(band.sum()), int(wrong.sum())
+
+
+def _contact_gap_closed(e: Evaluation) -> float:
+    return (contact_gap(e.components["base"], e.truth, e.ev, e.contact)
+            - contact_gap(e.vis, e.truth, e.ev, e.contact))
+
+
+def classifier_errors(classifier: np.ndarray, truth: np.ndarray, evaluated: np.ndarray) -> tuple[int, int]:
+    """(pixels a classifier decided, those it decided wrongly): ``classifier`` is 1 where it called
+    a pixel surely lit, 0 surely shadowed, NaN undecided; wrong where the truth, thresholded at
+    0.5, disagrees (a pixel called surely lit that is in shadow, or the reverse)."""
+    sure = evaluated.astype(bool) & np.isfinite(classifier)
+    wrong = sure & ((np.nan_to_num(classifier, nan=0.5) >= THRESHOLD) != (truth >= THRESHOLD))
+    return int(sure.sum()), int(wrong.sum())
 
 
 # --------------------------------------------------------------------------- degenerate configurations
@@ -420,6 +470,28 @@ COLUMNS: tuple[Column, ...] = (
     _metric("bleeding_pixels", "evaluated pixels in the truth's umbra behind two or more casters (light_bleeding's "
                                "region)", lambda e: int(bleeding_region(e.truth, e.ev, e.overlap).sum()), "count",
             needs=("overlap",)),
+    _metric("contact_recovered_pixels", "contact shadows: truly shadowed pixels the map alone left lit and the "
+                                        "contact march shadowed (the contact gap closed)",
+            lambda e: int((_contact_changed(e) & e.g_sh).sum()), "count", report=True, needs=("base", "contact_shadow")),
+    _metric("contact_false_pixels", "contact shadows: truly lit pixels the map alone left lit and the contact march "
+                                    "shadowed (thickness halos: false shadows it introduced)",
+            lambda e: int((_contact_changed(e) & ~e.g_sh).sum()), "count", report=True,
+            needs=("base", "contact_shadow")),
+    _metric("contact_gap_closed_px", "contact shadows: the map alone's contact gap minus the combination's, pixels",
+            _contact_gap_closed, "px", needs=("base", "contact_shadow", "contact")),
+    _metric("seam_pixels", f"contact shadows: evaluated pixels within {SEAM_BAND} px of both the contact shadow's and "
+                           "the map shadow's edges (where the two meet)", lambda e: _seam(e)[0], "count",
+            needs=("base", "contact_shadow")),
+    _metric("seam_error_rate", "contact shadows: wrong / seam pixels (the error where contact and map shadows meet); "
+                               "0 when they do not meet", lambda e: _ratio(_seam(e)[1], _seam(e)[0]), "percent",
+            report=True, needs=("base", "contact_shadow")),
+    _metric("classifier_sure_pixels", "hybrid ray tracing: evaluated pixels its shadow-map classifier called surely lit "
+                                      "or surely shadowed (no ray traced)",
+            lambda e: classifier_errors(e.components["classifier"], e.truth, e.ev)[0], "count", needs=("classifier",)),
+    _metric("classifier_error_pixels", "hybrid ray tracing: pixels its classifier called surely lit or shadowed that the "
+                                       "truth disagrees with", lambda e: classifier_errors(e.components["classifier"],
+                                                                                           e.truth, e.ev)[1],
+            "count", report=True, needs=("classifier",)),
     Column("degenerate", f"True when the truth shadows more than {100 * DEGENERATE_TRUTH_SHARE:g} % of the evaluated "
                          f"pixels and the configuration under {DEGENERATE_KEPT_SHARE:g} of the truth's shadowed pixels "
                          "(it draws almost no shadow); False on the truth's rows", "text"),
@@ -444,13 +516,15 @@ HELD_COLUMNS = [c for c in COLUMNS if c.tolerance is not None]
 
 
 def compare(vis: np.ndarray, truth: np.ndarray, evaluated: np.ndarray, contact: np.ndarray | None = None,
-            overlap: np.ndarray | None = None) -> dict:
+            overlap: np.ndarray | None = None, components: dict | None = None) -> dict:
     """Every metric column of ``vis`` against ``truth`` over ``evaluated`` pixels (those that
     need contact lines only when ``contact`` is given, those that need the overlapping-casters
-    mask only when ``overlap`` is), as {column: value}."""
-    e = Evaluation(vis, truth, evaluated, contact, overlap)
-    have = {"contact": contact is not None, "overlap": overlap is not None}
-    return {c.name: c.compute(e) for c in METRIC_COLUMNS if all(have[k] for k in c.needs)}
+    mask only when ``overlap`` is, those that judge a technique's parts only when its
+    ``components`` hold them: :meth:`shadowlab.techniques.base.Technique.component_images`), as
+    {column: value}."""
+    e = Evaluation(vis, truth, evaluated, contact, overlap, components)
+    have = {"contact": contact is not None, "overlap": overlap is not None, **{k: True for k in e.components}}
+    return {c.name: c.compute(e) for c in METRIC_COLUMNS if all(have.get(k, False) for k in c.needs)}
 
 
 def order_columns(names, pass_order=()) -> list[str]:

@@ -72,6 +72,9 @@ class Measurement:
     #: a degenerate configuration, a bias beyond the casters' heights), one sentence each, naming
     #: the configuration; also appended to :attr:`notes`.
     judgement: list[str] = field(default_factory=list)
+    #: The technique's component images (:meth:`Technique.component_images`), for the metrics that
+    #: judge its parts (contact shadows, a hybrid's classifier); light-sampled: their average.
+    components: dict = field(default_factory=dict)
 
 
 #: How the pipeline's own columns combine over light samples: the texel footprint is the first
@@ -155,6 +158,7 @@ def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int 
     points = light_sampling.sample_lights(slot.light, n, light_sampling.evaluated_centre(frame, slot))
     step = _EveryNth(on_step, n)
     ms = []
+    parts: dict = {}
     for i, point_light in enumerate(points):
         try:
             m = _measure_hard(tech, frame, frame.stand_in(slot, point_light), repeat, warmup, step,
@@ -165,7 +169,9 @@ def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int 
                          f"of light {slot.index}")
             raise
         average.add(point_light.position, m.visibility)
-        ms.append(dataclasses.replace(m, visibility=None))  # one image at a time
+        for key, image in m.components.items():  # the parts averaged like the visibility (plain mean)
+            parts[key] = parts.get(key, 0.0) + image / n
+        ms.append(dataclasses.replace(m, visibility=None, components={}))  # one image at a time
     notes = list(dict.fromkeys(tech.notes[before:]))
     tech.notes[before:] = notes
     pass_times: dict = {}
@@ -180,7 +186,8 @@ def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int 
                                timing=light_sampling.combined_timing([m.timing for m in ms]),
                                stats=stats, notes=notes, pass_times=pass_times,
                                setup_ms=float(sum(m.setup_ms for m in ms)),
-                               peak_rss_bytes=max(m.peak_rss_bytes for m in ms), work=per_pass_work)
+                               peak_rss_bytes=max(m.peak_rss_bytes for m in ms), work=per_pass_work,
+                               components=parts)
 
 
 def _measure_hard(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 5, warmup: int = 1,
@@ -211,6 +218,7 @@ def _measure_hard(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 
             pass_times = timer.columns()
         counted = count_work(tech) if count else {}
         vis = tech.visibility()
+        components = tech.component_images()
         stats = tech.stats()
         undeclared = [k for k in stats if k not in tech.STATS]
         if undeclared:
@@ -229,7 +237,7 @@ def _measure_hard(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 
     if release:
         tech.release()
     return Measurement(tech, slot.index, vis, t, stats, list(dict.fromkeys(tech.notes[before:])), pass_times,
-                       setup_ms, peak, m_image, counted)
+                       setup_ms, peak, m_image, counted, components=components)
 
 
 def count_work(tech: Technique) -> dict:
@@ -378,7 +386,7 @@ class Evaluator:
                "width": frame.width, "height": frame.height}
         truth_m = m if reference else self.truth(slot)
         row.update(metrics.compare(m.visibility, truth_m.visibility, frame.evaluated_image(slot),
-                                   self.contact_lines(slot), self.overlap(slot)))
+                                   self.contact_lines(slot), self.overlap(slot), m.components))
         # the sampled truth's standard error bound (docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy) beside every row of the light
         row["truth_stderr_max"] = float(truth_m.stats.get("truth_stderr_max", 0.0))
         row["degenerate"] = False if reference else metrics.row_is_degenerate(row)

@@ -424,6 +424,14 @@ class Technique:
                                       f"is not overridden")
         return targets.read_texture(self._visibility_texture, 1)[..., 0]
 
+    def component_images(self) -> dict[str, np.ndarray]:
+        """Images the technique combined into its visibility, for metrics that judge the parts
+        against the truth (after :meth:`visibility`): name → float32 (height, width), row 0 =
+        top. ``base`` and ``contact_shadow`` (a map technique with contact shadows: its own
+        visibility and the contact shadow's), ``classifier`` (1 called surely lit, 0 surely shadowed, NaN
+        undecided: hybrid ray tracing's classification). Empty by default."""
+        return {}
+
     def timed_pass(self, name: str, cpu: bool = False):
         """Context manager around one pass of :meth:`render` (``name`` from :attr:`PASSES`;
         ``cpu`` for work on the CPU): timed only while the pipeline asks for per-pass times, and

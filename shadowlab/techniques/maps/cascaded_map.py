@@ -57,6 +57,7 @@ from ...geometry.bounds import box_corners
 from ...geometry.frusta import MIN_EXTENT, PAD, LightView
 from ..base import FIRST, Param, PlotStyle, TechniqueError, TuneRange
 from .toolkit import DEPTH_MAP_STATS, FILTERS, MAX_FACES, DepthMapTechnique, shadowable_mask
+from .contact import ContactShadows
 
 #: Most cascades: one per face of the map toolkit's atlas.
 MAX_CASCADES = MAX_FACES
@@ -256,7 +257,7 @@ def cover_intervals(splits: np.ndarray, blend_start: np.ndarray) -> np.ndarray:
     return np.stack([np.maximum(z0 - margin, 0.0), z1 + margin], axis=1)
 
 
-class CascadedShadowMap(DepthMapTechnique):
+class CascadedShadowMap(ContactShadows, DepthMapTechnique):
     """Cascaded shadow maps (Engel 2006) with Zhang et al.'s split scheme, optional blending,
     Valient's stabilisation, and SDSM fitting (Lauritzen et al. 2011); directional lights only."""
 

@@ -68,6 +68,7 @@ from ...gpu import glstate, programs, targets
 from ...gpu.glstate import PassState
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
 from .toolkit import ATLAS_DEFINES, Atlas, TexelMapping, fit_light_views
+from .contact import ContactShadows
 
 VARIANTS = ("vsm", "esm", "evsm2", "evsm4", "msm")
 #: The variant's number in the shaders (u_variant; the shaders get these as #defines).
@@ -169,7 +170,7 @@ def linear_range(view) -> tuple[float, float]:
     return float(p[2, 3] / (p[2, 2] - 1.0)), float(p[2, 3] / (p[2, 2] + 1.0))
 
 
-class FilteredShadowMap(TexelMapping, Technique):
+class FilteredShadowMap(ContactShadows, TexelMapping, Technique):
     """Filtered shadow maps: linear-depth moments (VSM, ESM, EVSM 2/4, MSM), a box blur, and
     the variant's visibility estimate (Chebyshev, exponential, Chebyshev on warped depths,
     Hamburger 4-moment bound)."""

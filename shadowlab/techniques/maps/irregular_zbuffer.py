@@ -64,6 +64,7 @@ from ...scene.lights import T_LIGHT
 from ...truth.tracing import caster_corners, offset_origins
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
 from .toolkit import ATLAS_DEFINES, Atlas
+from .contact import ContactShadows
 
 #: Storage-buffer bindings (``shadowlab/techniques/maps/izb_common.glsl``).
 BINDING = {"origins": 0, "directions": 1, "samples": 2, "heads": 3, "nodes": 4, "blocked": 5, "counters": 6,
@@ -106,7 +107,7 @@ RAY_BYTES, NODE_BYTES, TEXEL_BYTES, PAIR_BYTES, CONTINUATION_BYTES = 36, 8, 4, 8
 MAX_SAMPLES = 32
 
 
-class IrregularZBuffer(Technique):
+class IrregularZBuffer(ContactShadows, Technique):
     """Exact hard shadows by rasterising the casters against the visible samples themselves
     (module docstring): every light type the shadow map supports, 1 to 32 samples per pixel."""
 

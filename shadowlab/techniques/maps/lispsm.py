@@ -47,13 +47,14 @@ from ...geometry.bounds import box_corners
 from ...geometry.frusta import LightView
 from ..base import FIRST, Param, PlotStyle
 from .toolkit import DEPTH_MAP_STATS, DepthMapTechnique, shadowable_receivers
+from .contact import ContactShadows
 from .shadow_map import COMPARISON_PARAMS, VARIANTS, ComparisonVariants
 
 #: Central-difference step for the texel-size estimate, × the body's extent.
 TEXEL_STEP = 1e-4
 
 
-class LiSPSM(ComparisonVariants, DepthMapTechnique):
+class LiSPSM(ContactShadows, ComparisonVariants, DepthMapTechnique):
     """Light space perspective shadow map of a directional light (one warped face)."""
 
     name = "lispsm"

@@ -80,6 +80,7 @@ from .toolkit import (
     BASIS_HELPERS, BASIS_SWITCH, Atlas, TexelMapping, fit_light_views, height_axis, light_extents,
     light_size, near_far, search_height,
 )
+from .contact import ContactShadows
 
 #: The two SAT formats: 32-bit fixed point summed modulo 2³² (the paper's remedy), float32 (the artefact).
 SAT_PRECISIONS = ("fixed32", "float32")
@@ -218,7 +219,7 @@ def fixed_scale(max_texels: float) -> int:
     return max(1, int(UINT32_MAX // int(np.ceil(max_texels))))
 
 
-class MomentSoftShadows(TexelMapping, Technique):
+class MomentSoftShadows(ContactShadows, TexelMapping, Technique):
     """Moment soft shadow mapping: blocker search and filter from a summed-area table of a
     four-moment shadow map (module docstring)."""
 

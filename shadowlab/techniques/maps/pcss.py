@@ -63,6 +63,7 @@ from .toolkit import (
     BASIS_HELPERS, BASIS_SWITCH, CLEAR_DEPTH, Atlas, TexelMapping, depth_pass, fit_light_views, height_axis,
     light_extents, light_size, lookup_pass, near_far, search_height,
 )
+from .contact import ContactShadows
 
 #: Depth format of the map (24-bit fixed point, as the shadow map's default).
 DEPTH_BITS = 24
@@ -87,7 +88,7 @@ def light_uv(extents: np.ndarray, view: np.ndarray, proj: np.ndarray) -> np.ndar
     return lateral * (np.array([proj[0, 0], proj[1, 1]])[:, None] / (2.0 * near))
 
 
-class PCSS(TexelMapping, Technique):
+class PCSS(ContactShadows, TexelMapping, Technique):
     """Percentage-closer soft shadows: blocker search, penumbra estimate, variable-size PCF."""
 
     name = "pcss"

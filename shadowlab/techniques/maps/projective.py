@@ -65,6 +65,7 @@ from ...gpu.glstate import PassState
 from ...scene.lights import T_INFINITE
 from ..base import SUM, MAX, Param, PlotStyle, Technique
 from .toolkit import check_texture_size
+from .contact import ContactShadows
 
 RECEIVERS = ("others", "non_casters")
 FILTERS = ("nearest", "linear")
@@ -118,7 +119,7 @@ def fit_caster_view(light, bounds: np.ndarray, resolution: int) -> tuple[LightVi
     return frusta.perspective_view(p, axis, 2 * half, near, far, resolution), note
 
 
-class ProjectiveShadow(Technique):
+class ProjectiveShadow(ContactShadows, Technique):
     """Projective shadow textures: per caster a binary image from the light, multiplied onto the
     other receivers through a projective texture lookup (module docstring)."""
 

@@ -97,6 +97,7 @@ from __future__ import annotations
 from ...geometry.frusta import LightView
 from ..base import Param, PlotStyle, TechniqueError, TuneRange
 from .toolkit import FILTERS, DepthMapTechnique, fit_light_views
+from .contact import ContactShadows
 
 VARIANTS = ("none", "constant", "slope", "normal_offset", "second_depth", "midpoint", "dual",
             "receiver_plane", "adaptive")
@@ -212,7 +213,7 @@ class ComparisonVariants:
         }
 
 
-class ShadowMap(ComparisonVariants, DepthMapTechnique):
+class ShadowMap(ContactShadows, ComparisonVariants, DepthMapTechnique):
     """Depth-buffer shadow maps: every light type, the bias family, two-layer variants, filters."""
 
     name = "shadow_map"

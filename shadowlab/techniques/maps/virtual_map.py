@@ -111,6 +111,7 @@ from .toolkit import (
     ATLAS_DEFINES, CLEAR_DEPTH, MAX_FACES, TexelMapping, check_texture_size, cube_face_index,
     fit_light_views, map_texel_coordinates,
 )
+from .contact import ContactShadows
 
 #: Size of the per-level uniform arrays of the shaders (``MAX_LEVELS``): V / P ≤ 2^15 pages.
 MAX_LEVELS = 16
@@ -152,7 +153,7 @@ def _power_of_two(value: int) -> bool:
     return value > 0 and value & (value - 1) == 0
 
 
-class VirtualMap(TexelMapping, Technique):
+class VirtualMap(ContactShadows, TexelMapping, Technique):
     """UE5-style virtual shadow map (module docstring): pages requested by the visible pixels,
     allocated from a fixed pool, rendered one viewport each, looked up through a page table."""
 

@@ -6,7 +6,10 @@ variant ``adaptive``, 0 for the constant variant; ``receiver`` is the point's wi
 variant ``receiver_plane`` its depth extrapolated along its plane to the tap's texel centre —
 both per tap). The comparison is monotone in the constant bias b, so each tap of each pixel has one
 *threshold* T: the smallest bias that lights it. The truth says whether the pixel is lit, so a
-truly lit pixel is right for b >= T and a truly shadowed one for b < T. One render gives every
+truly lit pixel is right for b >= T and a truly shadowed one for b < T. The oriented bias
+(variant ``oriented``) turns the comparison round where the receiver faces away from the light,
+``receiver + (b + extra) <= stored``: such an *away* tap is lit for b < T, T the smallest bias
+that shadows it (:func:`tap_thresholds`' ``away``); the curve counts it down at T. One render gives every
 T (:meth:`~shadowlab.techniques.maps.toolkit.DepthMapTechnique.comparison_terms` writes each tap's
 terms with the lookup's own arithmetic); sorting them gives the error of **every** constant
 bias at once — the exact optimum and the whole acne-versus-leak curve (:class:`BiasCurve`).
@@ -58,7 +61,7 @@ EXACT_OBJECTIVES = ("error_rate", "false_shadow_rate", "false_lit_rate", "visibi
 #: The variants whose comparison takes a constant bias the optimiser can sweep, and the grid
 #: parameter each adds (None: bias only).
 BIAS_VARIANTS = {"constant": None, "slope": "slope_scale", "normal_offset": "normal_offset",
-                 "receiver_plane": None, "adaptive": "adaptive_epsilon"}
+                 "receiver_plane": None, "adaptive": "adaptive_epsilon", "oriented": None}
 #: The shader uniform each grid parameter overrides in the lookup's comparison.
 GRID_UNIFORMS = {"slope_scale": "u_slope_scale", "normal_offset": "u_normal_offset",
                  "adaptive_epsilon": "u_adaptive_epsilon"}
@@ -88,31 +91,46 @@ def _from_ordered(k: np.ndarray) -> np.ndarray:
     return bits.astype(np.int32).view(np.float32)
 
 
-def lit_at(bias, receiver: np.ndarray, stored: np.ndarray, extra: np.ndarray) -> np.ndarray:
+def lit_at(bias, receiver: np.ndarray, stored: np.ndarray, extra: np.ndarray,
+           away: np.ndarray | None = None) -> np.ndarray:
     """Bool: the lookup's comparison ``receiver − (bias + extra) <= stored`` in float32, as
-    ``shadow_lookup.glsl`` computes it (``bias`` a scalar or an array broadcasting)."""
+    ``shadow_lookup.glsl`` computes it (``bias`` a scalar or an array broadcasting); where
+    ``away`` (the oriented bias, the receiver facing away from the light) ``receiver + (bias +
+    extra) <= stored``."""
     b = np.asarray(bias, np.float32)
-    return (receiver - (b + extra)) <= stored
+    if away is None:
+        return (receiver - (b + extra)) <= stored
+    moved = b + extra
+    return np.where(away, (receiver + moved) <= stored, (receiver - moved) <= stored)
 
 
 def tap_thresholds(receiver: np.ndarray, stored: np.ndarray, extra: np.ndarray,
-                   compared: np.ndarray) -> np.ndarray:
+                   compared: np.ndarray, away: np.ndarray | None = None) -> np.ndarray:
     """Float32 (same shape): per tap the smallest float32 bias that lights it (−inf where it is
     lit whatever the bias: ``compared`` false, or lit at −:data:`BRACKET`; +inf where no bias up
     to :data:`BRACKET` lights it). Exact: bisection over the ordered float32 values of the bias,
-    the comparison evaluated as the shader does (:func:`lit_at`)."""
+    the comparison evaluated as the shader does (:func:`lit_at`). Where ``away`` (the oriented
+    bias, compared taps only) the comparison falls as the bias grows: the threshold is then the
+    smallest bias that *shadows* the tap (−inf: shadowed whatever the bias; +inf: lit up to
+    :data:`BRACKET`), and the tap is lit for biases below it."""
     receiver, stored, extra = (np.asarray(a, np.float32) for a in (receiver, stored, extra))
-    lo = np.full(receiver.shape, _ordered(np.array(-BRACKET))[()], np.int64)  # never lit here (or always)
-    hi = np.full(receiver.shape, _ordered(np.array(BRACKET))[()], np.int64)   # lit here (or never)
-    always = lit_at(-BRACKET, receiver, stored, extra) | ~compared.astype(bool)
-    never = ~lit_at(BRACKET, receiver, stored, extra) & ~always
+    compared = np.asarray(compared, bool)
+    away = np.zeros(receiver.shape, bool) if away is None else np.asarray(away, bool) & compared
+
+    def passes(b) -> np.ndarray:  # monotone rising in b: lit (towards), shadowed (away)
+        return lit_at(b, receiver, stored, extra, away) != away
+
+    lo = np.full(receiver.shape, _ordered(np.array(-BRACKET))[()], np.int64)  # false here (or always true)
+    hi = np.full(receiver.shape, _ordered(np.array(BRACKET))[()], np.int64)   # true here (or never)
+    always = passes(-BRACKET) | ~compared
+    never = ~passes(BRACKET) & ~always
     active = ~(always | never)
     while True:
         open_ = active & (hi - lo > 1)
         if not open_.any():
             break
         mid = (lo + hi) // 2
-        lit = lit_at(_from_ordered(mid), receiver, stored, extra)
+        lit = passes(_from_ordered(mid))
         hi = np.where(open_ & lit, mid, hi)
         lo = np.where(open_ & ~lit, mid, lo)
     out = _from_ordered(hi)
@@ -121,14 +139,16 @@ def tap_thresholds(receiver: np.ndarray, stored: np.ndarray, extra: np.ndarray,
     return out
 
 
-def world_thresholds(tech: Technique, thresholds: np.ndarray, normal_offset: float) -> np.ndarray:
+def world_thresholds(tech: Technique, thresholds: np.ndarray, normal_offset: float,
+                     away: np.ndarray | None = None) -> np.ndarray:
     """Float32 (taps, H·W): window-depth tap ``thresholds`` (rendered with no world bias) as
     thresholds of ``bias`` with ``bias_space=world`` on a perspective map (the lookup converts it
     there: ``converts_world_bias``) — the distance towards the light, as a
     fraction of the scene's extent, that lowers each pixel's window depth by its threshold
     (:func:`shadowlab.techniques.maps.toolkit.window_to_world` at the lookup point, the G-buffer point
     moved ``normal_offset`` texels along its normal as the lookup moves it). Thresholds ≤ 0 (lit
-    without a bias) and ±inf stay as they are.
+    without a bias) and ±inf stay as they are. ``away`` taps (the oriented bias) raise the window
+    depth by their threshold: their distance is measured away from the light.
 
     Not exact to the bit, unlike the window form: the shader converts the world bias to window
     depth in float32 at each receiver and the inverse here is float64, so a pixel whose
@@ -152,7 +172,10 @@ def world_thresholds(tech: Technique, thresholds: np.ndarray, normal_offset: flo
         t = out[k, ok].astype(np.float64)
         convert = np.isfinite(t) & (t > 0)
         world = np.array(t)
-        world[convert] = window_to_world(mats[convert], Q[convert], to_light[convert], t[convert]) / extent
+        sign = np.where(away[k, ok], -1.0, 1.0) if away is not None else np.ones(len(t))
+        # towards the light the depth falls by t; away from it (oriented, facing away) it rises by t
+        world[convert] = window_to_world(mats[convert], Q[convert], sign[convert, None] * to_light[convert],
+                                         sign[convert] * t[convert]) / extent
         out[k, ok] = world.astype(np.float32)
     return out
 
@@ -195,8 +218,13 @@ class BiasCurve:
     oracle: dict[str, float]
 
     @classmethod
-    def build(cls, thresholds: np.ndarray, truth: np.ndarray, lo: float, hi: float) -> "BiasCurve":
-        """The curve of the evaluated pixels' tap ``thresholds`` (taps, M) against ``truth`` (M,)."""
+    def build(cls, thresholds: np.ndarray, truth: np.ndarray, lo: float, hi: float,
+              away: np.ndarray | None = None) -> "BiasCurve":
+        """The curve of the evaluated pixels' tap ``thresholds`` (taps, M) against ``truth`` (M,);
+        ``away`` (taps, M): the oriented bias's taps lit *below* their threshold
+        (:meth:`build_signed`)."""
+        if away is not None and np.asarray(away).any():
+            return cls.build_signed(thresholds, truth, lo, hi, np.asarray(away, bool))
         taps, m = thresholds.shape
         losses = _losses(truth, taps)
         ts = np.sort(thresholds, axis=0)
@@ -224,6 +252,49 @@ class BiasCurve:
             j = np.arange(taps + 1)[None, :]
             reachable = (j >= count_lo[:, None]) & (j <= count_hi[:, None])
             oracle[name] = float(np.where(reachable, loss, np.inf).min(axis=1).sum())
+        return cls(float(lo), float(hi), np.r_[float(lo), breaks], sums,
+                   denominators, {k: _rate(v, denominators[k]) for k, v in oracle.items()})
+
+    @classmethod
+    def build_signed(cls, thresholds: np.ndarray, truth: np.ndarray, lo: float, hi: float,
+                     away: np.ndarray) -> "BiasCurve":
+        """:meth:`build` with taps of both kinds: a tap lights at its threshold (``away`` false)
+        or goes dark there (``away``: lit for biases below it). Each tap inside (lo, hi] is an
+        event moving its pixel's lit count by ±1; a pixel's loss follows its count event by
+        event, and the per-pixel oracle takes the best count any bias in [lo, hi] reaches."""
+        taps, m = thresholds.shape
+        losses = _losses(truth, taps)
+        th = np.asarray(thresholds, np.float32)
+        lo32, hi32 = np.float32(lo), np.float32(hi)
+        lit_lo = np.where(away, th > lo32, th <= lo32)
+        count_lo = lit_lo.sum(axis=0)
+        inside = (th > lo32) & (th <= hi32)
+        j_idx, i_idx = np.nonzero(inside)
+        at = th[j_idx, i_idx].astype(np.float64)
+        step = np.where(away[j_idx, i_idx], -1, 1)
+        # each pixel's count before each of its events: its events in bias order
+        by_pixel = np.lexsort((at, i_idx))
+        pix, d = i_idx[by_pixel], step[by_pixel]
+        earlier = np.cumsum(d) - d                    # the steps before each event, all pixels
+        starts = np.r_[True, pix[1:] != pix[:-1]] if len(pix) else np.zeros(0, bool)
+        group = np.cumsum(starts) - 1                 # each event's pixel group
+        before = np.empty(len(pix), np.int64)
+        before[by_pixel] = count_lo[pix] + earlier - earlier[starts][group]
+        after = before + step
+        order = np.argsort(at, kind="stable")
+        breaks, first = np.unique(at[order], return_index=True)
+        last = np.r_[first[1:], len(at)] - 1
+        rows = np.arange(m)
+        sums, oracle = {}, {}
+        denominators = _denominators(truth)
+        for name, loss in losses.items():
+            start = loss[rows, count_lo].sum()
+            delta = (loss[i_idx, after] - loss[i_idx, before])[order]
+            total = start + np.cumsum(delta)
+            sums[name] = np.r_[start, total[last]] if len(at) else np.array([start])
+            best = loss[rows, count_lo].astype(np.float64)
+            np.minimum.at(best, i_idx, loss[i_idx, after])
+            oracle[name] = float(best.sum())
         return cls(float(lo), float(hi), np.r_[float(lo), breaks], sums,
                    denominators, {k: _rate(v, denominators[k]) for k, v in oracle.items()})
 
@@ -308,6 +379,8 @@ class GridPoint:
     params: dict
     thresholds: np.ndarray
     curve: BiasCurve
+    #: Bool (taps, H·W): the oriented bias's taps lit below their threshold (None: no such tap).
+    away: np.ndarray | None = None
 
 
 @dataclass
@@ -333,7 +406,11 @@ class ExactBiasTune:
     def visibility(self, point: GridPoint, bias: float) -> np.ndarray:
         """Float32 (H, W): the visibility the lookup renders with ``bias`` at ``point``
         (lit taps / taps, as the shader divides)."""
-        lit = (point.thresholds <= np.float32(bias)).sum(axis=0).astype(np.float32)
+        b = np.float32(bias)
+        lit_taps = point.thresholds <= b
+        if point.away is not None:
+            lit_taps = np.where(point.away, point.thresholds > b, lit_taps)
+        lit = lit_taps.sum(axis=0).astype(np.float32)
         h, w = self.evaluated.shape
         return (lit / np.float32(self.taps)).reshape(h, w)
 
@@ -400,14 +477,17 @@ def exact_bias_tune(evaluator: Evaluator, spec: str, light: int = 0, lo: float =
             seconds["terms"] = seconds.get("terms", 0.0) + time.perf_counter() - t0
             t0 = time.perf_counter()
             flat = terms.reshape(len(taps), -1, 4)
-            th = tap_thresholds(flat[..., 0], flat[..., 1], flat[..., 2], flat[..., 3] != 0)
+            away = flat[..., 3] < 0  # the oriented bias's taps facing away from the light
+            away = away if away.any() else None
+            th = tap_thresholds(flat[..., 0], flat[..., 1], flat[..., 2], flat[..., 3] != 0, away)
             if world:
                 offset = float(value) if grid_param == "normal_offset" else \
                     (float(tech.normal_offset) if tech.variant == "normal_offset" else 0.0)
-                th = world_thresholds(tech, th, offset)
-            curve = BiasCurve.build(th[:, ev.ravel()], truth[ev], lo, hi)
+                th = world_thresholds(tech, th, offset, away)
+            curve = BiasCurve.build(th[:, ev.ravel()], truth[ev], lo, hi,
+                                    None if away is None else away[:, ev.ravel()])
             seconds["curves"] = seconds.get("curves", 0.0) + time.perf_counter() - t0
-            points.append(GridPoint({grid_param: value} if grid_param else {}, th, curve))
+            points.append(GridPoint({grid_param: value} if grid_param else {}, th, curve, away))
             if on_step is not None:
                 on_step(f"{grid_param}={value}" if grid_param else "bias")
     finally:

@@ -5,7 +5,7 @@ tuned study's tasks share (docs/tuning.md).
 Two routes, chosen from the spec and the parameters asked for:
 
 - **exact** (:mod:`shadowlab.tuning.exact_bias`): the shadow-map bias family — ``bias`` of the
-  constant, slope, normal_offset, receiver_plane and adaptive variants, with at most the
+  constant, slope, normal_offset, receiver_plane, adaptive and oriented variants, with at most the
   variant's one grid parameter (``slope_scale``, ``normal_offset`` or ``adaptive_epsilon``) on a
   stated grid — from one render per grid value: every constant bias at once;
 - **search** (:mod:`shadowlab.tuning.search`): any other parameters, by coordinate search over

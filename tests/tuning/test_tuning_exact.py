@@ -57,6 +57,33 @@ def test_oracle_counts_pixels_no_bias_in_range_fixes():
     assert c.optimum("error_rate").value == pytest.approx(0.5)
 
 
+def test_signed_curve_by_hand():
+    # the oriented bias: pixel 0 faces the light (lit from 0.2 on), pixel 1 faces away (lit below
+    # 0.3, then dark); both truly lit
+    th = np.float32([[0.2, 0.3]])
+    away = np.array([[False, True]])
+    c = BiasCurve.build(th, np.float32([1.0, 1.0]), 0.0, 1.0, away)
+    assert list(c.breaks) == [0.0, np.float32(0.2), np.float32(0.3)]
+    assert list(c.sums["error_rate"]) == [1, 0, 1]  # [0, 0.2): pixel 0; [0.2, 0.3): none; >= 0.3: pixel 1
+    opt = c.optimum("error_rate")
+    assert opt.value == 0.0 and opt.lo == pytest.approx(0.2) and opt.hi == pytest.approx(0.3)
+    assert c.oracle["error_rate"] == 0.0
+
+
+def test_away_thresholds_are_the_smallest_float32_bias_that_shadows(rng):
+    n = 20_000
+    receiver = rng.uniform(0, 1, n).astype(np.float32)
+    stored = (receiver + rng.normal(0, 1e-3, n)).astype(np.float32)
+    extra = np.zeros(n, np.float32)
+    away = np.ones(n, bool)
+    t = tap_thresholds(receiver, stored, extra, np.ones(n, bool), away)
+    finite = np.isfinite(t)
+    assert (t[~finite] == -np.inf).all()  # stored below the receiver: shadowed at every bias
+    assert not lit_at(t[finite], receiver[finite], stored[finite], extra[finite], away[finite]).any()
+    below = np.nextafter(t[finite], np.float32(-np.inf))
+    assert lit_at(below, receiver[finite], stored[finite], extra[finite], away[finite]).all()
+
+
 def test_pcf_pixel_lights_at_its_median_tap():
     # nine taps of one truly lit pixel: thresholded V >= 0.5 from the 5th smallest threshold on
     th = np.float32(np.arange(1, 10) / 100.0)[:, None]
@@ -74,7 +101,10 @@ def test_pcf_pixel_lights_at_its_median_tap():
                                   "shadow_map:variant=receiver_plane,bias=1e-5",
                                   "shadow_map:variant=receiver_plane,filter=pcf5,bias=1e-6",
                                   "shadow_map:variant=adaptive,bias=0",
-                                  "shadow_map:variant=adaptive,filter=pcf3,bias=1e-6,adaptive_epsilon=1e-6"])
+                                  "shadow_map:variant=adaptive,filter=pcf3,bias=1e-6,adaptive_epsilon=1e-6",
+                                  # the oriented bias: taps facing away from the light compare
+                                  # receiver + bias, lit below their threshold
+                                  "shadow_map:variant=oriented", "shadow_map:variant=oriented,filter=pcf3,bias=0.05"])
 def test_emulation_equals_the_render(lab, scene, spec):
     """The window-depth form (bias_space=window) is emulated to the bit."""
     t = from_spec(spec + ("," if ":" in spec else ":") + "bias_space=window")
@@ -87,8 +117,11 @@ def test_emulation_equals_the_render(lab, scene, spec):
     finally:
         t.release()
     flat = terms.reshape(len(taps), -1, 4)
-    th = tap_thresholds(flat[..., 0], flat[..., 1], flat[..., 2], flat[..., 3] != 0)
-    vis = ((th <= np.float32(t.bias)).sum(0).astype(np.float32) / np.float32(len(taps))).reshape(m.visibility.shape)
+    away = flat[..., 3] < 0
+    assert away.any() == (t.variant == "oriented")  # both scenes show faces turned away from the light
+    th = tap_thresholds(flat[..., 0], flat[..., 1], flat[..., 2], flat[..., 3] != 0, away)
+    lit = np.where(away, th > np.float32(t.bias), th <= np.float32(t.bias))
+    vis = (lit.sum(0).astype(np.float32) / np.float32(len(taps))).reshape(m.visibility.shape)
     assert int((vis != m.visibility).sum()) == 0
 
 
@@ -96,7 +129,8 @@ def test_emulation_equals_the_render(lab, scene, spec):
 #: spec, grid (adaptive: adaptive_epsilon on a grid holding the spec's own value).
 EXACT_SPECS = {"constant": ("shadow_map", None),
                "receiver_plane": ("shadow_map:variant=receiver_plane", None),
-               "adaptive": ("shadow_map:variant=adaptive", {"adaptive_epsilon": [1e-7, 1e-4]})}
+               "adaptive": ("shadow_map:variant=adaptive", {"adaptive_epsilon": [1e-7, 1e-4]}),
+               "oriented": ("shadow_map:variant=oriented", None)}
 
 
 @pytest.mark.parametrize("scene", ["sm_contact", "sm_grazing"])
@@ -166,7 +200,7 @@ def test_exact_optimum_is_the_best_of_200_renders(lab, scene):
 
 
 @pytest.mark.parametrize("scene", ["sm_contact", "sm_grazing", "spot_scene"])
-@pytest.mark.parametrize("spec", ["shadow_map", "shadow_map:filter=pcf3"])
+@pytest.mark.parametrize("spec", ["shadow_map", "shadow_map:filter=pcf3", "shadow_map:variant=oriented"])
 def test_world_bias_thresholds_reproduce_the_render(lab, scene, spec):
     """The world-distance bias (the default bias_space): window thresholds converted to world
     distances at each receiver reproduce the rendered visibility at the spec's own bias (the

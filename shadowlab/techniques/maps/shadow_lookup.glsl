@@ -20,12 +20,19 @@
 //   × u_scene_extent (world units) moved along the ray towards the light, converted to window
 //   depth at the intersection (so it follows a perspective map's depth compression); u_bias is
 //   added on top (0 gives the paper's form).
+// With u_oriented (oriented depth bias: Fatnassi 2023, "Shadow Techniques from Final Fantasy XVI",
+// Square Enix, §4) the bias takes the sign g_orientation of the visible side's orientation to the
+// light: +1 where the G-buffer normal turned towards the camera (u_eye) faces the light, the
+// receiver moved towards it as usual; -1 where it faces away, the receiver moved away from the
+// light by the same bias (ref = receiver + bias), which keeps it in its own object's shadow.
 // The two per-tap comparisons need a depth test per texel: not with FILTER_HW (the Python side
 // refuses the combination). Filtering: texel-exact PCF over (2r+1)² texels (r = 0: nearest),
 // or, with FILTER_HW, the hardware 2x2 bilinear comparison (sampler2DShadow).
 // With THRESHOLDS defined (the exact bias optimiser, shadowlab/tuning/exact_bias.py) the pass
 // writes, instead of the visibility, the terms of one tap's comparison ref = receiver - bias <=
-// stored with bias = u_bias + extra: (receiver, stored depth at tap u_tap, extra, COMPARED) —
+// stored with bias = u_bias + extra: (receiver, stored depth at tap u_tap, extra, COMPARED) — with
+// w = -COMPARED (ORIENTED_AWAY) where the oriented bias moves the receiver away from the light:
+// there the comparison is ref = receiver + bias <= stored —
 // receiver and extra are the tap's own with the per-tap comparisons (the receiver plane's depth
 // at the tap's texel centre; the adaptive bias of that texel) — or
 // w = LIT_ANYWAY where the point is lit whatever the bias (no G-buffer point, behind the light's
@@ -71,6 +78,8 @@ uniform int u_depth_comparison;          // DEPTH_COMPARISON_*
 uniform mat4 u_light_matrix_inverse[MAX_FACES];  // adaptive: map (u, v, window depth) -> world
 uniform float u_adaptive_epsilon;        // adaptive: epsilon as a fraction of the scene's extent
 uniform float u_scene_extent;            // adaptive: the diagonal of the scene's bounds, world
+uniform int u_oriented;                  // oriented bias: 1 = the bias's sign follows the orientation
+uniform vec3 u_eye;                      // oriented bias: the camera's position (the visible side)
 #ifdef CASCADES
 uniform vec4 u_view_depth;               // camera view depth of P = dot(u_view_depth, vec4(P, 1))
 uniform float u_cascade_far[MAX_FACES];  // far split of each cascade (view depth)
@@ -85,6 +94,7 @@ uniform float u_cascade_texel[MAX_FACES];  // world size of a texel of each casc
 #error "THRESHOLDS: one face per point (a cascade blend compares in two)"
 #endif
 #define COMPARED 1.0
+#define ORIENTED_AWAY -1.0
 #define LIT_ANYWAY 0.0
 uniform ivec2 u_tap;                     // the tap whose stored depth is written, texels
 out vec4 out_terms;
@@ -92,6 +102,10 @@ vec4 g_terms = vec4(0.0, 0.0, 0.0, LIT_ANYWAY);
 #else
 out float out_visibility;
 #endif
+
+// The oriented bias's sign at this fragment: +1 (towards the light), or -1 where u_oriented is set
+// and the visible side faces away from the light (set by main before any lookup).
+float g_orientation = 1.0;
 
 #include "cube_face.glsl"
 #include "atlas.glsl"
@@ -155,9 +169,10 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
         else
             extra = u_slope_scale * max(abs(edge.x), abs(edge.y));  // edge-on to the light
     }
-    float world = world_bias(f, Q, u_bias_world);  // Q moved u_bias_world towards the light
+    // Q moved u_bias_world towards the light (or, oriented and facing away, away from it)
+    float world = g_orientation > 0.0 ? world_bias(f, Q, u_bias_world) : world_bias_away(f, Q, u_bias_world);
     float bias = u_bias + world + extra;
-    float ref = c.z - bias;
+    float ref = c.z - g_orientation * bias;  // g_orientation = ±1: exact, ref = c.z ∓ bias
     vec2 atlas = atlas_texel(f, c.xy);
 #ifdef FILTER_HW
     // The 2x2 bilinear footprint kept inside this face of the atlas. textureLod at level 0: this
@@ -188,7 +203,7 @@ float face_visibility(int f, vec3 Q, vec3 N, float texel) {
             }
             float stored = texelFetch(u_map, tap, 0).r;
 #ifdef THRESHOLDS
-            g_terms = vec4(receiver, stored, tap_extra, COMPARED);
+            g_terms = vec4(receiver, stored, tap_extra, g_orientation > 0.0 ? COMPARED : ORIENTED_AWAY);
             return LIT;
 #endif
             lit += tap_ref <= stored ? LIT : SHADOWED;
@@ -207,6 +222,9 @@ void main() {
     vec3 P;
     if (!gbuffer_position(P)) return;
     vec3 N = gbuffer_normal_towards(light_dir_to(P));  // two-sided receivers: the side facing the light
+    // Oriented bias: does the visible side (the normal turned towards the camera) face the light?
+    if (u_oriented != 0 && dot(gbuffer_normal_towards(u_eye - P), light_dir_to(P)) <= 0.0)
+        g_orientation = -1.0;
     float visibility;
 #ifdef CASCADES
     // The first cascade whose far split lies beyond P's view depth (the last one past the far split).

@@ -64,7 +64,25 @@ The variants:
   the rasteriser's round-off (at ``bias=0`` acne remains: sm_grazing with fit=receivers, and
   16-bit depth on sm_contact), ``adaptive``'s epsilon scales with the scene. Both per-tap
   variants need a depth test per texel, so ``filter=hw2x2`` (one reference depth for the 2x2
-  footprint) is refused with them.
+  footprint) is refused with them;
+- ``oriented`` (oriented depth bias: S. Fatnassi, "Shadow Techniques from Final Fantasy XVI",
+  technical report, Square Enix 2023, §4): the constant ``bias`` applied with the sign of the
+  surface's orientation to the light, d' = d − s · ``bias``, s = +1 where the visible side of the
+  surface faces the light (N·L > 0, N the geometric normal turned towards the camera: the
+  G-buffer normal of a deferred renderer) and s = −1 where it faces away. Points facing the
+  light move towards it (as ``constant``); points facing away move away from it, so that they
+  stay in their own object's shadow instead of leaking light through it. With
+  ``bias_space=world`` the distance moved away is converted to window depth at the receiver as
+  the distance towards it is. Source, stated: the paper's own text (PDF at
+  www.jp.square-enix.com/tech/library/pdf/2023_FFXVIShadowTechPaper.pdf) could not be read
+  here; the rule above is what independent implementations that cite the paper do (a flat
+  depth offset, its sign chosen by whether the normal faces the light), which also put the
+  paper's value at 2 mm of linear depth. One of them says the paper keeps the hardware
+  slope-scaled bias (factor 1) in the depth pass while dropping its constant part; that part is
+  not in this variant (``hardware_offset`` stays the ``slope`` variant's). Note for reading the
+  figures: the metrics evaluate only points whose visible side faces the light
+  (docs/metrics.md), where s = +1, so there this variant compares exactly as ``constant`` does
+  (up to float32 round-off of the sign where N·L ≈ 0); it differs on the points facing away.
 
 Filters (``filter=``): ``nearest``; ``hw2x2`` (sampler2DShadow with linear filtering: hardware
 bilinear PCF); ``pcf3`` / ``pcf5`` (texel-exact percentage-closer filtering, Reeves et al. 1987).
@@ -100,7 +118,7 @@ from .toolkit import FILTERS, DepthMapTechnique, fit_light_views
 from .contact import ContactShadows
 
 VARIANTS = ("none", "constant", "slope", "normal_offset", "second_depth", "midpoint", "dual",
-            "receiver_plane", "adaptive")
+            "receiver_plane", "adaptive", "oriented")
 #: The variants that compare against a resolved pair of layers (depth peeling).
 TWO_LAYER_VARIANTS = ("midpoint", "dual")
 #: The variants whose comparison applies no constant bias of its own.
@@ -195,8 +213,9 @@ class ComparisonVariants:
 
     def comparison_uniforms(self) -> dict:
         """The variant's bias terms, the first face's texel size, the PCF radius, the per-tap
-        comparison (receiver plane, adaptive) and what the adaptive bias needs (the inverse light
-        matrices, the epsilon and the scene's extent)."""
+        comparison (receiver plane, adaptive), what the adaptive bias needs (the inverse light
+        matrices, the epsilon and the scene's extent) and the oriented bias's switch and camera
+        position (the visible side of a surface is the side facing the camera)."""
         face = self.atlas.faces[0]
         window, world = self.bias_window_world()
         return {
@@ -210,6 +229,9 @@ class ComparisonVariants:
             "u_normal_offset": float(self.normal_offset) if self.variant == "normal_offset" else 0.0,
             "u_texel_world": float(face.texel_world), "u_texel_angle": float(face.texel_angle),
             "u_kernel_radius": FILTERS[self.filter] or 0,
+            # oriented: the bias's sign follows the visible side's orientation to the light
+            "u_oriented": 1 if self.variant == "oriented" else 0,
+            "u_eye": tuple(float(v) for v in self.frame.camera.eye),
         }
 
 
@@ -217,8 +239,8 @@ class ShadowMap(ContactShadows, ComparisonVariants, DepthMapTechnique):
     """Depth-buffer shadow maps: every light type, the bias family, two-layer variants, filters."""
 
     name = "shadow_map"
-    summary = ("depth-buffer shadow maps (Williams 1978): bias variants (receiver-plane and adaptive bias "
-               "among them), second-depth, midpoint, dual, PCF")
+    summary = ("depth-buffer shadow maps (Williams 1978): bias variants (receiver-plane, adaptive and oriented "
+               "bias among them), second-depth, midpoint, dual, PCF")
     STYLE = PlotStyle("#1f77b4", "o")
     LIGHT_SAMPLED = True  # light_samples=N: averaged over N points of an area light (shadowlab.measurement.light_sampling)
     #: The map's texel mapping, and the bias family the exact optimiser sweeps (ComparisonVariants).

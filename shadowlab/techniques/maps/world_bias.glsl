@@ -22,3 +22,11 @@ float world_bias(int f, vec3 Q, float distance) {
     vec3 delta = light_dir_to(Q) * distance;
     return (u_light_matrix[f] * vec4(Q + delta, 1.0)).w > 0.0 ? -window_change(f, Q, delta) : WORLD_PAST_LIGHT;
 }
+
+// The window-depth increase of moving Q a world distance away from the light in face f's map (the
+// oriented bias of a point facing away from the light); 0 for no distance. Moving away never
+// reaches the light's plane of projection.
+float world_bias_away(int f, vec3 Q, float distance) {
+    if (distance <= 0.0) return 0.0;
+    return window_change(f, Q, -light_dir_to(Q) * distance);
+}

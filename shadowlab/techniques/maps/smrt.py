@@ -45,16 +45,20 @@ depth bias, Isidoro 2006, as pcss — minus ``bias``). Points off the map are sk
 A ray that is never blocked reaches the light; V = the fraction of the ``rays`` rays that do.
 The map holds only the surface nearest the centre, so everything behind it is guessed by the
 extrapolation: a ray that slips behind an occluder's silhouette keeps following the surface it
-saw before, and counts as blocked only if it crosses that surface's continuation. A large
+saw before, and counts as blocked only if it crosses that surface's continuation — which also
+darkens the inner penumbra under two casters at different heights, where a ray behind the upper
+one crosses the lower one's continuation beyond that caster's real edge. A large
 ``slope`` lets a continuation that starts at a depth jump run away from the ray (softer penumbra
 edges, as UE's cvar help says, but a ray passing behind a second occluder can then escape: light
 leaks); a small one keeps the continuation nearly flat, so the ray soon crosses it. UE ships
 ``ExtrapolateMaxSlopeLocal`` = 0.05 (local lights; our area lights are local, so the default) and
 ``ExtrapolateMaxSlopeDirectional`` = 5.0, both per unit of its ray parameter in its device depth —
 here per unit t in window depth, of the same scale for a perspective map whose far plane is far
-beyond its near one. Fewer ``samples`` make fewer chances to land just behind a surface (the
-crossing test), so thin occluders are missed more often — EEVEE's docs say the opposite holds for
-overlapping casters ("mitigated by using lower step count"): the tests measure which it is here.
+beyond its near one. ``samples`` sets the tolerance too: fewer, longer steps give a larger τ,
+so a ray that enters an occluder's shadow from its side is more often within one step of the
+stored surface and counted as crossing it instead of being handed to the extrapolation — fewer
+leaks (EEVEE's docs: leaking "mitigated by using lower step count"), at the price of coarser
+penumbrae (tests/techniques/maps/test_smrt.py measures both).
 
 **Screen trace** (UE's ``r.Shadow.Virtual.ScreenRayLength`` = 0.015): before the map's march, each
 ray first walks :data:`SCREEN_STEPS` points of its first L = ``screen_ray`` × (the receiver's

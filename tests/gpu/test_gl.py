@@ -367,3 +367,20 @@ def test_expansions_end_every_line_and_markers_name_no_source_string():
         assert markers, path.name
         bad = [m for m in markers if not re.fullmatch(r"#line \d+", m.strip())]
         assert not bad, f"{path.name}: {bad[:3]}"
+
+
+def test_no_shipped_shader_writes_a_double_constant_as_a_float_literal():
+    """A GLSL literal without a suffix is a float: 1e300 overflows it. Mesa accepts the overflow,
+    NVIDIA's compiler rejects the program (C0153, found on a lent H200: the hierarchical volume did
+    not build). Any literal past float's range must carry the LF suffix."""
+    import re
+
+    literal = re.compile(r"(?<![\w.])(\d+(?:\.\d*)?|\.\d+)[eE]([+-]?\d+)(lf|LF|f|F)?")
+    bad = []
+    for name, path in glsl.shader_files().items():
+        for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            code = line.split("//")[0]
+            for m in literal.finditer(code):
+                if abs(int(m.group(2))) > 38 and (m.group(3) or "").lower() != "lf":
+                    bad.append(f"{name}:{lineno}: {m.group(0)}")
+    assert not bad, "float literals past float's range (add LF): " + ", ".join(bad)

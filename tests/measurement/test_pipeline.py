@@ -56,7 +56,10 @@ def test_metric_table_holds_the_design_contract():
     assert len(names) == len(set(names))
     metric_names = {c.name for c in COLUMNS if c.compute is not None}
     ones = np.ones((4, 4), np.float32)
-    assert set(compare(ones, ones, ones > 0, contact=ones < 0, overlap=ones < 0)) == metric_names
+    parts = {"base": ones, "contact_shadow": ones, "classifier": ones}  # every component a metric judges
+    assert set(compare(ones, ones, ones > 0, contact=ones < 0, overlap=ones < 0, components=parts)) == metric_names
+    # without the components, the metrics that judge them are left out
+    assert not {"seam_pixels", "classifier_error_pixels"} & set(compare(ones, ones, ones > 0, ones < 0, ones < 0))
 
 
 def test_comparison_rows_follow_the_table_and_judge_against_the_truth(lab):

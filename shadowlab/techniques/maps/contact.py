@@ -276,10 +276,12 @@ class ContactShadows:
     the frame's exact points, which every technique may read."""
 
     def __init_subclass__(cls, **kwargs):
-        """Merge the contact declarations into the new class's (after its own, so they are last)
-        and wrap the methods the contact pass follows (once: a subclass inherits the wrapping)."""
+        """Merge the contact declarations into the new class's (after its own, before the shared
+        ``light_samples``, which stays last) and wrap the methods the contact pass follows (once: a subclass inherits the wrapping)."""
         super().__init_subclass__(**kwargs)
-        cls.PARAMS = {**{k: p for k, p in cls.PARAMS.items() if k not in CONTACT_PARAMS}, **CONTACT_PARAMS}
+        own = {k: p for k, p in cls.PARAMS.items() if k not in CONTACT_PARAMS and k != "light_samples"}
+        shared = {k: p for k, p in cls.PARAMS.items() if k == "light_samples"}  # the pipeline's, kept last
+        cls.PARAMS = {**own, **CONTACT_PARAMS, **shared}
         cls.PASSES = tuple(p for p in cls.PASSES if p != "contact") + ("contact",)
         cls.STATS = {**cls.STATS, **CONTACT_STATS}
         for name in _WRAPPED_DOC:

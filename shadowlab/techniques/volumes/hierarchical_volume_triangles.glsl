@@ -86,7 +86,7 @@ void main() {
     // Window coordinates of the clipped polygon; its orientation (GL: front = counter-clockwise).
     dvec2 size = dvec2(u_size);
     dvec2 q[MAX_POLY];
-    double wmin = 1e300, cmax = 0.0;
+    double wmin = 1e300LF, cmax = 0.0;
     for (int k = 0; k < 3; ++k)
         cmax = max(cmax, double(max(max(abs(c[k].x), abs(c[k].y)), max(abs(c[k].z), abs(c[k].w)))));
     for (int k = 0; k < n; ++k) wmin = min(wmin, poly[k].w);
@@ -97,7 +97,7 @@ void main() {
         store_uncertain(i, side);
     } else {
         double area = 0.0;
-        dvec2 lo = dvec2(1e300), hi = dvec2(-1e300);
+        dvec2 lo = dvec2(1e300LF), hi = dvec2(-1e300LF);
         for (int k = 0; k < n; ++k) {
             q[k] = (poly[k].xy / poly[k].w + 1.0) * 0.5 * size;
             lo = min(lo, q[k]);
@@ -176,7 +176,7 @@ void main() {
         int x0 = box.x, x1 = box.z;
         if (rows) {
             double ylo = double(ty * u_tile) + 0.5 - m, yhi = double(min((ty + 1) * u_tile, u_size.y)) - 0.5 + m;
-            double xmin = 1e300, xmax = -1e300;
+            double xmin = 1e300LF, xmax = -1e300LF;
             for (int k = 0; k < n; ++k) {
                 dvec2 a = q[k], b = q[(k + 1) % n];
                 double t0 = 0.0, t1 = 1.0, dy = b.y - a.y;

@@ -112,7 +112,8 @@ def test_shortening_can_miss_a_caster_the_map_never_saw(lab, scene, spec, expect
     short, _, _, truth, evaluated = run(lab, scene, spec)
     full, _, _, _, _ = run(lab, scene, spec + ",shorten=false")
     differ = evaluated & (short != full)
-    assert differ.sum() == expected
+    # measured on llvmpipe; rasteriser ties move a pixel or two (sv_soup: 17 on an NVIDIA H200)
+    assert abs(int(differ.sum()) - expected) <= max(2, expected // 10)
     assert np.array_equal(full[differ], truth[differ])
 
 

@@ -223,7 +223,8 @@ def test_params_round_trip_and_become_columns(lab):
     t = from_spec("projective:resolution=256,receivers=non_casters,clip=false,filter=linear")
     assert from_spec(t.spec()).params() == t.params()
     assert t.spec() == ("projective:resolution=256,receivers=non_casters,clip=false,filter=linear,"
-                        "light_samples=1")
+                        "contact=false,contact_samples=60,contact_hard=4,contact_fade=8,contact_thickness=0.005,"
+                        "contact_bilinear=0.02,contact_contrast=4.0,light_samples=1")
     row = lab.rows("box_on_plane", [t.spec()], SIZE).iloc[0]
     assert row["param_receivers"] == "non_casters" and row["param_resolution"] == 256
     assert ProjectiveShadow.LIGHT_SAMPLED

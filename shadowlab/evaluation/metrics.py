@@ -443,6 +443,10 @@ COLUMNS: tuple[Column, ...] = (
     _metric("umbra_error_rate", f"wrongly lit / umbra pixels (G <= {PENUMBRA_LOW}): light through a full shadow",
             lambda e: _ratio(_umbra_error_pixels(e), int(e.soft[0].sum())), "percent", report=True, soft=True,
             tolerance=RATE_TOLERANCE),
+    _metric("umbra_leak", f"mean wrongly passed light max(0, V - G) over the truth's umbra (G <= {PENUMBRA_LOW}): "
+                          "light leaking into a full shadow, however faint (umbra_error_rate counts only V >= 0.5)",
+            lambda e: float(np.clip(e.vis[e.soft[0]] - e.truth[e.soft[0]], 0.0, None).mean()) if e.soft[0].any()
+            else 0.0, soft=True),
     _metric("umbra_pixels", f"evaluated pixels in the truth's umbra (G <= {PENUMBRA_LOW})",
             lambda e: int(e.soft[0].sum()), "count"),
     _metric("umbra_error_pixels", "umbra pixels V has lit", _umbra_error_pixels, "count"),

@@ -6,7 +6,8 @@ default bias and at a bias that detaches thin casters (0.02), measures without a
 
 1. the surface thickness (``contact_thickness`` 0.001-0.05): contact pixels recovered, false
    shadows introduced (thickness halos), the error where contact and map shadows meet (seam);
-2. its length (``contact_samples`` 8-120 pixels): the contact gap it closes and the pass's time.
+2. its length (``contact_samples`` 8-120 pixels): the contact gap it closes and the pass's time;
+3. the depth-edge test off (``contact_bilinear=1``): grazing surfaces no longer shadow themselves.
 
 Also tabulates Bend's dispatch list (:func:`shadowlab.techniques.maps.contact.bend_dispatch_count`)
 over light positions on and off a 1920x1080 screen against its comment ("one or two when the light
@@ -34,7 +35,7 @@ BIASES = [0.002, 0.02]
 THICKNESS = [0.001, 0.002, 0.005, 0.01, 0.02, 0.05]
 SAMPLES = [8, 16, 30, 60, 120]
 COLUMNS = ["scene", "light", "short_label", "param_bias", "param_contact", "param_contact_thickness",
-           "param_contact_samples", "error_rate", "false_shadow_pixels", "false_lit_pixels", "contact_gap_px",
+           "param_contact_samples", "param_contact_bilinear", "error_rate", "false_shadow_pixels", "false_lit_pixels", "contact_gap_px",
            "contact_recovered_pixels", "contact_false_pixels", "contact_gap_closed_px", "seam_pixels",
            "seam_error_rate", "time_ms_median", "pass_contact_ms", "contact_dispatches", "bend_dispatches",
            "contact_samples"]
@@ -48,6 +49,7 @@ def specs() -> list[str]:
         out.append(base)
         out += [f"{base},contact=true,contact_thickness={t}" for t in THICKNESS]
         out += [f"{base},contact=true,contact_samples={n}" for n in SAMPLES if n != 60]
+        out.append(f"{base},contact=true,contact_bilinear=1.0")  # the depth-edge test off
     return out
 
 
@@ -87,13 +89,13 @@ def plot(df: pd.DataFrame, path: Path) -> None:
 
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.2))
     on = df[df["param_contact"].astype(str).str.lower() == "true"]
-    default_len = on["param_contact_samples"] == 60
+    default_len = (on["param_contact_samples"] == 60) & (on["param_contact_bilinear"] == 0.02)
     for (scene, light, bias), d in on[default_len].groupby(["scene", "light", "param_bias"]):
         d = d.sort_values("param_contact_thickness")
         label = f"{scene} L{light} bias {bias:g}"
         axes[0].plot(d["param_contact_thickness"], d["contact_false_pixels"], "o-", label=label)
         axes[1].plot(d["param_contact_thickness"], d["contact_recovered_pixels"], "s-", label=label)
-    default_thick = on["param_contact_thickness"] == 0.005
+    default_thick = (on["param_contact_thickness"] == 0.005) & (on["param_contact_bilinear"] == 0.02)
     for (scene, light, bias), d in on[default_thick].groupby(["scene", "light", "param_bias"]):
         d = d.sort_values("param_contact_samples")
         axes[2].plot(d["param_contact_samples"], d["contact_gap_closed_px"], "o-", label=f"{scene} L{light} bias {bias:g}")

@@ -251,8 +251,9 @@ SEAM_BAND = 3
 
 def seam_band(base: np.ndarray, contact_shadow: np.ndarray, evaluated: np.ndarray, band: int = SEAM_BAND) -> np.ndarray:
     """Where contact shadows and the map's shadow meet (issue 39; Unity HDRP's docs warn of "a
-    visible seam between the two types of shadow"): evaluated pixels within ``band`` pixels of
-    both the contact shadow's boundary and the map shadow's boundary (each thresholded at 0.5).
+    visible seam between the two types of shadow"): evaluated pixels within ``band`` 4-neighbour
+    steps (an L1 distance) of both the contact shadow's boundary and the map shadow's boundary
+    (each thresholded at 0.5).
     Bool (H, W); empty where either shadow has no edge."""
     ev = evaluated.astype(bool)
     near = []
@@ -270,10 +271,11 @@ def _contact_changed(e: Evaluation) -> np.ndarray:
 
 
 def _seam(e: Evaluation) -> tuple[int, int]:
-    """(pixels in the seam band, wrong pixels there)."""
-    band = seam_band(e.components["base"], e.components["contact_shadow"], e.ev)
-    wrong = (e.v_sh != e.g_sh) & band
-    return int(band.sum()), int(wrong.sum())
+    """(pixels in the seam band, wrong pixels there), computed once per evaluation."""
+    if "seam" not in e.__dict__:
+        band = seam_band(e.components["base"], e.components["contact_shadow"], e.ev)
+        e.__dict__["seam"] = (int(band.sum()), int(((e.v_sh != e.g_sh) & band).sum()))
+    return e.__dict__["seam"]
 
 
 def _contact_gap_closed(e: Evaluation) -> float:

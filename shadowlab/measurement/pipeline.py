@@ -169,8 +169,14 @@ def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int 
                          f"of light {slot.index}")
             raise
         average.add(point_light.position, m.visibility)
-        for key, image in m.components.items():  # the parts averaged like the visibility (plain mean)
-            parts[key] = parts.get(key, 0.0) + image / n
+        for key, image in m.components.items():
+            # the technique alone (``base``) is averaged as its visibility would be without the
+            # other part (the horizon and the light's facing included), so it equals the same
+            # technique's result without it; the other parts as a plain mean
+            if key == "base":
+                parts.setdefault(key, light_sampling.VisibilityAverage(frame, slot)).add(point_light.position, image)
+            else:
+                parts[key] = parts.get(key, 0.0) + image / n
         ms.append(dataclasses.replace(m, visibility=None, components={}))  # one image at a time
     notes = list(dict.fromkeys(tech.notes[before:]))
     tech.notes[before:] = notes
@@ -187,7 +193,8 @@ def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int 
                                stats=stats, notes=notes, pass_times=pass_times,
                                setup_ms=float(sum(m.setup_ms for m in ms)),
                                peak_rss_bytes=max(m.peak_rss_bytes for m in ms), work=per_pass_work,
-                               components=parts)
+                               components={k: v.result() if isinstance(v, light_sampling.VisibilityAverage)
+                                           else v for k, v in parts.items()})
 
 
 def _measure_hard(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 5, warmup: int = 1,

@@ -40,7 +40,7 @@ import numpy as np
 
 from ...gpu import programs
 from ...gpu.targets import read_texture
-from ..base import SUM, Param, TuneRange
+from ..base import SUM, Param, TechniqueError, TuneRange
 
 #: Pixels per Bend wave: the unit of its dispatch list.
 BEND_WAVE = 64
@@ -100,10 +100,11 @@ def bend_dispatch_count(light_xy, size: tuple[int, int], wave: int = BEND_WAVE) 
     """How many compute dispatches Bend's dispatch list issues for a light whose projected point
     is ``light_xy`` (pixels, y down as in Bend) on a viewport of ``size``, rewritten from the
     reference's description: the viewport, relative to the light's pixel, is cut into four
-    quadrants; a quadrant that holds any wave of 64 pixels is a dispatch, and it is cut in two
-    (a second dispatch) when the diagonal through the light crosses it — when its far corner is
-    farther from the light on one axis than on the other by at least a wave. Bend's comment:
-    "one or two when the light is off-screen, 4 to 6 when on-screen"."""
+    quadrants, each padded by one wave of 64 pixels (two on its minor axis), so a quadrant lying
+    off the screen within a wave or two of the light still dispatches; a quadrant with any wave
+    is a dispatch, and it is cut in two (a second dispatch) when the diagonal through the light
+    crosses it — when its far corner is farther from the light on one axis than on the other, by
+    any amount. Bend's comment: "one or two when the light is off-screen, 4 to 6 when on-screen"."""
     width, height = size
     lx, ly = int(light_xy[0] + 0.5), int(light_xy[1] + 0.5)
     # the viewport's inclusive bounds relative to the light; y flipped so +y is up
@@ -171,7 +172,11 @@ def _contact_setup(self, frame, slot) -> None:
     size = (frame.width, frame.height)
     pts = frame.compact_position
     clip = np.c_[pts, np.ones(len(pts))] @ np.asarray(frame.view_projection, np.float64).T
-    depth = clip[:, 2] / clip[:, 3] * 0.5 + 0.5
+    with np.errstate(invalid="ignore", divide="ignore"):
+        depth = clip[:, 2] / clip[:, 3] * 0.5 + 0.5
+    # a covered pixel without an exact hit (compact_valid False) has NaN: nothing there, as far
+    # as the march knows (the far plane), never a NaN fed to the shader's min()
+    depth = np.where(frame.compact_valid & np.isfinite(depth), depth, 1.0)
     image = frame.to_image(depth, fill=1.0)  # row 0 = top; GL's row 0 is the bottom
     self.contact_depth = self.own(ctx.texture(size, 1, np.ascontiguousarray(image[::-1]).astype("f4").tobytes(),
                                               dtype="f4"))
@@ -191,6 +196,7 @@ def _contact_render(self) -> None:
     """After the technique's passes (``contact``): the march, one dispatch per quadrant."""
     if not self.contact:
         return
+    self._contact_image = None  # a new render: the images read back before are stale
     with self.timed_pass("contact"):
         self.contact_depth.use(0)
         self.contact_texture.bind_to_image(0, read=False, write=True)
@@ -213,8 +219,34 @@ def _contact_stats(self) -> dict:
 
 
 def _wrap(name: str, original):
-    """``original`` (the class's own method ``name``) followed by the contact pass's part."""
-    if name == "setup":
+    """``original`` (the class's own method ``name``) followed by the contact pass's part. A
+    subclass that overrides the method and calls ``super()`` gets a wrapper of its own around the
+    parent's: only the outermost acts (a per-instance flag), so the contact part runs once."""
+    inner = _contact_part(name, original)
+    flag = f"_contact_in_{name}"
+
+    def method(self, *args, **kwargs):
+        if self.__dict__.get(flag):
+            return original(self, *args, **kwargs)
+        self.__dict__[flag] = True
+        try:
+            return inner(self, *args, **kwargs)
+        finally:
+            self.__dict__[flag] = False
+
+    method.__name__, method.__qualname__ = name, f"{getattr(original, '__qualname__', name)}+contact"
+    method.__doc__ = (original.__doc__ or "") + _WRAPPED_DOC[name]
+    method.contact_wrapped = True
+    return method
+
+
+def _contact_part(name: str, original):
+    """The method ``name``: ``original`` and then the contact pass's part of it."""
+    if name == "__init__":
+        def method(self, **params):
+            original(self, **params)
+            _check_contact_params(self, params)
+    elif name == "setup":
         def method(self, frame, slot):
             original(self, frame, slot)
             _contact_setup(self, frame, slot)
@@ -249,14 +281,26 @@ def _wrap(name: str, original):
             if self.contact and "contact" in counted:
                 out.update(self.taps_work(counted, {"contact": 2 * int(self.contact_samples) + 1}))
             return out
-    method.__name__, method.__qualname__ = name, f"{getattr(original, '__qualname__', name)}+contact"
-    method.__doc__ = (original.__doc__ or "") + _WRAPPED_DOC[name]
-    method.contact_wrapped = True
     return method
+
+
+def _check_contact_params(self, given: dict) -> None:
+    """TechniqueError when the hard or the fade-out samples are more than the march has; a note
+    when contact parameters are given with ``contact=false`` (they do nothing then). Hard and
+    fade-out samples may overlap in a short march (8 samples at the defaults' 4 + 8): the hard
+    ones keep their rule, the rest fade."""
+    for key in ("contact_hard", "contact_fade"):
+        if getattr(self, key) > self.contact_samples:
+            raise TechniqueError(f"{self.name}: {key} ({getattr(self, key)}) must not exceed contact_samples "
+                                 f"({self.contact_samples})")
+    idle = sorted(k for k in given if k.startswith("contact_") and k in CONTACT_PARAMS)
+    if idle and not self.contact:
+        self.notes.append(f"{self.name}: {', '.join(idle)} set but contact=false: no contact shadows are drawn")
 
 
 #: What each wrapped method adds, appended to the technique's own docstring.
 _WRAPPED_DOC = {
+    "__init__": "\n\nThen checks the contact parameters (hard and fade-out samples within the march).",
     "setup": "\n\nWith ``contact``: then the contact march's depth buffer, image and program.",
     "render": "\n\nWith ``contact``: then the contact march (pass ``contact``).",
     "visibility": "\n\nWith ``contact``: multiplied by the contact shadow's visibility.",
@@ -277,7 +321,9 @@ class ContactShadows:
 
     def __init_subclass__(cls, **kwargs):
         """Merge the contact declarations into the new class's (after its own, before the shared
-        ``light_samples``, which stays last) and wrap the methods the contact pass follows (once: a subclass inherits the wrapping)."""
+        ``light_samples``, which stays last) and wrap the methods the contact pass follows: the
+        class's own, and inherited ones not wrapped yet (the wrapper's flag makes a ``super()``
+        chain of wrapped methods run the contact part once)."""
         super().__init_subclass__(**kwargs)
         own = {k: p for k, p in cls.PARAMS.items() if k not in CONTACT_PARAMS and k != "light_samples"}
         shared = {k: p for k, p in cls.PARAMS.items() if k == "light_samples"}  # the pipeline's, kept last
@@ -285,9 +331,12 @@ class ContactShadows:
         cls.PASSES = tuple(p for p in cls.PASSES if p != "contact") + ("contact",)
         cls.STATS = {**cls.STATS, **CONTACT_STATS}
         for name in _WRAPPED_DOC:
-            original = getattr(cls, name)
-            if not getattr(original, "contact_wrapped", False):
-                setattr(cls, name, _wrap(name, original))
+            original = cls.__dict__.get(name)
+            if original is None:  # inherited: wrapped once where the MRO has it unwrapped
+                original = getattr(cls, name)
+                if getattr(original, "contact_wrapped", False):
+                    continue
+            setattr(cls, name, _wrap(name, original))
 
     def contact_visibility(self) -> np.ndarray:
         """The contact shadow alone, float32 (height, width), row 0 = top, 1 = lit (after render)."""

@@ -11,6 +11,9 @@ from shadowlab.techniques import REGISTRY, TechniqueError, from_spec
 from shadowlab.techniques.maps.contact import (CONTACT_PARAMS, bend_dispatch_count, quadrant_rects,
                                                samples_marched)
 
+from shadowlab.gpu import programs, targets
+from shadowlab.techniques.maps.shadow_map import ShadowMap
+
 from helpers import SMALL
 
 
@@ -34,11 +37,9 @@ def test_contact_closes_part_of_the_gap_a_large_bias_opens(gap_rows):
     shadows (below 0.5 they count), so the gap is not closed entirely."""
     off, on = gap_rows.loc["shadow_map:bias=0.02"], gap_rows.loc["shadow_map:bias=0.02,contact=true"]
     assert off["contact_gap_px"] > 2.0
-    assert on["contact_gap_closed_px"] == pytest.approx(off["contact_gap_px"] - on["contact_gap_px"])
     assert on["contact_gap_closed_px"] > 0.8
     assert on["contact_recovered_pixels"] > 100
     assert on["contact_false_pixels"] < 0.2 * on["contact_recovered_pixels"]
-    assert on["false_lit_pixels"] == off["false_lit_pixels"] - on["contact_recovered_pixels"]
     assert np.isnan(off["contact_recovered_pixels"])  # no contact pass, no contact columns
 
 
@@ -144,3 +145,90 @@ def test_grazing_surfaces_shadow_themselves_where_the_edge_test_point_samples(la
     assert default > 100
     assert no_edges < 0.1 * default
     assert no_edges < thick < default
+
+
+def march(ctx, depth: np.ndarray, light, thickness: float, samples: int = 60, hard: int = 4, fade: int = 8,
+          bilinear: float = 0.02) -> np.ndarray:
+    """contact_march.glsl on a hand-made depth buffer (rows bottom-up, as GL stores them) with the
+    light's projected point ``light`` (x, y, window depth, ±1): the contact visibility, same rows."""
+    h, w = depth.shape
+    tex = ctx.texture((w, h), 1, depth.astype("f4").tobytes(), dtype="f4")
+    tex.filter = (ctx.NEAREST, ctx.NEAREST)
+    out = ctx.texture((w, h), 1, dtype="f4")
+    prog = programs.program("contact_march.glsl")
+    try:
+        programs.set_uniforms(prog, {"u_depth": 0, "u_contact": 0, "u_size": (w, h), "u_light": tuple(map(float, light)),
+                                     "u_samples": samples, "u_hard": hard, "u_fade": fade, "u_thickness": thickness,
+                                     "u_bilinear": bilinear, "u_contrast": 4.0})
+        tex.use(0)
+        out.bind_to_image(0, read=False, write=True)
+        for x0, y0, rw, rh in quadrant_rects(light[:2], (w, h)):
+            prog["u_origin"].value, prog["u_extent"].value = (x0, y0), (rw, rh)
+            prog.run(-(-rw // 8), -(-rh // 8))
+        ctx.memory_barrier()
+        return np.frombuffer(out.read(), np.float32).reshape(h, w)
+    finally:
+        tex.release()
+        out.release()
+
+
+@pytest.mark.parametrize("gap", [2e-4, 1e-3, 3e-3, 1e-2])
+def test_the_march_follows_bend_s_window(ctx, gap):
+    """A flat background at window depth 0.9 with the light's point at its own depth on the right
+    (every ray runs at depth 0.9), and a 4-pixel caster `gap` in front of it. The pixel 30 pixels
+    left of the caster (s0 = 53 from the light's point) meets it at samples k = 30..33, one in
+    each of the four groups; each sees u = gap · (s0 / s) · m / (1 − d0), s = s0 − k, m =
+    min(s0 − 1, 1 / thickness) = 20, and shadows by clamp(4 |u − 1| − 3, 0, 1): the result is the
+    mean over the four. 1e-3 and 3e-3 fall inside the window (shadow), 2e-4 on its soft edge (a
+    surface almost on the ray), 1e-2 beyond it (a gap deeper than the thickness: a leak)."""
+    depth = np.full((8, 64), 0.9)
+    depth[:, 40:44] = 0.9 - gap
+    vis = march(ctx, depth, (63.5, 4.5, 0.9, 1.0), thickness=0.05)
+    s = 53.0 - np.arange(30, 34)
+    u = gap * (53.0 / s) * 20.0 / 0.1
+    expected = float(np.clip(4.0 * np.abs(u - 1.0) - 3.0, 0.0, 1.0).mean())
+    assert vis[4, 10] == pytest.approx(expected, abs=2e-3)
+    assert (expected < 0.05) == (gap in (1e-3, 3e-3))
+    assert vis[4, 50] == 1.0  # right of the caster: nothing between it and the light
+
+
+def test_the_march_stops_at_its_length(ctx):
+    """The same caster 1e-3 in front: shadowed from 30 pixels with 60 samples, not with 16."""
+    depth = np.full((8, 64), 0.9)
+    depth[:, 40:44] = 0.9 - 1e-3
+    assert march(ctx, depth, (63.5, 4.5, 0.9, 1.0), thickness=0.05)[4, 10] < 0.05
+    assert march(ctx, depth, (63.5, 4.5, 0.9, 1.0), thickness=0.05, samples=16)[4, 10] == 1.0
+
+
+def test_a_subclass_calling_super_gets_the_contact_part_once(lab):
+    """A subclass overriding render and visibility with super() is wrapped again; the flag makes
+    only the outermost wrapper act: visibility = base × contact, not base × contact²."""
+    from shadowlab.measurement.pipeline import measure
+
+    class Override(ShadowMap):
+        def render(self):
+            super().render()
+
+        def visibility(self):
+            return super().visibility()
+
+    frame = lab.frame("sm_contact", SMALL)
+    m = measure(Override(contact=True), frame, 0, repeat=1, warmup=0, count=False)
+    off = lab.measure("sm_contact", "shadow_map", SMALL).visibility
+    assert np.array_equal(m.components["base"], off)
+    np.testing.assert_array_equal(m.visibility, off * m.components["contact_shadow"])
+
+
+def test_light_sampled_base_is_the_technique_without_contact(lab):
+    """On an area light averaged over 4 samples, ``base`` is averaged as a visibility (horizon
+    and facing included): it equals shadow_map:light_samples=4 without contact."""
+    off = lab.measure("soft_overlap", "shadow_map:light_samples=4", SMALL).visibility
+    on = lab.measure("soft_overlap", "shadow_map:light_samples=4,contact=true", SMALL)
+    np.testing.assert_allclose(on.components["base"], off, atol=1e-6)
+
+
+def test_contact_parameters_are_checked_together():
+    with pytest.raises(TechniqueError, match=r"contact_fade \(12\) must not exceed contact_samples \(8\)"):
+        from_spec("shadow_map:contact=true,contact_samples=8,contact_fade=12")
+    from_spec("shadow_map:contact=true,contact_samples=8")  # 4 hard + 8 fading overlap: allowed
+    assert any("contact=false" in n for n in from_spec("pcss:contact_thickness=0.01").notes)

@@ -104,6 +104,9 @@ def test_the_bias_family_default_and_tuned(lab, scene):
     ev = lab.evaluator(scene, MEDIUM)
     for v, spec in SPECS.items():
         default, tuned = measured[v]
-        assert rows.loc[spec]["error_rate"] == pytest.approx(default, rel=1e-3, abs=1e-9), v
+        # measured on llvmpipe; another rasteriser moves a few pixels (the NVIDIA H200: sm_grazing
+        # 2.3e-05 at the defaults), hence 1e-4 of the pixels beside the relative margin
+        assert rows.loc[spec]["error_rate"] == pytest.approx(default, rel=1e-3, abs=1e-4), v
         _, opt = exact_bias_tune(ev, spec, repeat=1, warmup=0).best("error_rate")
-        assert opt.value == pytest.approx(tuned, rel=1e-3, abs=1e-9), v
+        assert opt.value == pytest.approx(tuned, rel=1e-3, abs=1e-4), v
+        assert opt.value <= rows.loc[spec]["error_rate"] + 1e-12, v  # the optimum is never worse

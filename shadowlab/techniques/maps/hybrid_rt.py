@@ -173,8 +173,8 @@ def min_pyramid(heights: np.ndarray) -> tuple[np.ndarray, list[tuple[int, int]]]
         offset += level.size
         if level.shape[0] == 1:
             break
-        h = level.shape[0] // 2
-        level = level.reshape(h, 2, h, 2).min(axis=(1, 3))
+        level = np.minimum(np.minimum(level[0::2, 0::2], level[1::2, 0::2]),
+                           np.minimum(level[0::2, 1::2], level[1::2, 1::2]))
     return np.concatenate(levels), layout
 
 
@@ -187,6 +187,8 @@ def box_minimum(flat: np.ndarray, layout: list[tuple[int, int]], x0, x1, y0, y1)
     level = np.zeros(len(x0), np.int64)
     for k in range(len(layout)):  # the first level at which the box fits BOX_TAPS texels a side
         wide = (((x1 >> level) - (x0 >> level)) >= BOX_TAPS) | (((y1 >> level) - (y0 >> level)) >= BOX_TAPS)
+        if not wide.any():
+            break
         level = np.where(wide, k + 1, level)
     offsets = np.array([o for o, _ in layout], np.int64)[level]
     sides = np.array([n for _, n in layout], np.int64)[level]
@@ -392,19 +394,29 @@ class HybridRT(ContactShadows, Technique):
         limits = self.lowest + (top - self.lowest)[:, None] * (np.arange(BANDS + 1) / BANDS)[None, :]
         boxes = np.zeros((m, BANDS, 4), np.int64)
         size = self.resolution
+        vp = self.view_proj
+
+        def project(x):
+            """uv (M, 2) of points (M, 3) and whether they are in front of the centre (plain
+            (M,) columns: numpy's stacked small products and reductions are slow)."""
+            w = x @ vp[3, :3] + vp[3, 3]
+            front = w > 0
+            w = np.where(front, w, 1.0)
+            return np.stack([x @ vp[0, :3] + vp[0, 3], x @ vp[1, :3] + vp[1, 3]], axis=1) / w[:, None] * 0.5 + 0.5, front
+
+        uv_p, front_p = project(points)
         for j in range(BANDS):
             # the region at height b_j: P and P + t_i (K_i − P), t_i = (h_r − b_j) / (h_r − h(K_i))
-            t = (h_r[:, None] - limits[:, j:j + 1]) / np.maximum(h_r[:, None] - self.hull_heights[None, :], 1e-300)
-            t = np.clip(t, 0.0, 1.0)
-            verts = np.concatenate([points[:, None, :], points[:, None, :] + t[..., None] *
-                                    (self.hull[None, :, :] - points[:, None, :])], axis=1)  # (M, K+1, 3)
-            clip = verts @ self.view_proj[:3, :3].T + self.view_proj[:3, 3]
-            w = verts @ self.view_proj[3, :3] + self.view_proj[3, 3]
-            front = np.all(w > 0, axis=1)
-            uv = (clip[..., :2] / np.where(w > 0, w, 1.0)[..., None] + 1.0) * 0.5
-            lo = np.floor(np.clip(uv.min(axis=1), -1.0, 2.0) * size).astype(np.int64) - BOX_MARGIN
-            hi = np.floor(np.clip(uv.max(axis=1), -1.0, 2.0) * size).astype(np.int64) + BOX_MARGIN
-            inside = np.all(lo >= 0, axis=1) & np.all(hi <= size - 1, axis=1)
+            lo_uv, hi_uv, front = uv_p.copy(), uv_p.copy(), front_p.copy()
+            for vertex, height in zip(self.hull, self.hull_heights):
+                t = np.clip((h_r - limits[:, j]) / np.maximum(h_r - height, 1e-300), 0.0, 1.0)
+                uv, ahead = project(points + t[:, None] * (vertex - points))
+                np.minimum(lo_uv, uv, out=lo_uv)
+                np.maximum(hi_uv, uv, out=hi_uv)
+                front &= ahead
+            lo = np.floor(np.clip(lo_uv, -1.0, 2.0) * size).astype(np.int64) - BOX_MARGIN
+            hi = np.floor(np.clip(hi_uv, -1.0, 2.0) * size).astype(np.int64) + BOX_MARGIN
+            inside = (lo[:, 0] >= 0) & (lo[:, 1] >= 0) & (hi[:, 0] <= size - 1) & (hi[:, 1] <= size - 1)
             possible &= free | (front & inside)
             boxes[:, j] = np.stack([lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1]], axis=1)
         return possible, free, limits, boxes
@@ -424,14 +436,13 @@ class HybridRT(ContactShadows, Technique):
         the whole light above its horizon) or uncertain: fills :attr:`cls`."""
         possible, free, limits, boxes = self.search_boxes()
         lit = possible & free
-        test = np.flatnonzero(possible & ~free)
+        test = np.flatnonzero(possible & ~free)  # the pixels still clear, band after band
         if len(test):
             flat, layout = min_pyramid(self.stored_heights())
             self.pyramid_bytes = int(flat.nbytes)
-            clear = np.ones(len(test), bool)
             for j in range(BANDS):  # band j: nothing stored in its box lower than its upper limit
-                clear &= box_minimum(flat, layout, *boxes[test, j].T) >= limits[test, j + 1]
-            lit[test] = clear
+                test = test[box_minimum(flat, layout, *boxes[test, j].T) >= limits[test, j + 1]]
+            lit[test] = True  # clear in every band
         self.cls = np.where(lit, CLASS_LIT, CLASS_UNCERTAIN).astype(np.float32)
 
     def _trace_area(self) -> None:

@@ -9,7 +9,7 @@ What is compiled, and why: everything around the Embree calls that runs once per
 per light sample — the frame's exact hit points (:meth:`shadowlab.gpu.frame.Frame.compute_exact_points`),
 the offset ray origins (:func:`shadowlab.truth.tracing.offset_points`), a rect light's jittered samples
 (:meth:`shadowlab.scene.area_lights.RectLight.sample_for`), the sampled truth's horizon test and
-segment set-up (:func:`shadowlab.techniques.rays.raytrace.area_chunk_rays`) and its per-pixel count of
+segment set-up (:func:`shadowlab.truth.area.area_chunk_rays`) and its per-pixel count of
 unoccluded rays, and the hard lights' shadow-ray directions
 (:meth:`shadowlab.scene.lights.PointLight.shadow_rays` and the directional lights'). In numpy
 each of those is a chain of (M, N, 3) temporaries, or a broadcast whose inner loop runs over

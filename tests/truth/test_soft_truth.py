@@ -30,7 +30,7 @@ import numpy as np
 import pytest
 
 import shadowlab.scene.area_lights as area_lights
-import shadowlab.techniques.rays.raytrace as raytrace
+import shadowlab.truth.area as truth_area
 from shadowlab.gpu.frame import Frame
 from shadowlab.techniques.base import TechniqueError
 from shadowlab.techniques.rays.raytrace import RayTraced
@@ -125,9 +125,9 @@ BROKEN = {
     # reference (bitwise the compiled path: test_compiled_segments_are_bitwise_the_reference)
     # and runs the truth on that
     "no_horizon": ("below_horizon", lambda mp: (
-        mp.setattr(raytrace, "above_horizon", lambda s, p, n: np.ones(s.shape[:2], bool)),
-        mp.setattr(raytrace, "area_chunk_rays",
-                   lambda *a, rows=True, out=None: raytrace.area_chunk_rays_reference(*a)))),
+        mp.setattr(truth_area, "above_horizon", lambda s, p, n: np.ones(s.shape[:2], bool)),
+        mp.setattr(truth_area, "area_chunk_rays",
+                   lambda *a, rows=True, out=None: truth_area.area_chunk_rays_reference(*a)))),
     "two_sided": ("below_horizon", lambda mp: mp.setattr(area_lights.RectLight, "emits_towards",
                                                          lambda self, p: np.ones(len(p), bool))),
 }

@@ -104,7 +104,9 @@ def test_pcf_pixel_lights_at_its_median_tap():
                                   "shadow_map:variant=adaptive,filter=pcf3,bias=1e-6,adaptive_epsilon=1e-6",
                                   # the oriented bias: taps facing away from the light compare
                                   # receiver + bias, lit below their threshold
-                                  "shadow_map:variant=oriented", "shadow_map:variant=oriented,filter=pcf3,bias=0.05"])
+                                  "shadow_map:variant=oriented",
+                                  pytest.param("shadow_map:variant=oriented,filter=pcf3,bias=0.05",
+                                               marks=pytest.mark.slow)])
 def test_emulation_equals_the_render(lab, scene, spec):
     """The window-depth form (bias_space=window) is emulated to the bit."""
     t = from_spec(spec + ("," if ":" in spec else ":") + "bias_space=window")
@@ -134,7 +136,8 @@ EXACT_SPECS = {"constant": ("shadow_map", None),
 
 
 @pytest.mark.parametrize("scene", ["sm_contact", "sm_grazing"])
-@pytest.mark.parametrize("variant", list(EXACT_SPECS))
+@pytest.mark.parametrize("variant", [v if v != "oriented" else pytest.param(v, marks=pytest.mark.slow)
+                                     for v in EXACT_SPECS])  # oriented: constant's twin on these scenes
 def test_optimum_equals_a_render_at_that_bias_bit_for_bit(lab, scene, variant):
     base, grid = EXACT_SPECS[variant]
     ev = lab.evaluator(scene, MEDIUM)

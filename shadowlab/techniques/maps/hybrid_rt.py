@@ -106,7 +106,7 @@ from ...scene.area_lights import AreaLight, DiscLight, RectLight, SphereLight, b
 from ...truth.area import area_visibility
 from ...truth.tracing import caster_scene, occluded, offset_origins
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
-from .toolkit import ATLAS_DEFINES, CLEAR_DEPTH, GBUFFER_TAPS, Atlas, depth_pass, fit_light_views, height_axis
+from .toolkit import ATLAS_DEFINES, CLEAR_DEPTH, Atlas, depth_pass, fit_light_views, height_axis
 from .contact import ContactShadows
 
 #: Screen tiles the cut-off counts uncertain pixels in (AMD's 8x8 tiles), pixels on a side.
@@ -522,12 +522,12 @@ class HybridRT(ContactShadows, Technique):
         return {"classifier": self.frame.to_image(out, fill=np.nan)}
 
     def work(self, counted: dict, stats: dict) -> dict:
-        """Texture taps of the classification (the G-buffer's position and normal, the kernel's
-        (2r+1)² texels and the nearest one again) and the shadow rays traced; area lights: the
-        rays only (the classification runs on the CPU)."""
+        """Texture taps of the classification (the G-buffer's position, the kernel's (2r+1)²
+        texels and the nearest one again) and the shadow rays traced; area lights: the rays only
+        (the classification runs on the CPU)."""
         if self.is_area:
             return {"trace": {"rays": stats["rays"]}}
-        taps = self.taps_work(counted, {"classify": GBUFFER_TAPS + (2 * self.spread + 1) ** 2 + 1})
+        taps = self.taps_work(counted, {"classify": 1 + (2 * self.spread + 1) ** 2 + 1})
         return {**taps, "trace": {"rays": stats["rays"]}}
 
     def stats(self) -> dict:

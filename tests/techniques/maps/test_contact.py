@@ -31,6 +31,7 @@ def halo_rows(lab):
     return lab.rows("cs_thin_fins", specs, SMALL)
 
 
+@pytest.mark.slow
 def test_contact_closes_part_of_the_gap_a_large_bias_opens(gap_rows):
     """Measured at 160x120: contact gap 2.93 → 1.76 px, 131 truly shadowed pixels recovered, 11
     false shadows introduced, false-lit pixels 334 → 203. Bend's grouped samples give partial
@@ -43,6 +44,7 @@ def test_contact_closes_part_of_the_gap_a_large_bias_opens(gap_rows):
     assert np.isnan(off["contact_recovered_pixels"])  # no contact pass, no contact columns
 
 
+@pytest.mark.slow
 def test_thickness_halos_grow_with_the_surface_thickness(halo_rows):
     """Measured at 160x120: false shadows introduced 0 / 3 / 20 at thickness 0.001 / 0.005 /
     0.05 (halos behind the pole's and the fins' visible edges), while 0.05 also recovers 4
@@ -110,6 +112,7 @@ def test_every_map_technique_has_contact_shadows():
         assert not cls.PARAMS["contact"].default
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spec,scene", [("filtered_map", "sm_contact"), ("cascaded_map", "sm_contact"),
                                         ("virtual_map", "sm_contact"), ("irregular_zbuffer", "sm_contact"),
                                         ("pcss", "soft_contact_hardening"), ("projective", "pt_limits")])
@@ -131,6 +134,7 @@ def test_bad_contact_parameters_are_named():
     assert from_spec(spec).spec() == spec
 
 
+@pytest.mark.slow
 def test_grazing_surfaces_shadow_themselves_where_the_edge_test_point_samples(lab):
     """sm_lamp_contact's point lamp lights the side walls and the far floor at grazing angles,
     which the camera also sees at grazing angles: neighbouring depths there differ by more than
@@ -219,6 +223,7 @@ def test_a_subclass_calling_super_gets_the_contact_part_once(lab):
     np.testing.assert_array_equal(m.visibility, off * m.components["contact_shadow"])
 
 
+@pytest.mark.slow
 def test_light_sampled_base_is_the_technique_without_contact(lab):
     """On an area light averaged over 4 samples, ``base`` is averaged as a visibility (horizon
     and facing included): it equals shadow_map:light_samples=4 without contact."""

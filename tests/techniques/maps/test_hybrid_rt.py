@@ -92,6 +92,7 @@ def test_rays_per_pixel_is_below_one_and_falls_with_resolution(lab):
     assert rates[0] < 1.0 and rates[0] > rates[1] > rates[2] > 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", ["box_on_plane", "sm_thin", "sm_aliasing", "sm_contact", "sm_point_cube",
                                    "sm_wires", "sv_soup"])
 def test_shortened_rays_give_the_same_visibility(lab, scene):
@@ -104,6 +105,7 @@ def test_shortened_rays_give_the_same_visibility(lab, scene):
     assert np.array_equal(short, full)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene,spec,expected", [
     # tilted sub-texel triangles just in front of the stored depth: a 4-texel margin misses them
     ("sv_soup", "hybrid_rt:margin=4", 18),
@@ -135,6 +137,7 @@ def test_spread_zero_is_the_shadow_map_it_classifies_with(lab):
     assert wrong == classifier_wrong > 0  # measured: 29 (the map's aliasing)
 
 
+@pytest.mark.slow
 def test_the_tile_cutoff_drops_sparse_tiles_to_the_nearest_tap(lab):
     """cutoff=8 leaves tiles with fewer than 8 uncertain pixels to the nearest tap: fewer rays,
     the dropped pixels counted, and wrong pixels only where they were dropped; cutoff=65 (more
@@ -194,6 +197,7 @@ def run_area(lab, scene, spec):
             lab.frame(scene, SMALL).evaluated(0))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene,max_rate", [
     # measured: mae 0.0061, 38.2 rays per pixel of 64; 6587 of the 9081 lit pixels called lit
     ("soft_overlap", 0.65),
@@ -222,6 +226,7 @@ def test_area_lights_at_the_truths_noise_level(lab, scene, max_rate):
     assert m.stats["dropped_pixels"] == 0 and m.stats["passes"] == 3
 
 
+@pytest.mark.slow
 def test_area_uncertain_pixels_carry_the_truths_estimator(lab):
     """The uncertain pixels get exactly area_visibility's answer (the truth's stratified
     estimator, seed 0) over those pixels, bit for bit; the sure ones 1 and no rays."""
@@ -238,6 +243,7 @@ def test_area_uncertain_pixels_carry_the_truths_estimator(lab):
     assert m.stats["rays"] == rays > 0
 
 
+@pytest.mark.slow
 def test_area_a_coarser_map_costs_rays(lab):
     """A coarser map calls fewer pixels lit (its texels, and so its boxes, overreach the regions
     more): more rays, the classifier still never wrong. Measured on soft_overlap at 160x120:
@@ -256,6 +262,7 @@ BOX_SCENES = {shape: make_scene([{"mesh": "plane", "size": [8.0, 8.0]},
               for shape in ("rect", "disc", "sphere")}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shape", ["rect", "disc", "sphere"])
 def test_area_search_boxes_hold_every_segment_to_the_light(lab, shape):
     """The geometry the classifier rests on: every point of a segment from a receiver to a point
@@ -302,12 +309,14 @@ def test_box_minimum_bounds_the_true_minimum():
     assert small.sum() > 0 and np.array_equal(got[small], exact[small])  # level 0: exact
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shape", ["rect", "disc", "sphere"])
 def test_area_a_lone_floor_is_fully_lit(lab, shape):
     """The shared check of area-light map techniques: V = 1 on a floor alone under each shape."""
     assert_fully_lit(lab, shape, "hybrid_rt")
 
 
+@pytest.mark.slow
 def test_area_behind_a_one_sided_light_sees_none(lab):
     """Points behind a one-sided light are uncertain and get the estimator's 0 (no live sample)."""
     assert_behind_one_sided_sees_none(lab, "hybrid_rt")

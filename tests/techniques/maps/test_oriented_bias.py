@@ -42,6 +42,7 @@ def test_oriented_is_in_the_bias_family():
     assert from_spec(t.spec()).spec() == t.spec()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", SCENES)
 def test_on_the_evaluated_pixels_oriented_equals_constant(lab, scene):
     """Every evaluated point faces the light, so the oriented bias moves it as the constant one."""
@@ -55,6 +56,7 @@ def test_on_the_evaluated_pixels_oriented_equals_constant(lab, scene):
     assert oriented["error_rate"] == pytest.approx(measured, abs=1e-4)
 
 
+@pytest.mark.slow
 def test_faces_turned_from_the_light_stay_in_their_own_shadow(lab):
     """The card's far side, seen by the camera: lit through a 5 mm card by the constant bias,
     shadowed by the oriented bias (the rule's purpose). Not in any metric: those points are not
@@ -69,6 +71,7 @@ def test_faces_turned_from_the_light_stay_in_their_own_shadow(lab):
     assert int((oriented[card] >= 0.5).sum()) <= 10     # measured 2, at the card's silhouette
 
 
+@pytest.mark.slow
 def test_exact_tune_of_oriented_matches_constant(lab):
     """The exact optimiser sweeps the oriented bias (its faces turned away compare receiver +
     bias, lit below their threshold); the emulation equals the render and the optimum is the

@@ -48,6 +48,7 @@ def measured(lab):
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", sorted(SCENES))
 def test_visibility_mae(measured, scene):
     """smrt's visibility_mae below the scene's bound (measured values in SCENES' comment) and below
@@ -58,6 +59,7 @@ def test_visibility_mae(measured, scene):
     assert mae < 0.5 * one_ray, (mae, one_ray)
 
 
+@pytest.mark.slow
 def test_leak_grows_with_slope(measured):
     """UE's cvar help: a larger slope clamp "can introduce light leaks behind second occluders".
     soft_two_heights (a caster above another): umbra leak 0.0025 at slope 0.05 → 0.0158 at 5.0
@@ -69,6 +71,7 @@ def test_leak_grows_with_slope(measured):
     assert side["smrt:slope=5.0"] > 1.3 * side["smrt"] > 0.0, side
 
 
+@pytest.mark.slow
 def test_fewer_samples_leak_less(measured):
     """EEVEE's docs: the leaking of shadow map ray tracing is "mitigated by using lower step count".
     Measured (false_lit_rate, umbra leak) at 2 vs 8 samples per ray: soft_overlap 0.030 vs 0.040,
@@ -83,6 +86,7 @@ def test_fewer_samples_leak_less(measured):
         assert rows.loc["smrt:samples=2", "visibility_mae"] > rows.loc["smrt", "visibility_mae"], scene
 
 
+@pytest.mark.slow
 def test_fixed_pattern_steps(lab):
     """jitter=false: one pattern for every pixel, so V is a multiple of 1/rays exactly (5 rays:
     0, 0.2, …, 1), and penumbra values other than 0 and 1 appear."""
@@ -107,6 +111,7 @@ def test_counters(lab):
     assert off["samples"] == 3 * (4 + 1) and off["rays"] == 3 * evaluated
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shape", sorted(LIGHTS))
 def test_nothing_blocks_fully_lit(lab, shape):
     """A floor alone under each area light: V = 1 on every evaluated pixel, exactly (the floor's

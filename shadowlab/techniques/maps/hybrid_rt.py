@@ -106,7 +106,7 @@ from ...scene.area_lights import AreaLight, DiscLight, RectLight, SphereLight, b
 from ...truth.area import area_visibility
 from ...truth.tracing import caster_scene, occluded, offset_origins
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
-from .toolkit import ATLAS_DEFINES, CLEAR_DEPTH, Atlas, depth_pass, fit_light_views, height_axis
+from .toolkit import ATLAS_DEFINES, CLEAR_DEPTH, Atlas, centre_map_atlas, depth_pass, fit_light_views, height_axis
 from .contact import ContactShadows
 
 #: Screen tiles the cut-off counts uncertain pixels in (AMD's 8x8 tiles), pixels on a side.
@@ -318,9 +318,8 @@ class HybridRT(ContactShadows, Technique):
         evaluated receiver), the per-texel height slope of the map's rays, the casters' lowest
         height, the truth's Embree scene, offset origins, points and normals."""
         light = self.light
-        faces, notes = fit_light_views(frame, slot, self.resolution, "frustum", 0.0, "receivers")
+        self.atlas, notes = centre_map_atlas(frame, slot, self.resolution, self.name)
         self.notes.extend(notes)
-        self.atlas = Atlas.grid(faces[:1], self.resolution, self.name)  # the one face fills the map
         face = self.atlas.faces[0]
         proj, view = np.asarray(face.proj, np.float64), np.asarray(face.view, np.float64)
         if not np.allclose(proj[3], (0.0, 0.0, -1.0, 0.0)):

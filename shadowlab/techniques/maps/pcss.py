@@ -60,7 +60,7 @@ from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TuneRange
 # The parallel-planes geometry is the map toolkit's, shared with moment_soft (imported here by
 # name, so ``pcss.near_far`` and the others stay where the tests and older code look for them).
 from .toolkit import (
-    BASIS_HELPERS, BASIS_SWITCH, CLEAR_DEPTH, Atlas, TexelMapping, depth_pass, fit_light_views, height_axis,
+    BASIS_HELPERS, BASIS_SWITCH, CLEAR_DEPTH, TexelMapping, centre_map_atlas, depth_pass, height_axis,
     light_extents, light_size, lookup_pass, near_far, search_height,
 )
 from .contact import ContactShadows
@@ -125,11 +125,8 @@ class PCSS(ContactShadows, TexelMapping, Technique):
     def setup(self, frame, slot) -> None:
         """Fit the map's frustum, allocate the map, programs and uniforms."""
         light = slot.light
-        # Every evaluated receiver (fit=receivers): the shadowable fit tests segments to the
-        # centre only and would leave the outer penumbra off the map.
-        faces, notes = fit_light_views(frame, slot, self.resolution, "frustum", 0.0, "receivers")
+        self.atlas, notes = centre_map_atlas(frame, slot, self.resolution, self.name)
         self.notes.extend(notes)
-        self.atlas = Atlas.grid(faces[:1], self.resolution, self.name)  # the one face fills the map
         face = self.atlas.faces[0]
         self.map = self.own(targets.DepthTexture.create(self.atlas.size, DEPTH_BITS))
         self.depth_prog = self.program("shadow_depth.glsl")

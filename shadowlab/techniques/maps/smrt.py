@@ -77,7 +77,7 @@ from ...scene.area_lights import DiscLight, RectLight, strata
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TuneRange
 from .contact import ContactShadows
 from .toolkit import (
-    BASIS_HELPERS, BASIS_SWITCH, GBUFFER_TAPS, Atlas, TexelMapping, depth_pass, fit_light_views, light_extents,
+    BASIS_HELPERS, BASIS_SWITCH, GBUFFER_TAPS, TexelMapping, centre_map_atlas, depth_pass, light_extents,
     lookup_pass, near_far,
 )
 
@@ -140,9 +140,8 @@ class SMRT(ContactShadows, TexelMapping, Technique):
     def setup(self, frame, slot) -> None:
         """Fit the map's frustum, allocate the map, the programs and their uniforms."""
         light = slot.light
-        faces, notes = fit_light_views(frame, slot, self.resolution, "frustum", 0.0, "receivers")
+        self.atlas, notes = centre_map_atlas(frame, slot, self.resolution, self.name)
         self.notes.extend(notes)
-        self.atlas = Atlas.grid(faces[:1], self.resolution, self.name)  # the one face fills the map
         face = self.atlas.faces[0]
         self.map = self.own(targets.DepthTexture.create(self.atlas.size, DEPTH_BITS))
         self.depth_prog = self.program("shadow_depth.glsl")

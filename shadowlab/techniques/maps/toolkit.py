@@ -181,6 +181,15 @@ class Atlas:
                                      "u_atlas_size": tuple(map(float, self.size))})
 
 
+def centre_map_atlas(frame, slot, resolution: int, owner: str) -> tuple["Atlas", list[str]]:
+    """The one-face map from an area light's centre that pcss, smrt and hybrid_rt (under an area
+    light) look up, as a one-face atlas, and notes for the run: a perspective frustum over every
+    evaluated receiver (``fit=receivers``) — the shadowable fit tests segments to the centre only
+    and would leave the outer penumbra off the map."""
+    faces, notes = fit_light_views(frame, slot, resolution, "frustum", 0.0, "receivers")
+    return Atlas.grid(faces[:1], resolution, owner), notes  # the one face fills the map
+
+
 # --------------------------------------------------------------------------- passes
 
 def depth_pass(frame, layer: targets.DepthTexture, prog, atlas: Atlas, cull_front: bool = False,

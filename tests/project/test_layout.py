@@ -51,6 +51,7 @@ LAYERS = [
     ["scene"],
     ["truth"],
     ["gpu"],
+    ["lighting"],
     ["techniques"],
     ["evaluation"],
     ["measurement"],

@@ -34,12 +34,12 @@ import pandas as pd
 from ..measurement.scenes import load_measured_scene
 from ..output import animation_pictures, pictures
 from ..gpu import gl, timing
-from ..evaluation import metrics, temporal
+from ..evaluation import metrics, radiance, temporal
 from ..output import provenance
 from ..scene.animation import frame_times, scene_at
 from ..gpu.frame import Frame
 from ..measurement.pipeline import (
-    Evaluator, StepCallback, build_techniques, check_lights, measure, pass_order,
+    Evaluator, StepCallback, build_techniques, check_lights, measure, pass_order, radiance_terms,
 )
 from ..output.pages import provenance_items
 from ..output.rundir import GROUND_TRUTH_KEY, RunDirectory, error_legend, safe_name
@@ -101,8 +101,22 @@ def summary_table(df: pd.DataFrame) -> pd.DataFrame:
                      "error_rate_mean": float(g["error_rate"].mean()),
                      "flip_rate_mean": flip["mean"], "flip_rate_p95": flip["p95"], "flip_rate_max": flip["max"],
                      "temporal_error_mean": terr["mean"], "temporal_error_max": terr["max"],
+                     **_radiance_summary(g),
                      "time_ms_median": float(g["time_ms_median"].median())})
     return pd.DataFrame(rows)
+
+
+def _radiance_summary(g: pd.DataFrame) -> dict:
+    """The shaded image's columns of one configuration's frame rows (any light's: they are the
+    configuration's): mean radiance error over frames and radiance flicker / selection change
+    mean and max over frame pairs; {} for rows from before the radiance columns."""
+    if "radiance_error" not in g.columns:
+        return {}
+    flicker = temporal.summarise(g["radiance_flicker"])
+    change = temporal.summarise(g["selection_change_rate"])
+    return {"radiance_error_mean": float(g["radiance_error"].mean()), "radiance_flicker_mean": flicker["mean"],
+            "radiance_flicker_max": flicker["max"], "selection_change_mean": change["mean"],
+            "selection_change_max": change["max"]}
 
 
 def animate(scene_ref, specs: list[str], frames: int | None = None, size: tuple[int, int] = ANIMATE_SIZE,
@@ -142,7 +156,8 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
     times = frame_times(n)
     tracks: dict[tuple[str, int], _Track] = {}
     rows, notes = [], []
-    prev_geom = prev_eval = None
+    prev_geom = prev_eval = covered_prev = None
+    radiance_prev: dict = {}  # per configuration: the previous frame's luminance image and kept masks
     truth_spec = None
     covered_last = underlay = None
     moving = scene.animation is not None and scene.animation.camera_moves
@@ -156,6 +171,8 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
                 truth_spec = evaluator.truth_technique.spec()
                 geom = temporal.FrameGeometry.of(frame)
                 evals = [frame.evaluated(li) for li in lights]
+                frame_ms: dict[str, list] = {}    # this frame's measurements, per configuration, light by light
+                frame_rows: dict[str, list] = {}  # and their rows
                 for li in lights:
                     reproj = None if prev_geom is None else temporal.reproject(geom, prev_geom, evals[li], prev_eval[li])
                     step = None if on_step is None else (lambda what=f"frame {k + 1}/{n} truth light {li}":
@@ -186,6 +203,10 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
                                 m.visibility, truth_m.visibility, evals[0], frame.covered), k, n))
                         track.prev_vis = m.visibility
                         rows.append(row)
+                        frame_ms.setdefault(key, []).append(m)
+                        frame_rows.setdefault(key, []).append(row)
+                covered_prev = _add_radiance(frame, frame_ms, frame_rows, evals, geom, prev_geom, covered_prev,
+                                             radiance_prev)
                 for tech in techniques:
                     notes.extend((k, f"{tech.spec()}: {x}") for x in dict.fromkeys(tech.notes))
                     tech.notes.clear()
@@ -250,6 +271,39 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
     rd.page("animate.html", title=f"shadowlab animate: {scene.name}", renderer=record["renderer"],
             provenance=provenance_items(record), run=record, summary=summary.to_dict("records"), images=images,
             error_colors=error_legend(), temporal_error_decimals=TEMPORAL_ERROR_DECIMALS)
+
+
+def _add_radiance(frame: Frame, frame_ms: dict, frame_rows: dict, evals: list, geom, prev_geom, covered_prev,
+                  previous: dict):
+    """Put the radiance columns (:mod:`shadowlab.evaluation.radiance`) on this frame's rows, per
+    configuration (``frame_ms``/``frame_rows``: key → one measurement / row per light, the truth's
+    under :data:`GROUND_TRUTH_KEY`), and from the second frame on the shaded image's temporal
+    columns (:data:`shadowlab.evaluation.temporal.RADIANCE_TEMPORAL_COLUMNS`) against the previous
+    frame's, kept in ``previous`` (updated). Returns this frame's covered mask (the next frame's
+    ``covered_prev``)."""
+    terms = radiance_terms(frame)
+    truth = [m.visibility for m in frame_ms[GROUND_TRUTH_KEY]]
+    truth_lum = radiance.luminance_image(frame, truth, None, terms)
+    floor = radiance.DARK_FLOOR * max(float(np.nanmean(truth_lum)) if frame.covered.any() else 0.0, 1e-12)
+    reproj = None if prev_geom is None else temporal.reproject(geom, prev_geom, frame.covered, covered_prev)
+    for key, ms in frame_ms.items():
+        vis, weights = [m.visibility for m in ms], [m.weight for m in ms]
+        image, per_light = radiance.radiance_columns(frame, vis, truth, weights, terms)
+        lum = radiance.luminance_image(frame, vis, weights, terms)
+        kept = [m.budget_kept if m.budget_kept is not None else evals[li] for li, m in enumerate(ms)]
+        if reproj is not None and key in previous:
+            prev_lum, prev_kept = previous[key]
+            changes = {"radiance_flicker": temporal.radiance_pair(prev_lum, lum, previous[GROUND_TRUTH_KEY][0],
+                                                                  truth_lum, reproj, floor),
+                       "selection_change_rate": temporal.selection_change(prev_kept, kept, reproj)}
+        else:
+            changes = {c: float("nan") for c in temporal.RADIANCE_TEMPORAL_COLUMNS}
+        for row, light in zip(frame_rows[key], per_light):
+            row.update(image)
+            row.update(light)
+            row.update(changes)
+        previous[key] = (lum, kept)
+    return frame.covered.copy()
 
 
 def _shaded_truth(frame: Frame, visibilities: list[np.ndarray]) -> np.ndarray:

@@ -74,8 +74,8 @@ def write_run(rd: RunDirectory, result: Comparison, repeat: int, warmup: int, pa
     limit = pictures.signed_limit(diffs.values()) if diffs else None
     shading = ShadingPass(frame)
     try:
-        def shaded(vis_all):
-            return pictures.to_display(shading.shade(vis_all), frame.covered)
+        def shaded(vis_all, weights=None):
+            return pictures.to_display(shading.shade(vis_all, weights), frame.covered)
 
         truth = result.truth[0].technique
         truth_shaded = shaded(gt_vis)
@@ -86,7 +86,7 @@ def write_run(rd: RunDirectory, result: Comparison, repeat: int, warmup: int, pa
         for ms in result.results:
             tech = ms[0].technique
             signed = (diffs[tech.spec()], limit) if tech.spec() in diffs else None
-            picture = shaded([m.visibility for m in ms])
+            picture = shaded([m.visibility for m in ms], [m.weight for m in ms])
             judged[tech.spec()] = perceptual.compare_pictures(picture, truth_shaded, frame.covered)
             configs.append(ConfigImages(
                 tech.spec(), tech.short_label(), tech.name, tech.params(), False, _masked(ms[0].visibility, ev0),

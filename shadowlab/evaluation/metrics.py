@@ -464,6 +464,16 @@ COLUMNS: tuple[Column, ...] = (
                         "pixels; 0 = identical (optional: shadowlab[perceptual])", "value", report=True),
     Column("ssim", "mean SSIM (Wang et al. 2004; Gaussian window 1.5) of the shaded image against the truth's, over "
                    "covered pixels; 1 = identical (optional: shadowlab[perceptual])", "value", report=True),
+    Column("radiance_error", "the shaded image (every light) against the truth's: mean relative luminance error "
+                             "|L - L*| / max(L*, floor) over covered pixels (floor: 5 % of the truth's mean); the same "
+                             "on every light's row", "percent", summary=True, report=True),
+    Column("radiance_error_p95", "95th percentile over covered pixels of the relative luminance error", "percent",
+           report=True),
+    Column("radiance_bias", "signed mean relative luminance error: > 0 brighter than the truth (dropped shadows), "
+                            "< 0 darker (dropped lights)", "percent", report=True),
+    Column("radiance_error_light", "this light's share of the image error: mean |L_i - L*_i| / max(L*, floor) over "
+                                   "covered pixels (its error weighted by its contribution)", "percent"),
+    Column("light_share", "this light's share of the truth image's luminance", "percent"),
     _metric("contact_gap_px", "peter-panning: mean width of the false-lit band along shadowed contact lines, pixels",
             _contact_gap_px, "px", report=True, needs=("contact",), tolerance=(0.5, 0.1)),
     _metric("over_darkening_px", "over-darkening: mean width of the false shadow (weighted by the missing light) "

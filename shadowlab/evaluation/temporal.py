@@ -83,3 +83,39 @@ def summarise(values) -> dict:
     if v.size == 0:
         return {"mean": float("nan"), "p95": float("nan"), "max": float("nan")}
     return {"mean": float(v.mean()), "p95": float(np.percentile(v, SUMMARY_PERCENTILE)), "max": float(v.max())}
+
+
+#: The temporal columns of the shaded image (every light), from frame 1 on (NaN on frame 0).
+RADIANCE_TEMPORAL_COLUMNS = ("radiance_flicker", "selection_change_rate")
+
+
+def radiance_pair(lum_prev: np.ndarray, lum_curr: np.ndarray, truth_prev: np.ndarray, truth_curr: np.ndarray,
+                  reproj: Reprojection, floor: float) -> float:
+    """``radiance_flicker``: the mean, over the valid matches of ``reproj`` (covered pixels of
+    both frames), of |ΔL − ΔL*| / max(L*_k, floor) — the change in the shaded image's luminance
+    (images (H, W), NaN where uncovered) that the truth's does not have, relative to the pixel's
+    brightness with the radiance metrics' dark floor (:mod:`shadowlab.evaluation.radiance`): a
+    light whose shadow or whose light comes and goes as a budget's selection changes. 0 with no
+    valid pixel."""
+    valid = reproj.valid
+    q = reproj.source[valid]
+    l1, t1 = lum_curr[valid].astype(np.float64), truth_curr[valid].astype(np.float64)
+    l0, t0 = lum_prev.reshape(-1)[q].astype(np.float64), truth_prev.reshape(-1)[q].astype(np.float64)
+    if not valid.any():
+        return 0.0
+    return float(np.mean(np.abs((l1 - l0) - (t1 - t0)) / np.maximum(t1, floor)))
+
+
+def selection_change(kept_prev: list, kept_curr: list, reproj: Reprojection) -> float:
+    """``selection_change_rate``: the share of the valid matches of ``reproj`` whose set of lights
+    with shadows changed between the frames (``kept_*``: per light a bool (H, W) image of where a
+    shadow budget computes its shadow, on its evaluated pixels) — the cause of a budget's flicker
+    (Godot's "lights flickering in and out as the camera moves"). 0 with no valid pixel."""
+    valid = reproj.valid
+    if not valid.any():
+        return 0.0
+    q = reproj.source[valid]
+    changed = np.zeros(int(valid.sum()), bool)
+    for k0, k1 in zip(kept_prev, kept_curr):
+        changed |= k1[valid] != k0.reshape(-1)[q]
+    return float(changed.mean())

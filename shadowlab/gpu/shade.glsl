@@ -12,6 +12,8 @@
 #include "gbuffer_fetch.glsl"
 uniform sampler2D u_materials;   // one column per object, rows as above
 uniform sampler2D u_visibility;  // this light's visibility image, 1 = lit
+uniform sampler2D u_weight;      // where the light is drawn (read only when u_weighted): a shadow budget's drop=unlit
+uniform bool u_weighted;
 uniform vec3 u_eye;
 uniform float u_density;
 uniform vec3 u_shadow_color;
@@ -37,5 +39,6 @@ void main() {
     float sh = u_density * (1.0 - v);
     float shade = 1.0 - v;
     out_color = vec4(light_footprint(P) * (A + (1.0 - sh) * D + sh * u_shadow_color + (1.0 - shade) * S), 1.0);
+    if (u_weighted) out_color.rgb *= texelFetch(u_weight, px, 0).r;
 }
 #endif

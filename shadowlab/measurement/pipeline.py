@@ -31,7 +31,8 @@ import pandas as pd
 from .scenes import load_measured_scene
 from ..gpu import gl, memory, timing, work
 from . import light_sampling
-from ..evaluation import metrics, texel_footprint
+from ..evaluation import metrics, radiance, texel_footprint
+from ..lighting.radiance import RadianceTerms
 from ..gpu.frame import Frame, LightSlot
 from ..evaluation.occluder_layers import first_occluder_distance, occluder_layers
 from ..techniques import Technique, TechniqueError, from_spec
@@ -39,42 +40,11 @@ from ..techniques.base import FIRST
 from ..techniques.rays.raytrace import RayTraced
 from ..util.format import fmt_table_pct
 from ..util.sizes import SWEEP_SIZE
+from . import budget
+from .result import Measurement
 
 #: ``on_step(what, total)``: called after each render run (warm-up or timed).
 StepCallback = Callable[[str, int], None]
-
-
-@dataclass
-class Measurement:
-    """One technique configuration measured on one light: visibility float32 (height, width),
-    row 0 = top, 1 = lit; its timing; its cost figures (``Technique.stats``); its notes."""
-
-    technique: Technique
-    light: int
-    visibility: np.ndarray
-    timing: timing.Timing
-    stats: dict
-    notes: list[str] = field(default_factory=list)
-    #: ``pass_<name>_ms`` per pass (only when per-pass timing was asked for).
-    pass_times: dict = field(default_factory=dict)
-    #: Wall time of ``setup`` for this light (GL work finished), ms: what a static light pays
-    #: once and a moving light pays every frame (programs compiled there included).
-    setup_ms: float = float("nan")
-    #: Peak resident memory of the process during the measurement, bytes (:mod:`shadowlab.gpu.memory`).
-    peak_rss_bytes: int = 0
-    #: Texel footprint m per pixel, float32 (height, width), row 0 = top, NaN where not evaluated
-    #: (:func:`shadowlab.evaluation.texel_footprint.footprint_image`); None for techniques without a map.
-    footprint: np.ndarray | None = None
-    #: The work of one render, {pass: {counter: value}} (:mod:`shadowlab.gpu.work`): measured by the
-    #: counting render plus what the technique declares (:meth:`Technique.work`).
-    work: dict = field(default_factory=dict)
-    #: What the evaluator found wrong with the result as a whole (:meth:`Evaluator.row` fills it:
-    #: a degenerate configuration, a bias beyond the casters' heights), one sentence each, naming
-    #: the configuration; also appended to :attr:`notes`.
-    judgement: list[str] = field(default_factory=list)
-    #: The technique's component images (:meth:`Technique.component_images`), for the metrics that
-    #: judge its parts (contact shadows, a hybrid's classifier); light-sampled: their average.
-    components: dict = field(default_factory=dict)
 
 
 #: How the pipeline's own columns combine over light samples: the texel footprint is the first
@@ -84,7 +54,7 @@ PIPELINE_STATS = {**{k: FIRST for k in texel_footprint.COLUMNS}, "light_samples"
 
 def measure(tech: Technique, frame: Frame, light: LightSlot | int, repeat: int = 5, warmup: int = 1,
             on_step: Callable[[], None] | None = None, release: bool = True,
-            pass_timing: bool = False, count: bool = True) -> Measurement:
+            pass_timing: bool = False, count: bool = True, budgeted: bool = True) -> Measurement:
     """Set ``tech`` up for one light slot (or a scene light's index), time ``warmup`` +
     ``repeat`` renders of its passes, read its visibility and cost figures, check GL errors,
     and (``release``) free its GL objects — also when any step fails.
@@ -100,8 +70,17 @@ def measure(tech: Technique, frame: Frame, light: LightSlot | int, repeat: int =
     (:func:`measure_sampled`: time, setup and stats are the frame's N renders'); on any other
     light it is measured once, its stats get ``light_samples`` = 1 and a ``light_samples`` > 1
     gets a note saying it was ignored. Techniques with a texel mapping (the map family) get
-    ``footprint`` and the ``texel_footprint_*`` columns (light-sampled: the first sample's)."""
+    ``footprint`` and the ``texel_footprint_*`` columns (light-sampled: the first sample's).
+
+    A configuration with a shadow budget (``budget=K``; ``budgeted``, the default) is measured
+    through :func:`shadowlab.measurement.budget.measure_budgeted`: the technique alone where the
+    light is kept, the budget's drop policy elsewhere, not rendered at all where the light is
+    kept nowhere."""
     slot = frame.as_slot(light)
+    if tech.budget_settings() and budgeted:
+        return budget.measure_budgeted(
+            tech, frame, slot, lambda t: measure(t, frame, slot, repeat, warmup, on_step, release, pass_timing, count,
+                                                 budgeted=False), repeat)
     if light_sampling.is_sampled(tech, slot.light):
         return measure_sampled(tech, frame, slot, repeat, warmup, on_step, release, pass_timing, count)
     note = light_sampling.ignored_note(tech, slot)
@@ -364,6 +343,11 @@ class Evaluator:
         stats = {**m.stats, "occluder_height_median": height, "truth_shadowed_share": truth_share,
                  "shadowed_share": share}
         causes = list(tech.degenerate_causes(stats))
+        kept = m.stats.get("budget_kept_share")
+        if kept is not None and kept < 1.0:  # a shadow budget left the light's shadow out: that is the cause
+            b = tech.budget_settings()
+            causes = [f"the shadow budget (budget={b['budget']}, select={b['select']}) computes this light's shadow on "
+                      f"{fmt_table_pct(kept)} of its evaluated pixels"] + (causes if kept > 0 else [])
         if bias_over and not causes:
             causes = [f"the bias: it amounts to {bias_world:.3g} world units at the receivers (median), more than "
                       f"the casters' median height {height:.3g} above their shadows"]
@@ -454,16 +438,41 @@ def compare_frame(frame: Frame, techniques: Sequence[Technique], repeat: int = 5
     truths = [evaluator.truth(li, _stepper(on_step, total, f"{evaluator.truth_technique.name} light {li}"))
               for li in lights]
     rows = [evaluator.row(m, reference=True) for m in truths]
+    truth_images = [m.visibility for m in truths]
+    add_radiance(frame, rows, truths, truth_images)
     results = []
     for tech in techniques:
         ms = [measure(tech, frame, li, repeat, warmup, _stepper(on_step, total, f"{tech.name} light {li}"),
                       pass_timing=pass_timing) for li in lights]
-        rows.extend(evaluator.row(m) for m in ms)
+        tech_rows = [evaluator.row(m) for m in ms]
+        add_radiance(frame, tech_rows, ms, truth_images)
+        rows.extend(tech_rows)
         notes.extend(f"{tech.spec()}: {n}" for n in dict.fromkeys(tech.notes))
         notes.extend(n for m in ms for n in m.judgement)  # they name the configuration themselves
         results.append(ms)
     df = pd.DataFrame(rows)
     return Comparison(frame, truths, results, df[metrics.order_columns(df.columns, pass_order())], notes)
+
+
+def add_radiance(frame: Frame, rows: list[dict], ms: Sequence[Measurement], truth: Sequence[np.ndarray]) -> None:
+    """Put the radiance columns (:mod:`shadowlab.evaluation.radiance`) of one configuration — its
+    measurements ``ms``, one per scene light, in order — on its ``rows`` (one per light, in the
+    same order): the image-wide columns on every row, each light's own on its row. The terms of
+    the shaded image are the frame's, made once (:func:`radiance_terms`)."""
+    image, per_light = radiance.radiance_columns(frame, [m.visibility for m in ms], truth,
+                                                 [m.weight for m in ms], radiance_terms(frame))
+    for row, light in zip(rows, per_light):
+        row.update(image)
+        row.update(light)
+
+
+def radiance_terms(frame: Frame) -> RadianceTerms:
+    """The frame's :class:`shadowlab.lighting.radiance.RadianceTerms`, made on first use and kept
+    on the frame (every configuration of a frame is shaded with the same terms)."""
+    terms = getattr(frame, "_radiance_terms", None)
+    if terms is None:
+        terms = frame._radiance_terms = RadianceTerms(frame)
+    return terms
 
 
 def build_techniques(specs: Sequence[str], truth: Technique | None = None) -> list[Technique]:

@@ -131,10 +131,10 @@ def _accuracy_row(row: dict) -> dict:
     return {k: v for k, v in row.items() if not is_time_column(k)}
 
 
-def _images(frame, visibilities, truth=None, footprint=None) -> tuple[dict, dict]:
+def _images(frame, visibilities, truth=None, footprint=None, weights=None) -> tuple[dict, dict]:
     """PNG bytes of a configuration's pictures (:func:`shadowlab.output.pictures.config_pictures`):
-    the shaded image, the first light's visibility and, given the truth (one visibility per
-    light), the error map, the signed map of a soft configuration (on :data:`STUDY_SIGNED_LIMIT`)
+    the shaded image (``weights``: per light, where it is drawn — a budget's ``drop=unlit`` — or
+    None), the first light's visibility and, given the truth (one visibility per light), the error map, the signed map of a soft configuration (on :data:`STUDY_SIGNED_LIMIT`)
     and the texel-footprint map; and, given the truth, the perceptual metrics of the shaded
     image against the truth's (:func:`shadowlab.evaluation.perceptual.compare_pictures`; {} without it)."""
     from ..evaluation import perceptual
@@ -143,7 +143,7 @@ def _images(frame, visibilities, truth=None, footprint=None) -> tuple[dict, dict
 
     shading = ShadingPass(frame)
     try:
-        shaded = pictures.to_display(shading.shade(list(visibilities)), frame.covered)
+        shaded = pictures.to_display(shading.shade(list(visibilities), weights), frame.covered)
         judged = {}
         if truth is not None and perceptual.available():
             truth_shaded = pictures.to_display(shading.shade(list(truth)), frame.covered)
@@ -177,7 +177,7 @@ def _truth(task: dict) -> dict:
     """The ground truth of every light of a scene, with what the configurations of that scene
     need to be judged: the truth's visibility per light (float32 (H, W), row 0 = top)."""
     from ..evaluation import perceptual
-    from ..measurement.pipeline import Evaluator
+    from ..measurement.pipeline import Evaluator, add_radiance
     from ..techniques import from_spec
 
     frame = _frame(task)
@@ -185,6 +185,7 @@ def _truth(task: dict) -> dict:
     lights = range(len(frame.scene.lights))
     truths = [evaluator.truth(li) for li in lights]
     rows = [_accuracy_row(evaluator.row(m, reference=True)) for m in truths]
+    add_radiance(frame, rows, truths, [m.visibility for m in truths])
     files, _ = _images(frame, [m.visibility for m in truths])
     ev0 = frame.evaluated(0)
     arrays = {f"truth_{li}": m.visibility.astype(np.float32) for li, m in zip(lights, truths)}
@@ -206,7 +207,7 @@ def _config(task: dict) -> dict:
     and per light its per-tile error sums (``tiles_<light>``,
     :func:`shadowlab.evaluation.tiles.tile_sums`)."""
     from ..evaluation.tiles import tile_sums
-    from ..measurement.pipeline import Evaluator, measure
+    from ..measurement.pipeline import Evaluator, add_radiance, measure
     from ..techniques import from_spec
 
     frame = _frame(task)
@@ -217,10 +218,11 @@ def _config(task: dict) -> dict:
     tech = from_spec(task["spec"])
     ms = [measure(tech, frame, li, repeat=1, warmup=0) for li in range(len(frame.scene.lights))]
     rows = [_accuracy_row(evaluator.row(m)) for m in ms]
+    add_radiance(frame, rows, ms, task["truth"])
     for row, m in zip(rows, ms):
         row["notes"] = "; ".join(m.notes)
     _same_perceptual(task)
-    files, judged = _images(frame, [m.visibility for m in ms], task["truth"], ms[0].footprint)
+    files, judged = _images(frame, [m.visibility for m in ms], task["truth"], ms[0].footprint, [m.weight for m in ms])
     for row in rows:  # one shaded picture per configuration: its perceptual figures on every light's row
         row.update(judged)
     ev0 = frame.evaluated(0)

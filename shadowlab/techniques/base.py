@@ -75,6 +75,7 @@ import numpy as np
 
 from ..gpu import gl, programs, targets
 from ..gpu.frame import FRAME_WRITABLE, GBUFFER_CHANNELS
+from ..lighting.selection import POLICIES
 from ..util.validation import did_you_mean
 
 
@@ -187,6 +188,27 @@ def format_value(value: Any) -> str:
 LIGHT_SAMPLES = Param(1, "area lights: hard renders averaged, one from each of N stratified points of the "
                          "light (1 = its centre); ignored, with a note, on other lights", min=1, max=4096)
 
+
+#: The shadow budget every technique's spec accepts (docs/many-lights.md): at most ``budget`` lights
+#: get their shadows computed on each face, chosen by the ``select`` policy
+#: (:mod:`shadowlab.lighting.selection`); the others are drawn without a shadow there
+#: (``drop=unshadowed``), not drawn there at all (``unlit``, the seed's and Godot's/Unity's
+#: per-object lists) or shadowed by an imperfect shadow map (``imperfect``); ``atlas`` > 0 gives the
+#: kept lights' maps one shared atlas of that many texels on a side, each light's resolution from
+#: its screen-space importance (:mod:`shadowlab.lighting.atlas`). Not part of ``PARAMS``: a spec
+#: without them is the technique alone, and its label is what it always was; the pipeline applies
+#: them (:mod:`shadowlab.measurement.budget`).
+DROP_POLICIES = ("unshadowed", "unlit", "imperfect")
+BUDGET_PARAMS: dict[str, Param] = {
+    "budget": Param(0, "shadow budget: the most lights whose shadows are computed on one face (0 = every light)",
+                    min=0, max=65536),
+    "select": Param("face", "which lights get the budget's shadows: " + ", ".join(POLICIES), choices=POLICIES),
+    "drop": Param("unshadowed", "what a light outside the budget does at a face: lit without a shadow, not drawn, "
+                                "or shadowed by an imperfect shadow map", choices=DROP_POLICIES),
+    "atlas": Param(0, "one shadow atlas of this many texels on a side for the kept lights' maps, each light's "
+                      "resolution from its screen-space importance (0 = each map at the technique's resolution)",
+                   min=0, max=32768),
+}
 
 #: Every light type a scene file can hold (``Light.type_name``).
 ALL_LIGHTS = frozenset({"point", "directional", "spot", "target_direct", "area"})
@@ -328,12 +350,16 @@ class Technique:
             REGISTRY[cls.name] = cls
 
     def __init__(self, **params):
+        budget = {k: params.pop(k) for k in list(params) if k in BUDGET_PARAMS and k not in self.PARAMS}
         unknown = sorted(set(params) - set(self.PARAMS))
         if unknown:
-            known = ", ".join(self.PARAMS) or "none"
-            hint = did_you_mean(unknown[0], self.PARAMS)
+            known = ", ".join(list(self.PARAMS) + list(BUDGET_PARAMS)) or "none"
+            hint = did_you_mean(unknown[0], list(self.PARAMS) + list(BUDGET_PARAMS))
             raise TechniqueError(f"{self.name}: unknown parameter '{unknown[0]}'{hint} (known: {known})")
         self._params = {k: p.parse(self.name, k, params.get(k, p.default)) for k, p in self.PARAMS.items()}
+        #: The shadow budget's settings (:data:`BUDGET_PARAMS`, every key) when the spec gave one,
+        #: else {} (:meth:`budget_settings`).
+        self._budget = self._parse_budget(budget)
         self.notes: list[str] = []
         self._owned: list = []
         self._kept: dict = {}  # GL objects kept across setups (see keep)
@@ -352,13 +378,37 @@ class Technique:
             return params[key]
         raise AttributeError(key)
 
+    def _parse_budget(self, given: dict) -> dict:
+        """The budget settings of a spec's ``budget``/``select``/``drop``/``atlas`` values: {} when
+        none was given, else every key (defaults filled). ``select``, ``drop`` or ``atlas``
+        without ``budget`` ≥ 1 is an error: they describe a budget."""
+        if not given:
+            return {}
+        out = {k: p.parse(self.name, k, given.get(k, p.default)) for k, p in BUDGET_PARAMS.items()}
+        if out["budget"] < 1:
+            others = ", ".join(k for k in given if k != "budget")
+            raise TechniqueError(f"{self.name}: {others or 'budget'} needs a shadow budget: give budget=K with K >= 1 "
+                                 f"(the most lights with shadows per face)")
+        if out["atlas"] and "resolution" not in self.PARAMS:
+            raise TechniqueError(f"{self.name}: atlas={out['atlas']} sets each kept light's map resolution, and "
+                                 f"{self.name} has no resolution parameter")
+        if out["drop"] == "imperfect" and self.name == "imperfect_map":
+            raise TechniqueError(f"{self.name}: drop=imperfect would give the dropped lights the technique itself")
+        return out
+
+    def budget_settings(self) -> dict:
+        """The shadow budget of this configuration (:data:`BUDGET_PARAMS`, every key), or {} for
+        none: every light's shadow is computed everywhere."""
+        return dict(self._budget)
+
     def params(self) -> dict:
-        """Every parameter's value (defaults included), in declaration order."""
-        return dict(self._params)
+        """Every parameter's value (defaults included), in declaration order; then the shadow
+        budget's settings when the spec gave one."""
+        return {**self._params, **self._budget}
 
     def params_string(self) -> str:
         """``key=value,...`` for every parameter (the metrics.csv ``params`` column)."""
-        return ",".join(f"{k}={format_value(v)}" for k, v in self._params.items())
+        return ",".join(f"{k}={format_value(v)}" for k, v in self.params().items())
 
     def spec(self) -> str:
         """The full spec ``name:key=value,...``; ``from_spec(spec())`` rebuilds this technique."""
@@ -368,6 +418,9 @@ class Technique:
     def short_label(self) -> str:
         """The name and the parameters that differ from their defaults (for legends and headings)."""
         diff = [f"{k}={format_value(v)}" for k, v in self._params.items() if v != self.PARAMS[k].default]
+        # a budget always shows its K and policy (the default policy is not implied by "budget=8")
+        diff += [f"{k}={format_value(v)}" for k, v in self._budget.items()
+                 if k in ("budget", "select") or v != BUDGET_PARAMS[k].default]
         return f"{self.name}:{','.join(diff)}" if diff else self.name
 
     def __repr__(self) -> str:

@@ -405,7 +405,7 @@ def evidence_rows(name: str) -> list[str]:
 def page(cls) -> str:
     """The reference page of one registered technique class."""
     from ..gpu.glsl import shader_files
-    from ..techniques.base import LIGHT_SAMPLES
+    from ..techniques.base import BUDGET_PARAMS, LIGHT_SAMPLES
 
     name, family = cls.name, family_of(cls)
     module = Path(inspect.getfile(cls))
@@ -443,7 +443,9 @@ def page(cls) -> str:
         out.append(f"| `{key}` | {_value(param.default)} | {_allowed(param)} | {_tune(param)} | {what} |")
     if not cls.PARAMS:
         out.append("| — | | | | none |")
-    out.append("")
+    out += ["", "Like every technique it also accepts a shadow budget for scenes with many lights: "
+            + ", ".join(f"`{k}`" for k in BUDGET_PARAMS)
+            + " ([many-lights.md](../many-lights.md#a-shadow-budget-on-any-technique)).", ""]
 
     out += ["## Passes", "", "Drawn in this order by `render()`, each timed on its own with `--pass-timing` "
             "(`pass_<name>_ms`) and counted by the work counters:", ""]

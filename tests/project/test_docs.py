@@ -12,7 +12,7 @@ import pytest
 from shadowlab.docgen import tables as docs_tables
 from shadowlab.docgen import technique_pages
 from shadowlab.evaluation import metrics
-from shadowlab.evaluation.temporal import TEMPORAL_COLUMNS
+from shadowlab.evaluation.temporal import TEMPORAL_COLUMNS, RADIANCE_TEMPORAL_COLUMNS
 
 ROOT = Path(__file__).resolve().parents[2]
 README = ROOT / "README.md"
@@ -203,7 +203,7 @@ def test_the_catalogue_names_the_suites_each_scene_is_in():
 
 def test_every_metric_column_is_defined_in_the_metrics_page():
     text = (DOCS / "metrics.md").read_text(encoding="utf-8")
-    names = [c.name for c in metrics.COLUMNS] + list(TEMPORAL_COLUMNS)
+    names = [c.name for c in metrics.COLUMNS] + list(TEMPORAL_COLUMNS) + list(RADIANCE_TEMPORAL_COLUMNS)
     missing = [n for n in names if f"`{n}`" not in text]
     assert not missing, f"docs/metrics.md does not define {missing}"
 

@@ -5,7 +5,8 @@ by pull-push — the cheap map a renderer can afford for every light beyond the 
 full shadow map.
 
 **The point set.** The casters are approximated by points sampled on their triangles uniformly
-by area (:func:`caster_points`), once per scene and deterministically: point *i* is the *i*-th
+by area (:func:`caster_points`), as a function of the scene alone (recomputed at each set-up,
+the same every time): point *i* is the *i*-th
 point of the 3D Halton sequence (bases 2, 3, 5; index 0 skipped). Its first coordinate picks the
 triangle by inverting the cumulative area (so any 2^m consecutive points put one point in each
 of 2^m equal slices of the total area: area-stratified), the other two place it in the triangle
@@ -35,7 +36,8 @@ independent from light to light.
    ``pull_push=false`` the holes stay: each is lit, and shadows leak through the point set's
    gaps — the artefact pull-push exists for.
 3. ``lookup``: the map toolkit's depth comparison (``shadowlab/techniques/maps/shadow_lookup.glsl``, as
-   shadow_map's, compiled as a program of its own) over the shared G-buffer, with a constant
+   shadow_map's, compiled with a define of its own so that the two never share a program's
+   uniforms) over the shared G-buffer, with a constant
    ``bias`` (shadow_map's ``bias_space=world``: a distance towards the light, ``bias`` × the
    scene's extent on perspective maps converted to window depth at each receiver; ``bias`` ×
    the depth range on orthographic ones) plus ``slope_scale`` × the receiver plane's depth
@@ -45,6 +47,16 @@ independent from light to light.
    a caster (a floor) compares against its own surface a texel or more off; and the points
    themselves lie on the surfaces, so the receiver's own points are in the map. ``filter``:
    nearest or texel-exact PCF (3x3, 5x5).
+
+**What pull-push cannot fix.** A texel is a hole only if no point at all reached it. Where an
+occluder's points are sparser than one per texel, the texels between them are reached by the
+points of the surfaces behind it (a floor under a table: the splat has no occlusion between
+points other than the depth test within a texel), so they hold the far surface's depth, are
+not holes, and the occluder's shadow leaks there whatever pull-push does. Only density fixes
+it: more points, or fewer texels for the same points. The opposite error is at silhouettes: a
+texel any occluder point reaches is the occluder's whole texel (nearest wins), and a hole on a
+silhouette is filled with an average of occluder and background depths that still lies in
+front of the background, so shadows grow by about a texel.
 
 **Projection.** The toolkit's fitted views, not Ritschel et al.'s paraboloids: the light's own
 ``shadow_views`` fitted to the receivers that can be shadowed (:func:`~shadowlab.techniques.maps.toolkit.fit_light_views`,

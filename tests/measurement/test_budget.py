@@ -91,3 +91,17 @@ def test_the_radiance_of_a_budget(frame):
     assert len(dropped) and (dropped.error_rate > 0).any()
     notes = [n for ms in result.results for m in ms for n in m.judgement]
     assert all("shadow budget" in n for n in notes if "budget=1" in n)
+
+
+def test_drop_imperfect_shadows_the_rest_with_imperfect_maps(frame):
+    """drop=imperfect: where a light is dropped its visibility is imperfect_map's, and the ISM's time
+    is added; where it is kept, the technique's."""
+    tech = from_spec("shadow_map:budget=1,select=closest,drop=imperfect")
+    li = 0  # the point light: dropped (the sun is the closest)
+    m = measure(tech, frame, li, repeat=1, warmup=0)
+    ism = measure(from_spec("imperfect_map"), frame, li, repeat=1, warmup=0)
+    ev = frame.evaluated(li)
+    assert m.stats["budget_rendered"] == 0 and m.stats["imperfect_rendered"] == 1
+    assert np.array_equal(m.visibility[ev], ism.visibility[ev])
+    assert m.timing.median_ms > 0
+    assert (m.visibility[ev] < 0.5).any()  # the ISM shadows something the unshadowed drop would not

@@ -24,7 +24,9 @@ triangles) and an error beyond. Long preprocessing shows a progress bar on a ter
 
 Several lights: for each receiver triangle, only the ``max_lights`` lights with the largest
 unshadowed contribution (λ · N·L · luminance at its centroid) get fragments; the others leave it
-lit, and the metrics show what dropping them costs (``dropped_faces`` counts them).
+lit, and the metrics show what dropping them costs (``dropped_faces`` counts them). This is the
+seed's rule, which every technique now takes as a shadow budget (``budget=K,select=face``,
+:mod:`shadowlab.lighting.selection`; a test holds the two selections equal).
 """
 from __future__ import annotations
 

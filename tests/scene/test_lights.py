@@ -25,7 +25,16 @@ LIGHTS = [
     RectLight(position=np.array([0.3, 3.5, -0.2]), u=np.array([1.5, 0.0, 0.0]), v=np.array([0.0, 0.0, 1.0])),
     DiscLight(position=np.array([-0.5, 3.2, 0.4]), direction=np.array([0.0, -1.0, 0.0]), radius=0.6),
     SphereLight(position=np.array([0.2, 3.4, 0.1]), radius=0.3),
+    # lights with a range: λ = shape factor × the windowed 1/d² falloff (issue 40)
+    PointLight(position=np.array([0.5, 2.0, -1.0]), range=3.0),
+    SpotLight(position=np.array([0.0, 3.0, 0.5]), direction=np.array([0.0, -1.0, 0.0]), alpha=80.0, beta=50.0,
+              range=4.5),
 ]
+
+
+def light_id(light) -> str:
+    """A test id: the area shape, else the type, with ``_ranged`` for a light with a range."""
+    return getattr(light, "shape", light.type_name) + ("_ranged" if getattr(light, "range", 0) > 0 else "")
 
 
 def glsl_eval(ctx, light, points):
@@ -42,7 +51,13 @@ def glsl_eval(ctx, light, points):
     return res[:, 0], res[:, 1:]
 
 
-@pytest.mark.parametrize("light", LIGHTS, ids=lambda l: getattr(l, "shape", l.type_name))
+def footprints_agree(lam_gl, lam_np) -> np.ndarray:
+    """Bool per point: GLSL's float32 λ matches numpy's float64 λ to float32 precision — within
+    1e-4, relative where λ > 1 (a ranged light's 1/d² near the light)."""
+    return np.abs(lam_gl - lam_np) < 1e-4 * np.maximum(1.0, lam_np)
+
+
+@pytest.mark.parametrize("light", LIGHTS, ids=light_id)
 def test_glsl_and_numpy_agree(ctx, light, rng):
     pts = rng.uniform([-4, -1, -4], [4, 2.9, 4], size=(20000, 3))
     lam_gl, dir_gl = glsl_eval(ctx, light, pts)
@@ -50,9 +65,64 @@ def test_glsl_and_numpy_agree(ctx, light, rng):
     dir_np, _ = light.to_light(pts)
     # float32 GLSL vs float64 numpy: the ramp agrees to float32 precision; a point exactly on a
     # step edge may differ, so allow a handful of pixels of disagreement there only.
-    close = np.abs(lam_gl - lam_np) < 1e-4
+    close = footprints_agree(lam_gl, lam_np)
     assert close.mean() > 0.9995, np.abs(lam_gl - lam_np).max()
     assert np.allclose(dir_gl, dir_np, atol=1e-5)
+    if getattr(light, "range", 0) > 0:  # the range bites: both zero beyond it, both positive well inside
+        d = np.linalg.norm(pts - light.position, axis=1)
+        assert (lam_gl[d >= light.range] == 0).all() and (lam_np[d >= light.range] == 0).all()
+        assert 0.05 < (lam_np > 0).mean() < 0.95
+        shape = light._shape_footprint(pts)
+        inner = (d < 0.99 * light.range) & (shape > 0)
+        assert (lam_gl[inner] > 0).all() and (lam_np[inner] > 0).all()
+
+
+@pytest.mark.parametrize("light", [l for l in LIGHTS if getattr(l, "range", 0) > 0], ids=light_id)
+def test_glsl_and_numpy_agree_near_a_ranged_light(ctx, light, rng):
+    """Twins at every distance of a ranged light: from inside the d² guard (d < 0.01·range,
+    where λ is held at its cap) through the 1/d² region to the window's edge at the range."""
+    dirs = rng.normal(size=(20000, 3))
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    d = light.range * np.exp(rng.uniform(np.log(1e-3), np.log(1.2), 20000))  # log-uniform 0.001..1.2 range
+    # the points as the GPU gets them (float32): near the light, rounding the points themselves
+    # would move a spot's cos φ by more than the float32 arithmetic does
+    pts = (light.position + dirs * d[:, None]).astype(np.float32).astype(np.float64)
+    lam_gl, _ = glsl_eval(ctx, light, pts)
+    lam_np = light.footprint(pts)
+    assert footprints_agree(lam_gl, lam_np).mean() > 0.9995, np.abs(lam_gl - lam_np).max()
+    cap = 1.0 / (0.01 * light.range) ** 2
+    assert lam_np.max() == pytest.approx(cap) and (lam_np <= cap).all() and (lam_gl <= cap * (1 + 1e-6)).all()
+    assert ((d < 0.01 * light.range) & (lam_np > 0)).sum() > 100  # the guard region was sampled
+
+
+def test_range_attenuation_values():
+    """The windowed inverse square of KHR_lights_punctual by hand: 1/d² well inside the range,
+    the window (1 − (d/r)⁴)² at the edge, 0 at and past the range, the cap 1/(0.01 r)² at the light."""
+    light = PointLight(position=np.zeros(3), range=10.0)
+    at = lambda *ds: light.footprint(np.array([[x, 0.0, 0.0] for x in ds]))
+    assert at(1.0)[0] == pytest.approx((1 - 1e-4) ** 2)          # colour = intensity at distance 1
+    assert at(2.0)[0] == pytest.approx((1 - 16e-4) ** 2 / 4)
+    assert at(5.0)[0] == pytest.approx((1 - 0.5 ** 4) ** 2 / 25)
+    assert at(10.0, 10.5, 100.0).tolist() == [0.0, 0.0, 0.0]
+    assert at(0.0)[0] == pytest.approx(1.0 / 0.1 ** 2) and at(0.05)[0] == pytest.approx(at(0.0)[0])  # guard: d < 0.1
+    assert at(0.2)[0] == pytest.approx((1 - 0.02 ** 4) ** 2 / 0.04)
+    spot = SpotLight(position=np.zeros(3), direction=np.array([0.0, -1.0, 0.0]), alpha=60.0, beta=40.0, range=4.0)
+    unranged = SpotLight(position=np.zeros(3), direction=np.array([0.0, -1.0, 0.0]), alpha=60.0, beta=40.0)
+    pts = np.array([[0.0, -2.0, 0.0], [np.sin(np.radians(25)) * 2, -np.cos(np.radians(25)) * 2, 0.0], [0.0, 2.0, 0.0]])
+    window = (1 - (2.0 / 4.0) ** 4) ** 2 / 4.0
+    assert spot.footprint(pts) == pytest.approx(unranged.footprint(pts) * window)
+    assert spot.footprint(pts)[2] == 0.0  # behind the spot: the cone still rules
+
+
+def test_no_range_is_the_old_footprint_bit_for_bit(rng):
+    """range = 0 (absent) leaves λ the shape factor alone, bit for bit, and sends light_range 0."""
+    pts = rng.uniform(-3, 3, size=(5000, 3))
+    spot = SpotLight(position=np.array([0.0, 3.0, 0.0]), direction=np.array([0.0, -1.0, 0.0]), alpha=70.0, beta=40.0)
+    assert np.array_equal(spot.footprint(pts), spot._shape_footprint(pts))
+    assert np.array_equal(PointLight(position=np.ones(3)).footprint(pts), np.ones(len(pts)))
+    for light in LIGHTS:
+        assert light.uniforms()["light_range"] == float(getattr(light, "range", 0.0))
+        assert ("range" in light.describe()) == (getattr(light, "range", 0.0) > 0)
 
 
 def test_type_ids_match_glsl():
@@ -82,7 +152,7 @@ def test_target_direct_footprint_values():
     assert td.footprint(pts).tolist() == [1.0, 0.5, 0.0, 0.0]  # last: behind the light
 
 
-@pytest.mark.parametrize("light", LIGHTS, ids=lambda l: getattr(l, "shape", l.type_name))
+@pytest.mark.parametrize("light", LIGHTS, ids=light_id)
 def test_shadow_rays_end_at_the_light(light, rng):
     """origin + tfar · direction is the light (point, spot), a point of the light's plane
     (target-direct), or unbounded (directional)."""
@@ -108,7 +178,7 @@ def near_plane(proj: np.ndarray) -> float:
     return proj[2, 3] / (proj[2, 2] - 1.0)  # perspective: m22 = (f+n)/(n-f), m23 = 2fn/(n-f)
 
 
-@pytest.mark.parametrize("light", LIGHTS, ids=lambda l: getattr(l, "shape", l.type_name))
+@pytest.mark.parametrize("light", LIGHTS, ids=light_id)
 @pytest.mark.parametrize("projection", ["auto", "cube"])
 def test_shadow_views_cover_the_points_and_keep_casters_past_near(light, projection, rng):
     """Every point to cover inside the light's footprint lands in the clip volume of one of the

@@ -265,3 +265,73 @@ def test_extreme_but_finite_area_lights_parse():
     sphere = parse_light({**SPHERE, "radius": 1e150}, "lights[0]", "s.toml")
     for light in (rect, disc, sphere):
         assert np.isfinite(json.loads(json.dumps(light.describe(), allow_nan=False))["area"])
+
+
+POINT = {"type": "point", "position": [0.0, 3.0, 0.0]}
+SPOT = {"type": "spot", "position": [0.0, 3.0, 0.0], "direction": [0.0, -1.0, 0.0], "alpha": 60.0, "beta": 40.0}
+SUN = {"type": "directional", "direction": [0.0, -1.0, 0.0]}
+TD = {"type": "target_direct", "position": [0.0, 3.0, 0.0], "direction": [0.0, -1.0, 0.0], "R": 2.0, "r": 1.0}
+
+
+def test_range_parses_on_point_and_spot_lights():
+    for table in (POINT, SPOT):
+        assert parse_light({**table, "range": 5}, "lights[0]", "s.toml").range == 5.0
+        assert parse_light(table, "lights[0]", "s.toml").range == 0.0  # absent: no falloff
+
+
+@pytest.mark.parametrize("base,value,reason", [
+    (POINT, 0.0, "must be > 0"), (SPOT, -2.0, "must be > 0"), (POINT, float("nan"), "finite"),
+    (POINT, "far", "must be a number"), (SPOT, 1e300, "between 1e-15 and 1e+15"), (POINT, 1e-20, "between"),
+    (SUN, 5.0, "unknown key"), (TD, 5.0, "unknown key"), (SPHERE, 5.0, "unknown key"), (RECT, 5.0, "unknown key"),
+])
+def test_bad_or_misplaced_range_names_the_key(base, value, reason):
+    with pytest.raises(SceneError) as exc:
+        parse_light({**base, "range": value}, "lights[0]", "s.toml")
+    assert exc.value.key == "lights[0].range" and reason in exc.value.reason, str(exc.value)
+    assert str(exc.value).startswith("s.toml: lights[0].range: ") and "\n" not in str(exc.value)
+
+
+@pytest.fixture(scope="module")
+def ranged_scene():
+    """A box on a floor lit by a point light and a spot, each twice: with a range (lights 0, 2)
+    and without (lights 1, 3), at the same place."""
+    from helpers import make_scene
+
+    point = {"type": "point", "position": [0.8, 2.2, 0.6]}
+    spot = {"type": "spot", "position": [-1.5, 3.0, -0.5], "direction": [0.3, -1.0, 0.2], "alpha": 90.0, "beta": 60.0}
+    objects = [{"mesh": "plane", "size": [12.0, 12.0], "name": "floor"},
+               {"mesh": "box", "size": [1.0, 1.0, 1.0], "translate": [0.0, 0.5, 0.0], "name": "box"}]
+    return make_scene(objects, [{**point, "range": 3.5}, point, {**spot, "range": 4.0}, spot], name="ranged")
+
+
+@pytest.mark.parametrize("ranged,plain", [(0, 1), (2, 3)], ids=["point", "spot"])
+def test_a_range_limits_the_evaluated_pixels_truth_and_map_fit(lab, ranged_scene, ranged, plain):
+    """The evaluated pixels of a ranged light are its unranged twin's within the range (λ > 0
+    is the one rule: the mask, the truth and the map fit all follow it); the truth agrees with
+    the twin's there; and shadow_map's one frustum, fitted to those pixels (the point light's
+    twin needs a cube), covers every one that can be shadowed (fit=shadowable, the default) or
+    every one (fit=receivers): no pixel is read as lit for falling outside the map."""
+    from helpers import SMALL, mismatches
+    from shadowlab.techniques.maps.toolkit import fit_light_views, shadowable_mask
+
+    frame = lab.frame(ranged_scene, SMALL)
+    light = ranged_scene.lights[ranged]
+    ev, ev_plain = frame.evaluated(ranged), frame.evaluated(plain)
+    d = np.linalg.norm(frame.position - light.position, axis=-1)
+    assert np.array_equal(ev, ev_plain & (d < light.range))
+    assert 0.1 * ev_plain.sum() < ev.sum() < 0.8 * ev_plain.sum()
+    assert np.array_equal(frame.evaluated_image(frame.slot(ranged)), ev)
+    truth, truth_plain = lab.truth(ranged_scene, SMALL, ranged), lab.truth(ranged_scene, SMALL, plain)
+    assert np.array_equal(truth[ev], truth_plain[ev]) and (truth[ev] < 0.5).sum() > 50  # shadow in range
+    for fit, pts in (("shadowable", frame.compact_position[frame.slot(ranged).evaluated][
+                          shadowable_mask(frame, frame.slot(ranged))]), ("receivers", frame.position[ev])):
+        views, notes = fit_light_views(frame, frame.slot(ranged), 1024, fit=fit)
+        assert len(views) == 1 and not notes and len(pts) > 50
+        c = np.c_[pts, np.ones(len(pts))] @ views[0].view_proj.T
+        assert ((c[:, 3] > 0) & np.all(np.abs(c[:, :3]) <= c[:, 3:], axis=1)).all(), fit
+    if light.type_name == "point":  # the unranged twin's receivers span more than one frustum: a cube
+        views_plain, _ = fit_light_views(frame, frame.slot(plain), 1024, fit="receivers")
+        assert len(views_plain) == 6
+    wrong, evaluated, m = mismatches(lab, ranged_scene, "shadow_map", SMALL, ranged)
+    assert evaluated == ev.sum() and wrong <= 0.01 * evaluated
+    assert not [n for n in m.notes if "outside" in n]

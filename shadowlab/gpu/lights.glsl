@@ -15,6 +15,7 @@ uniform float light_cos_outer;    // spot: cos(alpha / 2)
 uniform float light_cos_inner;    // spot: cos(beta / 2)
 uniform float light_radius_outer; // target-direct: R
 uniform float light_radius_inner; // target-direct: r
+uniform float light_range;        // point, spot: > 0 = distance falloff to 0 at this distance; 0 = none
 
 // Unit vector from p towards the light.
 vec3 light_dir_to(vec3 p) {
@@ -23,8 +24,20 @@ vec3 light_dir_to(vec3 p) {
     return normalize(light_position - p);
 }
 
-// Footprint factor λ in [0, 1] at p.
-float light_footprint(vec3 p) {
+// Distance attenuation of a light with a range (glTF KHR_lights_punctual's recommended window over
+// inverse-square falloff): clamp(1 - (d/range)^4, 0, 1)^2 / max(d^2, (0.01 range)^2). Numpy twin:
+// range_attenuation() in shadowlab/scene/lights.py (RANGE_NEAR = 0.01), operation for operation.
+float light_attenuation(vec3 p) {
+    vec3 v = p - light_position;
+    float d2 = dot(v, v);
+    float r2 = light_range * light_range;
+    float x = d2 / r2;                       // (d / range)^2
+    float window = clamp(1.0 - x * x, 0.0, 1.0);
+    return window * window / max(d2, (0.01 * 0.01) * r2);
+}
+
+// Shape factor of λ: the spot's cone, the target-direct cylinder, else 1.
+float light_shape_footprint(vec3 p) {
     if (light_type == LIGHT_SPOT) {
         float cos_phi = dot(normalize(p - light_position), light_direction);
         float width = light_cos_inner - light_cos_outer;
@@ -41,4 +54,12 @@ float light_footprint(vec3 p) {
                            : float(rho <= light_radius_outer);
     }
     return 1.0;
+}
+
+// Footprint factor λ >= 0 at p: the shape factor, times the distance attenuation when the light
+// has a range (then λ may exceed 1: the colour is the intensity at distance 1); without a range
+// exactly the shape factor, in [0, 1].
+float light_footprint(vec3 p) {
+    float lam = light_shape_footprint(p);
+    return light_range > 0.0 ? lam * light_attenuation(p) : lam;
 }

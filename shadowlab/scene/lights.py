@@ -18,7 +18,11 @@ light type is one class here, its entry in :data:`LIGHT_TYPES` and its branch in
 
 Footprint λ (docs/architecture.md#the-shading-pass-shadowlabgpushadingpy): spot — 1 inside the hotspot half-angle β/2, falling linearly in cos φ
 to 0 at the cone half-angle α/2; target-direct (a cylinder of parallel rays of outer radius R,
-inner radius r) — 1 within r of the axis, linear to 0 at R, 0 behind the light's plane.
+inner radius r) — 1 within r of the axis, linear to 0 at R, 0 behind the light's plane. A point
+or spot light with a ``range`` (> 0) multiplies that by the distance attenuation of
+:func:`range_attenuation` (glTF KHR_lights_punctual's recommended falloff over 1/d²), so λ is
+then ≥ 0 but no longer bounded by 1 (its ``color`` is its intensity at distance 1); without a
+range, λ is the shape factor alone, bit for bit as before ranges existed.
 """
 from __future__ import annotations
 
@@ -45,7 +49,31 @@ _UNUSED_UNIFORMS = {
     "light_cos_inner": 1.0,
     "light_radius_outer": 0.0,
     "light_radius_inner": 0.0,
+    "light_range": 0.0,
 }
+
+#: Below this fraction of a light's ``range``, the distance in the 1/d² of
+#: :func:`range_attenuation` is held constant: λ stays finite at the light itself, at most
+#: 1 / (RANGE_NEAR · range)² (10⁴ / range²).
+RANGE_NEAR = 0.01
+
+
+def range_attenuation(d2: np.ndarray, light_range: float) -> np.ndarray:
+    """The distance attenuation of a light with a ``range`` at squared distances ``d2`` (N,)
+    float64: ``clamp(1 − (d/range)⁴, 0, 1)² / max(d², (RANGE_NEAR·range)²)``.
+
+    glTF 2.0's KHR_lights_punctual extension recommends this form (after Karis, "Real Shading in
+    Unreal Engine 4", SIGGRAPH 2013 course notes): physical inverse-square falloff, windowed so
+    that it reaches exactly 0 at ``range`` with zero slope there, so a light touches only the
+    pixels within ``range`` of it (its evaluated pixels). The light's colour is thus its
+    intensity at distance 1. The window is a function of (d/range)² = d²/range², so no square
+    root is taken; the lower clamp on d² (:data:`RANGE_NEAR`) keeps a receiver at the light
+    finite. Must match ``light_attenuation()`` in shadowlab/gpu/lights.glsl operation for
+    operation."""
+    r2 = light_range * light_range
+    x = d2 / r2  # (d / range)²
+    window = np.clip(1.0 - x * x, 0.0, 1.0)
+    return window * window / np.maximum(d2, (RANGE_NEAR * RANGE_NEAR) * r2)
 
 
 def _vec(v) -> tuple:
@@ -89,7 +117,8 @@ class Light:
         raise NotImplementedError
 
     def footprint(self, points: np.ndarray) -> np.ndarray:
-        """λ in [0, 1] at (N, 3) points (1 for point and directional lights)."""
+        """λ ≥ 0 at (N, 3) points: in [0, 1] (1 for point and directional lights), times the
+        distance attenuation for a point or spot light with a ``range``."""
         return np.ones(len(points))
 
     def homogeneous(self) -> np.ndarray:
@@ -133,11 +162,34 @@ class Light:
 
 @dataclass
 class PointLight(Light):
-    """An omnidirectional light at ``position``."""
+    """An omnidirectional light at ``position``; with ``range`` > 0 its λ falls off with distance
+    (:func:`range_attenuation`) to 0 at ``range``; 0 (the default) means no falloff."""
 
     position: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    range: float = 0.0
     type_name = "point"
     type_id = 0
+
+    def _shape_footprint(self, points: np.ndarray) -> np.ndarray:
+        """λ before the distance attenuation: 1 for a point light (and an area light's centre)."""
+        return np.ones(len(points))
+
+    def footprint(self, points):
+        """The shape factor (:meth:`_shape_footprint`), times :func:`range_attenuation` when the
+        light has a range; without one exactly the shape factor."""
+        lam = self._shape_footprint(points)
+        if self.range > 0:
+            v = np.asarray(points, np.float64) - self.position
+            lam = lam * range_attenuation(np.einsum("ij,ij->i", v, v), self.range)
+        return lam
+
+    def describe(self):
+        """As :meth:`Light.describe`; ``range`` only when the light has one (a light without it
+        reads as it did before ranges existed)."""
+        out = super().describe()
+        if not out.get("range"):
+            out.pop("range", None)
+        return out
 
     def to_light(self, points):
         """Unit directions from ``points`` to the light position, and distances."""
@@ -183,12 +235,12 @@ class PointLight(Light):
         return [frusta.perspective_view(p, axis, 2 * half, near, far, resolution)], notes + fit_notes
 
     def _shape_uniforms(self):
-        return {"light_position": _vec(self.position)}
+        return {"light_position": _vec(self.position), "light_range": float(self.range)}
 
     @classmethod
     def parse(cls, rd: TableReader, common: dict) -> "PointLight":
         """From a ``[[lights]]`` table of this type (the common keys already read)."""
-        return cls(position=rd.vector("position", 3), **common)
+        return cls(position=rd.vector("position", 3), range=_range(rd), **common)
 
 
 @dataclass
@@ -236,7 +288,7 @@ class SpotLight(PointLight):
     type_name = "spot"
     type_id = 2
 
-    def footprint(self, points):
+    def _shape_footprint(self, points):
         """1 inside the hotspot, linear in cos φ to 0 at the cone edge."""
         v = np.asarray(points, np.float64) - self.position
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -259,7 +311,7 @@ class SpotLight(PointLight):
     def _shape_uniforms(self):
         return {"light_position": _vec(self.position), "light_direction": _vec(self.direction),
                 "light_cos_outer": float(np.cos(np.radians(self.alpha / 2))),
-                "light_cos_inner": float(np.cos(np.radians(self.beta / 2)))}
+                "light_cos_inner": float(np.cos(np.radians(self.beta / 2))), "light_range": float(self.range)}
 
     @classmethod
     def parse(cls, rd: TableReader, common: dict) -> "SpotLight":
@@ -271,7 +323,7 @@ class SpotLight(PointLight):
         if beta > alpha:
             raise rd.error("beta", f"hotspot angle must be <= alpha ({alpha}), got {beta}")
         return cls(position=rd.vector("position", 3), direction=_unit(rd, "direction"),
-                   alpha=alpha, beta=beta, **common)
+                   alpha=alpha, beta=beta, range=_range(rd), **common)
 
 
 @dataclass
@@ -338,10 +390,26 @@ LIGHT_TYPES: dict[str, type[Light]] = {cls.type_name: cls for cls in
 LIGHT_TYPE_IDS = {**{name: cls.type_id for name, cls in LIGHT_TYPES.items()}, "area": 4}
 
 
+#: The ``range`` values a scene file may give: range² and (RANGE_NEAR·range)² must stay normal
+#: float32 numbers in lights.glsl.
+RANGE_LIMITS = (1e-15, 1e15)
+
+
+def _range(rd: TableReader) -> float:
+    """The optional ``range`` key of a point or spot light: > 0 (within :data:`RANGE_LIMITS`),
+    or 0 (no falloff) when absent."""
+    value = rd.number("range", 0.0, min=0.0, min_open=True)
+    lo, hi = RANGE_LIMITS
+    if value and not lo <= value <= hi:
+        raise rd.error("range", f"must be between {lo:g} and {hi:g} (its square is taken in float32 on the GPU), "
+                                f"got {value!r}")
+    return value
+
+
 def _unit(rd: TableReader, name: str) -> np.ndarray:
     vec = rd.vector(name, 3, nonzero=True)
     return vec / np.linalg.norm(vec)
 
 
 __all__ = ["Light", "PointLight", "DirectionalLight", "SpotLight", "TargetDirectLight", "LIGHT_TYPES",
-           "LIGHT_TYPE_IDS", "SceneError", "T_LIGHT", "T_INFINITE"]
+           "LIGHT_TYPE_IDS", "SceneError", "T_LIGHT", "T_INFINITE", "RANGE_NEAR", "range_attenuation"]

@@ -28,14 +28,14 @@ SOFT_FAMILY = "soft shadows"
 #: through :data:`SOFT_FAMILY`, which metric it judges them on.
 SCENE_FAMILIES = (GENERAL_FAMILY, "shadow volumes", "planar shadows", "shadow maps", "perspective aliasing",
                   "projective textures", "temporal stability", "real meshes", "ground truth", SOFT_FAMILY,
-                  "city scale", "contact shadows")
+                  "city scale", "contact shadows", "many lights")
 #: Scene-name prefixes → family: only the fallback for a scene file without a ``family`` key
 #: (the study notes each such scene, :func:`family_from_name`), as families were named before
 #: scene files declared them; a file's own ``family`` always wins over its name.
 FAMILY_PREFIXES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps",
                    "pa_": "perspective aliasing", "pt_": "projective textures", "tm_": "temporal stability",
                    "rm_": "real meshes", "rt_": "ground truth", "soft_": SOFT_FAMILY, "city_": "city scale",
-                   "cs_": "contact shadows"}
+                   "cs_": "contact shadows", "ml_": "many lights"}
 
 
 def family_from_name(scene_name: str) -> str:

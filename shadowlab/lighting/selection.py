@@ -117,7 +117,19 @@ def object_importance(lights, objects) -> np.ndarray:
 
 def screen_importance(lights, frame) -> np.ndarray:
     """(lights,): each light's unshadowed diffuse intensity (:func:`contributions`) summed over the
-    frame's covered pixels, facing the light only (N·L > 0 with the normal turned to the camera)."""
+    frame's covered pixels, facing the light only (N·L > 0 with the normal turned to the camera).
+    Kept on the frame for the same lights (every budget of a frame asks for it)."""
+    key = tuple(id(light) for light in lights)
+    cached = getattr(frame, "_screen_importance", None)
+    if cached is not None and cached[0] == key:
+        return cached[1].copy()
+    out = _screen_importance(lights, frame)
+    frame._screen_importance = (key, out)
+    return out.copy()
+
+
+def _screen_importance(lights, frame) -> np.ndarray:
+    """:func:`screen_importance`, computed."""
     points, normals = frame.compact_position, frame.compact_normal
     out = np.zeros(len(lights))
     for i, light in enumerate(lights):

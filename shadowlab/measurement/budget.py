@@ -167,3 +167,25 @@ def _summed(a: timing.Timing, b: timing.Timing) -> timing.Timing:
 
     return combined_timing([a, b])
 
+
+
+def budget_note(tech, ms) -> list[str]:
+    """One run note for a configuration with a budget, from its measurements ``ms`` (one per
+    light): how many lights got their shadows somewhere, and what the others got — so that the
+    lights a budget drops are said once, not as one "draws almost no shadow" per light. [] without
+    a budget."""
+    b = tech.budget_settings()
+    if not b or not ms:
+        return []
+    rendered = sum(int(m.stats.get("budget_rendered", 0)) for m in ms)
+    dropped = [m.light for m in ms if m.stats.get("budget_kept_share", 1.0) == 0.0]
+    what = {"unshadowed": "lit without their shadows", "unlit": "not drawn",
+            "imperfect": "shadowed by imperfect shadow maps"}[b["drop"]]
+    shown = ", ".join(map(str, dropped[:12])) + (", …" if len(dropped) > 12 else "")
+    text = (f"{tech.short_label()}: shadows computed for {rendered} of {len(ms)} lights; "
+            f"{len(dropped)} lights kept on none of their evaluated pixels are {what}"
+            + (f" (lights {shown})" if dropped else ""))
+    overflow = [m.light for m in ms if m.stats.get("atlas_overflow")]
+    if overflow:
+        text += f"; the {b['atlas']}² atlas could not hold {len(overflow)} lights' maps"
+    return [text]

@@ -337,6 +337,8 @@ class Evaluator:
         degenerate = bool(row.get("degenerate"))
         if not (degenerate or bias_over):
             return []
+        if m.stats.get("budget_kept_share") == 0.0 and not bias_over:
+            return []  # a light the budget dropped everywhere: said once per configuration (budget_note)
         n = int(row["evaluated_pixels"])
         truth_share = row["truth_shadowed_pixels"] / n if n else 0.0
         share = metrics.shadowed_pixels(row) / n if n else 0.0
@@ -449,6 +451,7 @@ def compare_frame(frame: Frame, techniques: Sequence[Technique], repeat: int = 5
         rows.extend(tech_rows)
         notes.extend(f"{tech.spec()}: {n}" for n in dict.fromkeys(tech.notes))
         notes.extend(n for m in ms for n in m.judgement)  # they name the configuration themselves
+        notes.extend(budget.budget_note(tech, ms))
         results.append(ms)
     df = pd.DataFrame(rows)
     return Comparison(frame, truths, results, df[metrics.order_columns(df.columns, pass_order())], notes)

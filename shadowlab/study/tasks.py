@@ -207,6 +207,7 @@ def _config(task: dict) -> dict:
     and per light its per-tile error sums (``tiles_<light>``,
     :func:`shadowlab.evaluation.tiles.tile_sums`)."""
     from ..evaluation.tiles import tile_sums
+    from ..measurement.budget import budget_note
     from ..measurement.pipeline import Evaluator, add_radiance, measure
     from ..techniques import from_spec
 
@@ -233,7 +234,7 @@ def _config(task: dict) -> dict:
     # the evaluator's notes on the result (degenerate, bias beyond the casters) name the
     # configuration themselves: the run notes take them without the spec prefix
     meta = {"rows": rows, "notes": list(dict.fromkeys(tech.notes)),
-            "judgement": [n for m in ms for n in m.judgement]}
+            "judgement": [n for m in ms for n in m.judgement] + budget_note(tech, ms)}
     return {"meta": meta, "arrays": arrays, "files": files}
 
 

@@ -1,7 +1,8 @@
-"""The shadow atlas's allocation: one square texture shared by many lights' shadow maps, each
-light's per-face resolution chosen from its screen-space importance, the faces packed as square
-power-of-two tiles, and the lights that find no room reported (issue 40). Pure Python and numpy,
-no GL: the caller renders each tile's face into its rect (the map toolkit's ``depth_pass`` draws
+"""The shadow atlas's allocation: many lights' shadow maps in one square texture.
+
+Each light's per-face resolution is chosen from its screen-space importance, the faces are packed
+as square power-of-two tiles, and the lights that find no room are reported (issue 40). Pure
+Python and numpy, no GL: the caller renders each tile's face into its rect (the map toolkit's ``depth_pass`` draws
 an atlas's faces in their rects) and reports :attr:`AtlasPlan.overflow`.
 
 **Resolution from importance** (:func:`requested_resolution`). A light's importance is its

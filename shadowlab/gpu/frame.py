@@ -136,11 +136,16 @@ class Frame:
                 out.append(DrawRange(rng.first, rng.count))
         return out
 
-    def draw(self, prog, which: str = "all") -> None:
-        """Draw the ``which`` objects of the scene with ``prog`` into the bound framebuffer."""
+    def draw(self, prog, which: str = "all", instances: int = 1) -> None:
+        """Draw the ``which`` objects of the scene with ``prog`` into the bound framebuffer,
+        ``instances`` times in each draw (``gl_InstanceID`` 0 … instances − 1: the map
+        toolkit's one-pass depth pass draws every face of an atlas this way)."""
         vao = self.vertex_array(prog)
         for rng in self.ranges(which):
-            vao.render(vertices=rng.count, first=rng.first)
+            if instances == 1:
+                vao.render(vertices=rng.count, first=rng.first)
+            else:
+                vao.render(vertices=rng.count, first=rng.first, instances=instances)
 
     def caster_bounds(self) -> np.ndarray:
         """Per caster object, its axis-aligned bounds (K, 2, 3)."""

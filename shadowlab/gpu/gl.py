@@ -124,3 +124,26 @@ def query(key, **kinds):
         _QUERIES[(key, tuple(sorted(kinds.items())))] = context().query(**kinds)
     return _QUERIES[(key, tuple(sorted(kinds.items())))]
 
+
+
+_PROCS: dict = {}
+
+
+def proc(name: str, restype, *argtypes):
+    """The GL entry point ``name`` as a ctypes function (``restype``, ``argtypes``), from the
+    driver's own address, looked up once per process. For the core functions PyOpenGL will not
+    call on this context: it decides whether an entry point exists from the version and
+    extensions of the current *GLX* context, which the lab's EGL context is not, and so reports
+    GL 4.1's ``glViewportArrayv`` missing on a 4.5 context that has it. GLError when the driver
+    has no such function."""
+    if name not in _PROCS:
+        import ctypes
+
+        from OpenGL import platform
+
+        context()
+        address = platform.PLATFORM.getExtensionProcedure(name.encode())
+        if not address:
+            raise GLError(f"the GL driver has no {name}")
+        _PROCS[name] = ctypes.CFUNCTYPE(restype, *argtypes)(address)
+    return _PROCS[name]

@@ -45,6 +45,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
+import numpy as np
+
 #: Texture units a pass may use; sampler objects are unbound on all of them by :func:`apply`.
 TEXTURE_UNITS = 8
 #: Clip distances :func:`apply` manages (GL guarantees at least 8).
@@ -133,6 +135,22 @@ def apply(state: PassState) -> None:
     for unit in range(TEXTURE_UNITS):
         if unit not in state.samplers:
             GL.glBindSampler(unit, 0)
+
+
+def set_viewports(rects) -> None:
+    """Viewport i = ``rects[i]`` (x, y, width, height, texels) for i < len(rects)
+    (glViewportArrayv, core since GL 4.1): the viewports an instanced draw picks from with
+    ``gl_ViewportIndex`` (the map toolkit's one-pass depth pass). Viewports are set by the pass,
+    not by :func:`apply`: ``glViewport`` — moderngl's ``ctx.viewport`` and a framebuffer's
+    ``use()`` — sets every viewport at once, so the next pass that binds its target starts with
+    one viewport again."""
+    import ctypes
+
+    from . import gl
+
+    values = np.ascontiguousarray(np.asarray(rects, np.float32).reshape(-1, 4))
+    gl.proc("glViewportArrayv", None, ctypes.c_uint, ctypes.c_int, ctypes.POINTER(ctypes.c_float))(
+        0, len(values), values.ctypes.data_as(ctypes.POINTER(ctypes.c_float)))
 
 
 def set_stencil(stencil: Stencil | None) -> None:

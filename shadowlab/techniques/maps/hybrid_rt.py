@@ -106,7 +106,9 @@ from ...scene.area_lights import AreaLight, DiscLight, RectLight, SphereLight, b
 from ...truth.area import area_visibility
 from ...truth.tracing import caster_scene, occluded, offset_origins
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
-from .toolkit import ATLAS_DEFINES, CLEAR_DEPTH, Atlas, centre_map_atlas, depth_pass, fit_light_views, height_axis
+from .toolkit import (
+    ATLAS_DEFINES, CLEAR_DEPTH, Atlas, centre_map_atlas, depth_defines, depth_pass, fit_light_views, height_axis,
+)
 from .contact import ContactShadows
 
 #: Screen tiles the cut-off counts uncertain pixels in (AMD's 8x8 tiles), pixels on a side.
@@ -276,7 +278,7 @@ class HybridRT(ContactShadows, Technique):
         self.notes.extend(notes)
         self.atlas = Atlas.grid(faces, self.resolution, self.name)
         self.map = self.own(targets.DepthTexture.create(self.atlas.size, self.depth_bits))
-        self.depth_prog = self.program("shadow_depth.glsl")
+        self.depth_prog = self.program("shadow_depth.glsl", defines=depth_defines())
         self.class_prog = self.program("hybrid_rt_classify.glsl", defines=dict(ATLAS_DEFINES))
         face = self.atlas.faces[0]
         perspective = face.proj[3, 3] != 1.0
@@ -325,7 +327,7 @@ class HybridRT(ContactShadows, Technique):
         if not np.allclose(proj[3], (0.0, 0.0, -1.0, 0.0)):
             raise TechniqueError(f"{self.name}: the area light's map is not a perspective projection")
         self.map = self.own(targets.DepthTexture.create(self.atlas.size, self.depth_bits))
-        self.depth_prog = self.program("shadow_depth.glsl")
+        self.depth_prog = self.program("shadow_depth.glsl", defines=depth_defines())
         self.view_proj = proj @ view
         self.centre = np.asarray(light.position, np.float64)
         self.axis = height_axis(light, view)

@@ -60,7 +60,7 @@ from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TuneRange
 # The parallel-planes geometry is the map toolkit's, shared with moment_soft (imported here by
 # name, so ``pcss.near_far`` and the others stay where the tests and older code look for them).
 from .toolkit import (
-    BASIS_HELPERS, BASIS_SWITCH, CLEAR_DEPTH, TexelMapping, centre_map_atlas, depth_pass, height_axis,
+    BASIS_HELPERS, BASIS_SWITCH, CLEAR_DEPTH, TexelMapping, centre_map_atlas, depth_defines, depth_pass, height_axis,
     light_extents, light_size, lookup_pass, near_far, search_height,
 )
 from .contact import ContactShadows
@@ -129,7 +129,7 @@ class PCSS(ContactShadows, TexelMapping, Technique):
         self.notes.extend(notes)
         face = self.atlas.faces[0]
         self.map = self.own(targets.DepthTexture.create(self.atlas.size, DEPTH_BITS))
-        self.depth_prog = self.program("shadow_depth.glsl")
+        self.depth_prog = self.program("shadow_depth.glsl", defines=depth_defines())
         self.lookup_prog = self.program("pcss.glsl", defines={"BLOCKER_SAMPLES": self.blocker_samples,
                                                             "FILTER_SAMPLES": self.filter_samples})
         proj, view = face.proj, face.view

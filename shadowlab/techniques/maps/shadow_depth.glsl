@@ -1,5 +1,5 @@
-// Shadow-map depth pass (Williams 1978): casters rendered from the light into one face of the
-// depth atlas; depth only. With PEEL defined (depth peeling, Everitt 2001), fragments not
+// Shadow-map depth pass (Williams 1978): casters rendered from the light into the faces of the
+// depth atlas (per face or in one instanced draw, light_vertex.glsl); depth only. With PEEL defined (depth peeling, Everitt 2001), fragments not
 // strictly behind the first layer are discarded, leaving the second-nearest surface.
 #include "light_vertex.glsl"
 

@@ -77,7 +77,7 @@ from ...scene.area_lights import DiscLight, RectLight, strata
 from ..base import FIRST, MAX, SUM, Param, PlotStyle, Technique, TuneRange
 from .contact import ContactShadows
 from .toolkit import (
-    BASIS_HELPERS, BASIS_SWITCH, GBUFFER_TAPS, TexelMapping, centre_map_atlas, depth_pass, light_extents,
+    BASIS_HELPERS, BASIS_SWITCH, GBUFFER_TAPS, TexelMapping, centre_map_atlas, depth_defines, depth_pass, light_extents,
     lookup_pass, near_far,
 )
 
@@ -144,7 +144,7 @@ class SMRT(ContactShadows, TexelMapping, Technique):
         self.notes.extend(notes)
         face = self.atlas.faces[0]
         self.map = self.own(targets.DepthTexture.create(self.atlas.size, DEPTH_BITS))
-        self.depth_prog = self.program("shadow_depth.glsl")
+        self.depth_prog = self.program("shadow_depth.glsl", defines=depth_defines())
         self.lookup_prog = self.program("smrt.glsl", defines={"RAYS": self.rays, "SCREEN_STEPS": SCREEN_STEPS,
                                                             "SCREEN_TOLERANCE": f"{SCREEN_TOLERANCE:.6f}"})
         near, _ = near_far(face.proj)

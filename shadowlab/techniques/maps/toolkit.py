@@ -11,8 +11,10 @@ built on it, not on each other.
   (:func:`check_texture_size`), and the per-face light matrices and rects padded to
   :data:`MAX_FACES`, the one array size every atlas-reading shader is compiled with
   (:data:`ATLAS_DEFINES`).
-- **Passes**: :func:`depth_pass` (the casters' depth into every face of a depth layer) and
-  :func:`lookup_pass` (one full-screen pass over the G-buffer reading the atlas).
+- **Passes**: :func:`depth_pass` (the casters' depth into every face of a depth layer: one
+  instanced draw for all faces where the driver lets the vertex shader choose the viewport, else
+  a draw per face; :data:`ONE_PASS`, :func:`depth_defines`) and :func:`lookup_pass` (one
+  full-screen pass over the G-buffer reading the atlas).
 - **The texel mapping** (:class:`TexelMapping`): which face a world point looks up and where its
   texels lie, for the texel-footprint metric (:mod:`shadowlab.evaluation.texel_footprint`).
 - **Soft shadows' parallel planes** (pcss, moment_soft): heights above an area light's plane
@@ -50,6 +52,15 @@ CLEAR_DEPTH = 1.0
 GBUFFER_TAPS = 2
 #: PCF kernel radius (texels) of each lookup filter; None: hardware bilinear comparison.
 FILTERS = {"nearest": 0, "pcf3": 1, "pcf5": 2, "hw2x2": None}
+#: How :func:`depth_pass` draws an atlas's faces, for the whole process (tests and timings set
+#: it; a call's ``one_pass`` argument overrides it): None — in one instanced draw where the
+#: driver has a vertex-shader viewport index (:func:`viewport_index_extension`), else a draw per
+#: face; True — always in one draw (a TechniqueError where the driver cannot); False — always a
+#: draw per face. Both ways fill the atlas with the same depths, texel for texel.
+ONE_PASS: bool | None = None
+#: The extensions that let a vertex shader write ``gl_ViewportIndex``, in order of preference,
+#: with the value of the ``VIEWPORT_INDEX`` define that picks each in light_vertex.glsl.
+VIEWPORT_INDEX_EXTENSIONS = {"GL_ARB_shader_viewport_layer_array": 1, "GL_AMD_vertex_shader_viewport_index": 2}
 
 
 # --------------------------------------------------------------------------- fitting
@@ -145,6 +156,11 @@ class Atlas:
         mats = list(matrices) + [np.eye(4)] * (MAX_FACES - len(matrices))
         return b"".join(programs.mat_bytes(m) for m in mats)
 
+    def view_proj_matrices(self) -> bytes:
+        """Per face projection · view (world → clip), padded: the ``u_face_view_proj[MAX_FACES]``
+        uniform of a :func:`depth_pass` program."""
+        return self._padded([f.view_proj for f in self.faces])
+
     def light_matrices(self) -> bytes:
         """Per face BIAS · projection · view (world → map uv and window depth), padded: the
         ``u_light_matrix[MAX_FACES]`` uniform."""
@@ -192,21 +208,89 @@ def centre_map_atlas(frame, slot, resolution: int, owner: str) -> tuple["Atlas",
 
 # --------------------------------------------------------------------------- passes
 
+_VIEWPORT_INDEX: list[str | None] = []  # the context's answer, asked once per process
+
+
+def viewport_index_extension() -> str | None:
+    """The first of :data:`VIEWPORT_INDEX_EXTENSIONS` the context has (asked once per process:
+    there is one context), or None. With it a vertex shader writes ``gl_ViewportIndex``, so one
+    instanced draw can put each instance in its own face of an atlas (viewport arrays are core
+    since GL 4.1; writing the index outside a geometry shader is the extension's)."""
+    if not _VIEWPORT_INDEX:
+        have = gl.context().extensions
+        _VIEWPORT_INDEX.append(next((e for e in VIEWPORT_INDEX_EXTENSIONS if e in have), None))
+    return _VIEWPORT_INDEX[0]
+
+
+def depth_defines(peel: bool = False) -> dict:
+    """The defines of a :func:`depth_pass` program (``shadow_depth.glsl``, or any program that
+    includes ``light_vertex.glsl`` first): the per-face matrix array (``FACE_ARRAY``,
+    ``MAX_FACES``) and, where the driver has it, the vertex shader's viewport index
+    (``VIEWPORT_INDEX``, :func:`viewport_index_extension`); with ``peel``, depth peeling's
+    ``PEEL``."""
+    defines = {"FACE_ARRAY": 1, **ATLAS_DEFINES}
+    extension = viewport_index_extension()
+    if extension is not None:
+        defines["VIEWPORT_INDEX"] = VIEWPORT_INDEX_EXTENSIONS[extension]
+    if peel:
+        defines["PEEL"] = 1
+    return defines
+
+
+def draws_in_one_pass(prog, one_pass: bool | None = None) -> bool:
+    """Whether :func:`depth_pass` draws every face with ``prog`` in one instanced draw:
+    ``one_pass`` (None: the module's :data:`ONE_PASS`; None there too: wherever ``prog`` was
+    compiled with a viewport index, i.e. the driver has one). True asked of a program without
+    one is a TechniqueError."""
+    choice = ONE_PASS if one_pass is None else one_pass
+    able = "VIEWPORT_INDEX" in prog.extra.defines
+    if choice and not able:
+        raise TechniqueError(f"one_pass: the depth pass cannot draw every face at once: the driver has none of "
+                             f"{', '.join(VIEWPORT_INDEX_EXTENSIONS)} (or the program lacks depth_defines())")
+    return able if choice is None else bool(choice)
+
+
 def depth_pass(frame, layer: targets.DepthTexture, prog, atlas: Atlas, cull_front: bool = False,
-               polygon_offset: tuple[float, float] | None = None) -> None:
+               polygon_offset: tuple[float, float] | None = None, one_pass: bool | None = None) -> None:
     """Clear ``layer`` and render the frame's casters into it through each face of ``atlas``, in
-    its rect. ``prog`` is a ``shadow_depth.glsl`` program; ``polygon_offset`` = (factor, units)
-    for glPolygonOffset, or None."""
+    its rect. ``prog`` is a ``shadow_depth.glsl`` program compiled with :func:`depth_defines`;
+    ``polygon_offset`` = (factor, units) for glPolygonOffset, or None.
+
+    The faces are drawn in one instanced draw (instance i = face i; viewport i = face i's rect,
+    glViewportArrayv; the vertex shader picks the face's matrix from ``u_face_view_proj`` and
+    writes ``gl_ViewportIndex``) or, as a fallback, one draw per face (that face's rect as the
+    viewport, ``u_face_base`` = the face): :func:`draws_in_one_pass` decides, from ``one_pass``,
+    :data:`ONE_PASS` and the driver. Either way every vertex goes through the same product with
+    the same matrix and each triangle is clipped to its own face's rect, so the depths are the
+    same texel for texel (``tests/techniques/maps/test_depth_pass.py``); the draws counted fall
+    from faces × caster ranges to the ranges, the vertices and primitives stay faces × the
+    casters'. Why not a pass-through geometry shader where the extension is missing: it is one
+    more stage per triangle (slow on llvmpipe, and on many GPUs slower than the loop it
+    replaces), and its output would change the primitives counted; the per-face loop is the
+    portable fallback."""
     from OpenGL import GL
 
+    if "u_face_view_proj" not in prog.extra.uniforms:
+        raise TechniqueError(f"depth_pass: program {prog.extra.label()} lacks u_face_view_proj; compile it "
+                             f"with depth_defines()")
+    one = draws_in_one_pass(prog, one_pass)
     layer.use_as_target()
     glstate.apply(PassState(depth_test=True, depth_func="<", depth_write=True, color_write=False,
                             cull="front" if cull_front else None, polygon_offset=polygon_offset))
     GL.glClearBufferfv(GL.GL_DEPTH, 0, (CLEAR_DEPTH,))
-    for face, rect in zip(atlas.faces, atlas.rects):
-        frame.ctx.viewport = rect
-        prog["u_light_view_proj"].write(programs.mat_bytes(face.view_proj))
-        frame.draw(prog, "casters")
+    prog["u_face_view_proj"].write(atlas.view_proj_matrices())
+    if one:
+        n = len(atlas.faces)
+        glstate.set_viewports(atlas.rects)
+        prog["u_face_base"].value = 0
+        frame.draw(prog, "casters", instances=n)
+        # glViewport sets every viewport: back to one, and to what moderngl believes is set
+        frame.ctx.viewport = (0, 0) + tuple(atlas.size)
+    else:
+        for i, rect in enumerate(atlas.rects):
+            frame.ctx.viewport = rect  # every viewport: the one the shader's index picks too
+            prog["u_face_base"].value = i
+            frame.draw(prog, "casters")
 
 
 def lookup_pass(technique, target, quad, map_texture) -> None:
@@ -380,9 +464,9 @@ class DepthMapTechnique(TexelMapping, Technique):
         self.layers = [self.own(targets.DepthTexture.create(self.atlas.size, self.depth_bits))
                        for _ in range(3 if two else 1)]
         self.map = self.layers[-1]  # the layer the lookup compares with
-        self.depth_prog = self.program("shadow_depth.glsl")
+        self.depth_prog = self.program("shadow_depth.glsl", defines=depth_defines())
         if two:
-            self.peel_prog = self.program("shadow_depth.glsl", defines={"PEEL": 1})
+            self.peel_prog = self.program("shadow_depth.glsl", defines=depth_defines(peel=True))
             self.resolve_prog = self.program("shadow_resolve.glsl")
             self.resolve_quad = self.fullscreen_quad(self.resolve_prog)
             programs.set_uniforms(self.peel_prog, {"u_first_layer": 0, "u_peel_epsilon": DEPTH_STEP[self.depth_bits]})

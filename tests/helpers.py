@@ -132,3 +132,18 @@ def mismatches(lab, scene, spec, size=SMALL, light=0) -> tuple[int, int, object]
     evaluated = lab.frame(scene, size).evaluated(light)
     wrong = int(np.sum((m.visibility[evaluated] < 0.5) != (truth[evaluated] < 0.5)))
     return wrong, int(evaluated.sum()), m
+
+
+#: The most lights of one scene that the every-scene sweeps check (many-light scenes: issue 40).
+SWEEP_LIGHTS = 8
+
+
+def sweep_lights(scene, limit: int = SWEEP_LIGHTS) -> list[int]:
+    """The light indices an every-shipped-scene sweep checks: all of them up to ``limit``, else
+    ``limit`` evenly spaced ones (the first and the last included) — so the many-light scenes (40
+    to 256 lights, every light of the same few kinds) are covered without multiplying a sweep's
+    time by their light count."""
+    n = len(scene.lights)
+    if n <= limit:
+        return list(range(n))
+    return sorted({int(round(i)) for i in np.linspace(0, n - 1, limit)})

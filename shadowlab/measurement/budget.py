@@ -33,6 +33,9 @@ from .result import Measurement
 
 #: The smallest per-face resolution the atlas gives a kept light before it reports an overflow.
 ATLAS_MIN_RESOLUTION = 32
+#: A light whose shadow the budget computes on less than this share of its evaluated pixels is
+#: "mostly dropped": the budget's one run note counts it instead of a note per light.
+MOSTLY_DROPPED = 0.5
 #: The spec of the imperfect shadow maps of ``drop=imperfect``.
 IMPERFECT_SPEC = "imperfect_map"
 
@@ -179,12 +182,19 @@ def budget_note(tech, ms) -> list[str]:
         return []
     rendered = sum(int(m.stats.get("budget_rendered", 0)) for m in ms)
     dropped = [m.light for m in ms if m.stats.get("budget_kept_share", 1.0) == 0.0]
+    mostly = [m.light for m in ms if 0.0 < m.stats.get("budget_kept_share", 1.0) < MOSTLY_DROPPED]
     what = {"unshadowed": "lit without their shadows", "unlit": "not drawn",
             "imperfect": "shadowed by imperfect shadow maps"}[b["drop"]]
-    shown = ", ".join(map(str, dropped[:12])) + (", …" if len(dropped) > 12 else "")
+
+    def listed(lights):
+        return ", ".join(map(str, lights[:12])) + (", …" if len(lights) > 12 else "")
+
     text = (f"{tech.short_label()}: shadows computed for {rendered} of {len(ms)} lights; "
-            f"{len(dropped)} lights kept on none of their evaluated pixels are {what}"
-            + (f" (lights {shown})" if dropped else ""))
+            f"{len(dropped)} lights kept on none of their evaluated pixels are {what} there"
+            + (f" (lights {listed(dropped)})" if dropped else ""))
+    if mostly:
+        text += (f"; {len(mostly)} more are kept on under {MOSTLY_DROPPED:.0%} of theirs (lights {listed(mostly)}) "
+                 f"and {what} elsewhere")
     overflow = [m.light for m in ms if m.stats.get("atlas_overflow")]
     if overflow:
         text += f"; the {b['atlas']}² atlas could not hold {len(overflow)} lights' maps"

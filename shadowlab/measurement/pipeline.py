@@ -337,8 +337,8 @@ class Evaluator:
         degenerate = bool(row.get("degenerate"))
         if not (degenerate or bias_over):
             return []
-        if m.stats.get("budget_kept_share") == 0.0 and not bias_over:
-            return []  # a light the budget dropped everywhere: said once per configuration (budget_note)
+        if m.stats.get("budget_kept_share", 1.0) < budget.MOSTLY_DROPPED and not bias_over:
+            return []  # the budget dropped most of the light's shadow: said once per configuration (budget_note)
         n = int(row["evaluated_pixels"])
         truth_share = row["truth_shadowed_pixels"] / n if n else 0.0
         share = metrics.shadowed_pixels(row) / n if n else 0.0

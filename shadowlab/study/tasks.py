@@ -233,8 +233,8 @@ def _config(task: dict) -> dict:
         arrays[f"tiles_{li}"] = tile_sums(m.visibility, task["truth"][li], frame.evaluated_image(frame.slot(li)))
     # the evaluator's notes on the result (degenerate, bias beyond the casters) name the
     # configuration themselves: the run notes take them without the spec prefix
-    meta = {"rows": rows, "notes": list(dict.fromkeys(tech.notes)),
-            "judgement": [n for m in ms for n in m.judgement] + budget_note(tech, ms)}
+    meta = {"rows": rows, "notes": list(dict.fromkeys(tech.notes)) + budget_note(tech, ms),
+            "judgement": [n for m in ms for n in m.judgement]}
     return {"meta": meta, "arrays": arrays, "files": files}
 
 

@@ -89,8 +89,11 @@ def test_the_radiance_of_a_budget(frame):
     assert unlit.radiance_bias.iloc[0] < 0 and unlit.radiance_error.iloc[0] > e
     dropped = unshadowed[unshadowed.budget_kept_share < 1]
     assert len(dropped) and (dropped.error_rate > 0).any()
-    notes = [n for ms in result.results for m in ms for n in m.judgement]
-    assert all("shadow budget" in n for n in notes if "budget=1" in n)
+    # the lights the budget dropped are said once, in the run notes, not as "draws almost no shadow"
+    assert not [n for ms in result.results[1:] for m in ms for n in m.judgement]
+    said = [n for n in result.notes if "shadows computed for" in n]
+    assert len(said) == 3 and "shadows computed for 3 of 3 lights; 0 lights" in said[0]
+    assert "shadows computed for 1 of 3 lights" in said[1] and "not drawn there" in said[2]
 
 
 def test_drop_imperfect_shadows_the_rest_with_imperfect_maps(frame):

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..measurement import budget
 from ..measurement.scenes import load_measured_scene
 from ..output import animation_pictures, pictures
 from ..gpu import gl, timing
@@ -221,6 +222,7 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
             tech.keep_across_frames = False
             tech.begin_frame(None)  # the animation is over: no state carries into another run
             tech.forget()
+            budget.forget_state(tech)  # nor a budget's reservoirs
 
     df = pd.DataFrame(rows)
     ordered = metrics.order_columns([c for c in df.columns if c not in ("frame", "t")], pass_order())

@@ -62,6 +62,11 @@ def reservoir_state(tech) -> selection.ReservoirState:
     return state
 
 
+def forget_state(tech) -> None:
+    """Drop the ``restir`` reservoirs ``tech`` carried across an animation's frames (its end)."""
+    tech.__dict__.pop("_reservoirs", None)
+
+
 def plan_for(tech, frame) -> BudgetPlan:
     """The :class:`BudgetPlan` of ``tech``'s budget on ``frame`` (made once per frame and
     reservoir state)."""

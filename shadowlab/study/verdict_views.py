@@ -78,7 +78,11 @@ def _cell(r: pd.Series) -> dict:
     moving = r["moving_ms"]
     differs = not is_missing(moving) and not is_missing(r["time_ms"]) and moving > r["time_ms"] * 1.05
     label = as_text(r["short_label"])
-    return {"config": "" if label == r["technique"] else label.split(":", 1)[-1],
+    config = "" if label == r["technique"] else label.split(":", 1)[-1]
+    return {"config": config,
+            # on a many-light scene the family's configurations are its budgets and policies — which
+            # one is best is the question — so the cell names it (spaced at commas: it may wrap)
+            "shown_config": config.replace(",", ", ") if r["metric"] == "radiance_error" else "",
             "error": error, "time": fmt_ms(r["time_ms"]), "moving": fmt_ms(moving),
             # the moving time is shown where it differs, and where it wins (bold) though it does not
             "moves_differ": differs or bool(r["best_moving"]),
@@ -159,7 +163,10 @@ def verdict_legend(verdicts: pd.DataFrame, thresholds: dict, page: bool = True) 
     else:
         ties = "with every family of exactly the same radiance error (it has no per-tile figures: no significance test)"
     details = (f"hover for the configuration, its share of the evaluated pixels and the same share of a "
-               f"{FULL_HD[0]}×{FULL_HD[1]} frame" if page else
+               f"{FULL_HD[0]}×{FULL_HD[1]} frame"
+               + ("; on many-light scenes the configuration is named under its error, and hovering gives the "
+                  "shaded image's bias and the per-light error rate" if "radiance_error" in metrics else "")
+               if page else
                "the configuration's parameters in brackets where it is not the family's default")
     # what a fail is decided by, for the kinds of scene the table has
     rules = []

@@ -213,8 +213,9 @@ def _parser() -> argparse.ArgumentParser:
     pk.add_argument("study_dir", help="a study directory (or its results.csv)")
     pk.add_argument("--budget", action="append", default=None, metavar="METRIC=VALUE",
                     help="an error budget, repeatable: edge=1%% (hard scenes: wrong pixels per pixel of the truth's "
-                         "shadow boundary), mae=0.005 (soft scenes: mean |V - G|) or error=0.1%% (share of all "
-                         "pixels); default: edge 10 %%, 1 %%, 0.1 %%, mae 0.02, 0.005")
+                         "shadow boundary), mae=0.005 (soft scenes: mean |V - G|), radiance=2%% (many-light "
+                         "scenes: the shaded image's mean relative luminance error) or error=0.1%% (share of all "
+                         "pixels); default: edge 10 %%, 1 %%, 0.1 %%, mae 0.02, 0.005, radiance 5 %%, 2 %%, 1 %%")
     pk.add_argument("--scene", default=None, help="only this scene or scene family")
     pk.add_argument("--motion", choices=("still", "moving"), default=None,
                     help="only a still or a moving light (default both; with --model still)")

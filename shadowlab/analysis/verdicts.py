@@ -21,11 +21,16 @@ from .aggregate import (
 )
 
 #: How the pages and sentences name each verdict metric.
-METRIC_NAMES = {"edge_error_rate": "edge error", "error_rate": "error rate", "visibility_mae": "mean |V − G|"}
+METRIC_NAMES = {"edge_error_rate": "edge error", "error_rate": "error rate", "visibility_mae": "mean |V − G|",
+                "radiance_error": "radiance error"}
+#: The verdict metrics that are their own fail metric (:func:`fail_metric`): each is what a
+#: configuration fails by on its family's scenes. The edge error is not: hard scenes fail by
+#: ``error_rate``.
+SELF_JUDGED = ("visibility_mae", "radiance_error")
 
 
 def metric_name(metric: str) -> str:
-    """The words a page uses for a verdict metric ("edge error", "mean |V − G|")."""
+    """The words a page uses for a verdict metric ("edge error", "mean |V − G|", "radiance error")."""
     return METRIC_NAMES.get(metric, metric)
 
 
@@ -34,14 +39,20 @@ FULL_HD = (1920, 1080)
 
 
 def verdict_metric(scene_family: str, configurations: pd.DataFrame | None = None) -> str:
-    """The error a scene family's verdicts are decided by: ``visibility_mae`` on soft scenes
-    (:func:`~shadowlab.analysis.aggregate.judged_metric`), else ``edge_error_rate`` — wrong pixels
+    """The error a scene family's verdicts are decided by: ``visibility_mae`` on soft scenes and
+    ``radiance_error`` on many-light scenes
+    (:func:`~shadowlab.analysis.aggregate.judged_metric`; the shaded image of every light at once,
+    where a light's error weighs as much as its light), else ``edge_error_rate`` — wrong pixels
     per pixel of the truth's shadow boundary: what differs between hard-shadow techniques happens
     along edges, and as a share of every evaluated pixel their errors are tiny numbers nobody can
     read. ``error_rate`` where ``configurations`` (the family's per-configuration rows) have no
     edge figures (a study older than the column) or a scene whose truth has no shadow boundary
-    (no edge to count errors against)."""
+    (no edge to count errors against). A many-light family whose ``configurations`` have no
+    radiance figure at all (a study older than the column) is judged like a hard one."""
     metric = judged_metric(scene_family)
+    if metric == "radiance_error" and configurations is not None and len(configurations) \
+            and configurations["radiance_error"].isna().all():
+        metric = "error_rate"  # no shaded-image figures: the per-light rates are all there is
     if metric != "error_rate":
         return metric
     if configurations is not None and len(configurations):
@@ -51,24 +62,37 @@ def verdict_metric(scene_family: str, configurations: pd.DataFrame | None = None
     return "edge_error_rate"
 
 
-def numerator_row(metric: str) -> int:
+def fail_metric(metric: str) -> str:
+    """The column a configuration fails by where ``metric`` (:func:`verdict_metric`) decides the
+    verdicts: the verdict metric itself on soft and many-light scenes (:data:`SELF_JUDGED`), else
+    the thresholded ``error_rate`` (the edge error is shown, the share of the pixels decides a
+    fail)."""
+    return metric if metric in SELF_JUDGED else "error_rate"
+
+
+def numerator_row(metric: str) -> int | None:
     """The row of a tile array (:func:`shadowlab.evaluation.tiles.tile_sums`) holding ``metric``'s
-    numerator: wrong pixels for the thresholded rates, Σ|V − G| for ``visibility_mae``."""
+    numerator: wrong pixels for the thresholded rates, Σ|V − G| for ``visibility_mae``; None for
+    ``radiance_error``, which has no per-tile numerator in ``tiles.npz`` (the tiles are per light,
+    the shaded image is every light at once): its verdicts tie only on equal values."""
     from ..evaluation.tiles import ABS_DIFF, WRONG
 
+    if metric == "radiance_error":
+        return None
     return ABS_DIFF if metric == "visibility_mae" else WRONG
 
 
 #: Columns of :func:`verdict_table`.
 VERDICT_COLUMNS = ["scene", "scene_family", "technique", "label", "short_label", "metric", "error", "error_rate",
-                   "wrong_per_light", "wrong_full_hd", "time_ms", "time_lo_ms", "time_hi_ms", "moving_ms", "moving_lo_ms", "moving_hi_ms",
+                   "wrong_per_light", "wrong_full_hd", "radiance_bias", "time_ms", "time_lo_ms", "time_hi_ms", "moving_ms", "moving_lo_ms", "moving_hi_ms",
                    "setup_ms", "scene_metric", "scene_metric_value", "configurations", "failed", "why", "degenerate",
                    "best_error", "best_time", "best_moving", "tested", "tiles", "denominator"]
 
 
 def _tiles_of(tiles: dict | None, scene: str, spec_label: str, metric: str):
     arr = (tiles or {}).get((scene, spec_label))
-    return None if arr is None else np.asarray(arr)[numerator_row(metric)]
+    row = numerator_row(metric)
+    return None if arr is None or row is None else np.asarray(arr)[row]
 
 
 def rows_tie_on_error(a: pd.Series, b: pd.Series) -> bool:
@@ -102,19 +126,22 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None, tile
     Columns (:data:`VERDICT_COLUMNS`): ``metric`` (the verdict error's column) and ``error`` (its
     value); ``error_rate`` (the share of all evaluated pixels), ``wrong_per_light`` (the wrong
     pixels per light) and ``wrong_full_hd`` (those restated for a 1920×1080 frame with the same
-    share of its pixels wrong); ``time_ms``
+    share of its pixels wrong); ``radiance_bias`` (the shaded image's signed error: > 0 brighter
+    than the truth, shadows dropped; < 0 darker, lights dropped; NaN without the column); ``time_ms``
     (static light: per-frame time), ``moving_ms`` (moving light: plus the light-dependent
     preprocessing), each with its repeat interval (``*_lo_ms``, ``*_hi_ms``); ``setup_ms``; the
     scene's own metric and its value; ``configurations`` (how many of the family's ran);
     ``failed`` (bool: the chosen configuration's error is above
-    :func:`~shadowlab.analysis.aggregate.fail_threshold` — thresholded ``error_rate`` above 1 %,
-    soft scenes mean |V − G| above 0.02 —, it is degenerate, or every run failed) and ``why``;
+    :func:`~shadowlab.analysis.aggregate.fail_threshold` in :func:`fail_metric` — thresholded
+    ``error_rate`` above 1 %, soft scenes mean |V − G| above 0.02, many-light scenes
+    ``radiance_error`` above 5 % —, it is degenerate, or every run failed) and ``why``;
     ``degenerate``; ``best_error`` (bool: the lowest error of the scene among the families
     whose choice is not degenerate, or not told apart from it by the paired tile bootstrap at
     95 %, :mod:`shadowlab.analysis.significance`); ``best_time`` / ``best_moving`` (the fastest of
     the scene among the families that do not fail, or whose repeat interval overlaps its);
     ``tested`` (the error tie was tested on tiles, not by equality); ``tiles`` (the per-tile
-    numerators of the verdict error, or None: ``tiles`` not given or missing for it);
+    numerators of the verdict error, or None: ``tiles`` not given or missing for it, or the
+    verdict error is ``radiance_error``, which has none — :func:`numerator_row`);
     ``denominator`` (the verdict error's pooled denominator: the truth's boundary pixels or the
     evaluated pixels). The verdict metric is decided per scene family (:func:`verdict_metric`)."""
     if results is None or not len(results):
@@ -131,8 +158,8 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None, tile
     for scene in scenes_in_order(df):
         g = conf[conf["scene"] == scene]
         metric = family_metric[fam_of.get(scene, "")]
-        fail_metric = judged_metric(fam_of.get(scene, ""))
-        limit = fail_threshold(fail_metric)
+        failing_by = fail_metric(metric)
+        limit = fail_threshold(failing_by)
         f = fails[fails["scene"] == scene] if len(fails) else fails
         techs = family_order(list(g["technique"]) + list(f["technique"] if len(f) else []))
         for tech in techs:
@@ -148,7 +175,8 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None, tile
             if len(scored):
                 best = scored.iloc[0]
                 row.update(label=best["label"], short_label=best["short_label"], error=float(best["_err"]),
-                           error_rate=best["error_rate"], time_ms=best["time_ms"], time_lo_ms=best["time_lo_ms"],
+                           error_rate=best["error_rate"], radiance_bias=best["radiance_bias"],
+                           time_ms=best["time_ms"], time_lo_ms=best["time_lo_ms"],
                            time_hi_ms=best["time_hi_ms"], moving_ms=best["moving_ms"],
                            moving_lo_ms=best["time_lo_ms"] + best["preprocess_ms"],
                            moving_hi_ms=best["time_hi_ms"] + best["preprocess_ms"], setup_ms=best["setup_ms"],
@@ -161,9 +189,9 @@ def verdict_table(results: pd.DataFrame, scene_metrics: dict | None = None, tile
                     row["wrong_per_light"] = best["wrong_pixels"] / lights
                     row["wrong_full_hd"] = row["wrong_per_light"] * FULL_HD[0] * FULL_HD[1] / pixels
                 row["degenerate"] = bool(best["_deg"])
-                over = bool(best[fail_metric] > limit)
+                over = bool(best[failing_by] > limit)
                 row["failed"] = over or row["degenerate"]
-                row["why"] = "; ".join(([f"{fail_metric} above {fmt_limit(fail_metric, limit)}"] if over else [])
+                row["why"] = "; ".join(([f"{failing_by} above {fmt_limit(failing_by, limit)}"] if over else [])
                                        + ([DEGENERATE_WHY] if row["degenerate"] else []))
             else:
                 first = ft.iloc[0] if len(ft) else None

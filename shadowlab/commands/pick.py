@@ -21,11 +21,12 @@ from ..util.validation import RunError, did_you_mean
 
 #: The names a budget may be given by, and the verdict metric each means.
 BUDGET_METRICS = {"edge": "edge_error_rate", "edge_error_rate": "edge_error_rate", "mae": "visibility_mae",
-                  "visibility_mae": "visibility_mae", "error": "error_rate", "error_rate": "error_rate"}
+                  "visibility_mae": "visibility_mae", "error": "error_rate", "error_rate": "error_rate",
+                  "radiance": "radiance_error", "radiance_error": "radiance_error"}
 
 
 def parse_budget(text: str) -> Budget:
-    """``edge=1%``, ``mae=0.005``, ``error_rate=0.0001`` → :class:`Budget`; a rate may be given in
+    """``edge=1%``, ``mae=0.005``, ``error_rate=0.0001``, ``radiance=2%`` → :class:`Budget`; a rate may be given in
     per cent. RunError, naming the option and what was wrong, on anything else."""
     m = re.fullmatch(r"\s*([A-Za-z_]+)\s*=\s*([0-9.eE+-]+)\s*(%?)\s*", text or "")
     if not m:
@@ -33,7 +34,8 @@ def parse_budget(text: str) -> Budget:
     name, number, pct = m.group(1).lower(), m.group(2), m.group(3)
     if name not in BUDGET_METRICS:
         raise RunError(f"--budget {text!r}: unknown metric '{name}'{did_you_mean(name, BUDGET_METRICS)} "
-                       f"(known: edge, mae, error, or the column names edge_error_rate, visibility_mae, error_rate)")
+                       f"(known: edge, mae, error, radiance, or the column names edge_error_rate, visibility_mae, "
+                       f"error_rate, radiance_error)")
     try:
         value = float(number)
     except ValueError:

@@ -10,9 +10,15 @@ import pandas as pd
 
 from ..util.files import replacing
 from ..analysis.aggregate import (
-    FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE, as_text, fail_threshold, failed_runs, family_order, judged_metric,
+    FAIL_ERROR_RATE, FAIL_RADIANCE_ERROR, FAIL_VISIBILITY_MAE, as_text, fail_threshold, failed_runs, family_order,
+    judged_metric,
     normalised, pareto_front, per_configuration, scenes_in_order, truthy,
 )
+
+#: The y axis of a panel by the metric its scene is judged on
+#: (:func:`~shadowlab.analysis.aggregate.judged_metric`), in per cent.
+AXIS_NAMES = {"error_rate": "error rate, % of evaluated pixels", "visibility_mae": "mean |V − G|, %",
+              "radiance_error": "radiance error (shaded image), %"}
 
 #: Zero error has no place on a log axis: it is drawn at this many wrong pixels (half a pixel of
 #: the configuration's evaluated pixels, below any real error, which is at least one pixel).
@@ -291,7 +297,8 @@ def pareto_figure(results: pd.DataFrame):
     family, with its colour and marker. A configuration with no wrong pixel is drawn hollow at
     a floor of half a pixel (:data:`ZERO_FLOOR_PIXELS` / evaluated pixels, the dotted line, gid
     "zero-floor") since zero has no place on a log axis. A soft scene's panel (scene family
-    "soft shadows") draws mean |V − G| instead of the error rate, as the verdicts judge it. The
+    "soft shadows") draws mean |V − G| instead of the error rate, and a many-light scene's (scene
+    family "many lights") the shaded image's radiance error, as the verdicts judge them. The
     fail threshold
     (:data:`FAIL_ERROR_RATE`) is a horizontal line (gid "fail-threshold") with a tinted band
     above it, always in range, so that a failing configuration stands out and a scene nobody
@@ -317,8 +324,7 @@ def pareto_figure(results: pd.DataFrame):
     styles = configuration_styles(pd.concat([cfg[["technique", "label", "reference"]],
                                              fails[["technique", "label", "reference"]]]))
     short = dict(zip(cfg["label"].astype(str), cfg["short_label"].astype(str)))
-    soft_panels = hard_panels = False
-    soft_axes = []  # labelled on their own when hard panels share the figure
+    panel_metrics: dict = {}  # axes → the metric drawn: panels of other metrics are labelled on their own
 
     nrows, ncols = _grid(max(len(scenes), 1))
     fig_w = min(max(PANEL_WIDTH_IN * ncols, MIN_FIGURE_WIDTH_IN), PAGE_WIDTH_PX / FIGURE_DPI)
@@ -350,13 +356,13 @@ def pareto_figure(results: pd.DataFrame):
         labels = conf["label"].astype(str).to_numpy()
         names = conf["short_label"].astype(str).to_numpy()
         t = conf["time_ms"].to_numpy(dtype=float)
-        # soft scenes are judged (and drawn) on mean |V - G|, as the verdicts judge them
+        # soft scenes are judged (and drawn) on mean |V - G|, many-light scenes on the shaded
+        # image's radiance error, as the verdicts judge them
         metric = judged_metric(fam)
+        if metric == "radiance_error" and conf["radiance_error"].isna().all():
+            metric = "error_rate"  # a study older than the column: the per-light rates
         threshold = 100 * fail_threshold(metric)
-        soft_panels |= metric != "error_rate"
-        hard_panels |= metric == "error_rate"
-        if metric != "error_rate":
-            soft_axes.append(ax)
+        panel_metrics[ax] = metric
         err = conf[metric].to_numpy(dtype=float)
         floor = _zero_floor(conf)
         zero = err == 0
@@ -446,11 +452,15 @@ def pareto_figure(results: pd.DataFrame):
     handles += [Line2D([], [], color="k", lw=1.0, alpha=0.7, marker="o", mfc="none", mec="k", ms=2 * MARKER_PT,
                        label="Pareto front (named)"),
                 Line2D([], [], color="0.3", ls="--", lw=1.0, label="truth (ray-traced): time")]
+    drawn_metrics = set(panel_metrics.values())
     if any_fail_line:
+        rules = [text for m, text in (("error_rate", f"error > {100 * FAIL_ERROR_RATE:g} %"),
+                                      ("visibility_mae", f"soft: mean |V − G| > {100 * FAIL_VISIBILITY_MAE:g} %"),
+                                      ("radiance_error",
+                                       f"many lights: radiance error > {100 * FAIL_RADIANCE_ERROR:g} %"))
+                 if m in drawn_metrics]
         handles.append(Line2D([], [], color=FAIL_COLOR, lw=FAIL_LINE_PT,
-                              label=f"fails: error > {100 * FAIL_ERROR_RATE:g} %"
-                                    + (f", soft: mean |V − G| > {100 * FAIL_VISIBILITY_MAE:g} %" if soft_panels else "")
-                                    + " (named)"))
+                              label="fails: " + ", ".join(rules) + " (named)"))
     if any_zero:
         handles.append(Line2D([], [], ls=":", color="0.55", marker="o", mfc="white", mec="0.3", mew=1.4,
                               ms=MARKER_PT, label=f"no wrong pixel: drawn at {ZERO_FLOOR_PIXELS:g} px"))
@@ -461,11 +471,13 @@ def pareto_figure(results: pd.DataFrame):
     fig.set_figheight(fig.get_figheight() + legend_rows * LEGEND_PT * 1.5 / 72)
     fig.legend(handles=handles, loc="outside upper center", ncol=ncol, fontsize=LEGEND_PT, frameon=False)
     fig.supxlabel("time per frame, ms (median, all lights; bar = IQR)  —  log scale", fontsize=AXIS_LABEL_PT)
-    if soft_panels and hard_panels:
-        for ax in soft_axes:
-            ax.set_ylabel("mean |V − G|, %", fontsize=TICK_PT)
-    fig.supylabel(("mean |V − G|, %" if soft_panels and not hard_panels else "error rate, % of evaluated pixels")
-                  + "  —  log scale", fontsize=AXIS_LABEL_PT)
+    # the figure's y label names the metric most panels draw; a panel of another metric says its own
+    main = max(sorted(drawn_metrics), key=lambda m: sum(v == m for v in panel_metrics.values())) \
+        if drawn_metrics else "error_rate"
+    for ax, m in panel_metrics.items():
+        if m != main:
+            ax.set_ylabel(AXIS_NAMES[m], fontsize=TICK_PT)
+    fig.supylabel(AXIS_NAMES[main] + "  —  log scale", fontsize=AXIS_LABEL_PT)
     # lay the panels out once, name the points in pixels of that layout (the names are kept out
     # of it), then freeze it: a second constrained-layout pass at save time would cost as much
     # again (the log axes' ticks dominate) for the same positions

@@ -7,8 +7,8 @@ objects, the scene), :mod:`.lights` (point, directional, spot, target-direct),
 Import order is one-way: lights ← area_lights ← model ← animation ← reading.
 """
 from .model import (
-    GENERAL_FAMILY, SCENE_FAMILIES, SOFT_FAMILY, Camera, Material, Scene, SceneObject, Shading, default_of,
-    family_from_name,
+    GENERAL_FAMILY, MANY_LIGHTS_FAMILY, SCENE_FAMILIES, SOFT_FAMILY, Camera, Material, Scene, SceneObject, Shading,
+    default_of, family_from_name,
 )
 from .reading import (
     PRIMITIVES, builtin_scene_dir, builtin_scenes, load_scene, parse_light, parse_scene, resolve_scene_path,
@@ -16,5 +16,6 @@ from .reading import (
 )
 
 __all__ = ["Camera", "Material", "Scene", "SceneObject", "Shading", "default_of", "GENERAL_FAMILY", "SCENE_FAMILIES",
-           "SOFT_FAMILY", "family_from_name", "PRIMITIVES", "builtin_scene_dir", "builtin_scenes", "load_scene",
-           "parse_light", "parse_scene", "resolve_scene_path", "scene_family_key", "scene_purpose", "scene_summary"]
+           "SOFT_FAMILY", "MANY_LIGHTS_FAMILY", "family_from_name", "PRIMITIVES", "builtin_scene_dir", "builtin_scenes",
+           "load_scene", "parse_light", "parse_scene", "resolve_scene_path", "scene_family_key", "scene_purpose",
+           "scene_summary"]

@@ -23,19 +23,24 @@ GENERAL_FAMILY = "general"
 #: answer and a threshold at 0.5 would hide it (:func:`shadowlab.analysis.aggregate.judged_metric`
 #: is the one rule that reads it).
 SOFT_FAMILY = "soft shadows"
+#: The family judged on the shaded image (``radiance_error``: every light at once) instead of the
+#: per-light rates: scenes with tens to hundreds of lights, where a shadow budget drops the shadows
+#: of lights that barely matter and the per-light error rate would weigh them like the rest
+#: (docs/many-lights.md; :func:`shadowlab.analysis.aggregate.judged_metric` reads it).
+MANY_LIGHTS_FAMILY = "many lights"
 #: Every hard-case family a scene file may declare in its ``family`` key (docs/hard-cases.md), in
 #: the catalogue's order: what a study groups its scenes by (the ``scene_family`` column) and,
-#: through :data:`SOFT_FAMILY`, which metric it judges them on.
+#: through :data:`SOFT_FAMILY` and :data:`MANY_LIGHTS_FAMILY`, which metric it judges them on.
 SCENE_FAMILIES = (GENERAL_FAMILY, "shadow volumes", "planar shadows", "shadow maps", "perspective aliasing",
                   "projective textures", "temporal stability", "real meshes", "ground truth", SOFT_FAMILY,
-                  "city scale", "contact shadows", "many lights")
+                  "city scale", "contact shadows", MANY_LIGHTS_FAMILY)
 #: Scene-name prefixes → family: only the fallback for a scene file without a ``family`` key
 #: (the study notes each such scene, :func:`family_from_name`), as families were named before
 #: scene files declared them; a file's own ``family`` always wins over its name.
 FAMILY_PREFIXES = {"sv_": "shadow volumes", "pp_": "planar shadows", "sm_": "shadow maps",
                    "pa_": "perspective aliasing", "pt_": "projective textures", "tm_": "temporal stability",
                    "rm_": "real meshes", "rt_": "ground truth", "soft_": SOFT_FAMILY, "city_": "city scale",
-                   "cs_": "contact shadows", "ml_": "many lights"}
+                   "cs_": "contact shadows", "ml_": MANY_LIGHTS_FAMILY}
 
 
 def family_from_name(scene_name: str) -> str:

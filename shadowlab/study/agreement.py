@@ -26,8 +26,9 @@ from ..evaluation import perceptual
 from ..analysis.aggregate import normalised, per_configuration
 
 #: The exact metrics the perceptual ones are ranked against: the thresholded rate (hard scenes'
-#: judged metric) and the mean visibility error (soft scenes').
-EXACT = ("error_rate", "visibility_mae")
+#: judged metric), the mean visibility error (soft scenes') and the shaded image's radiance error
+#: (many-light scenes').
+EXACT = ("error_rate", "visibility_mae", "radiance_error")
 #: Fewest configurations of a scene for its τ to count (two give one pair: ±1 by construction).
 MIN_CONFIGURATIONS = 3
 #: Columns of :func:`rank_agreement`.

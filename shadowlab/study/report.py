@@ -27,7 +27,8 @@ import pandas as pd
 from ..evaluation import perceptual
 from ..output.pareto import pareto_plot
 from ..analysis.aggregate import (
-    DEGENERATE_MARK, FAIL_ERROR_RATE, as_text, failed_runs, family_table, judged_metric, names_text, normalised,
+    DEGENERATE_MARK, FAIL_ERROR_RATE, FAIL_RADIANCE_ERROR, as_text, failed_runs, family_table, judged_metric,
+    names_text, normalised,
     per_configuration, scenes_in_order, summary_table,
 )
 from ..analysis.pick import pick_table
@@ -142,7 +143,8 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tile
     median error first, from :func:`summary_table`): median error rate and median time per
     frame across the scenes it ran on, the number of scenes, wins (scenes where its error rate
     is the lowest of the scene's configurations, per scene family; ties count for each) and
-    fails (runs that failed, or error rate > :data:`FAIL_ERROR_RATE`), with the scenes named
+    fails (runs that failed, or error rate > :data:`FAIL_ERROR_RATE`; on many-light scenes both by
+    the radiance error, > :data:`FAIL_RADIANCE_ERROR`), with the scenes named
     below the table; per scene family the most accurate and the fastest configuration
     (:func:`family_table`); per scene its most accurate configuration; the failed runs.
     Returns ``path``."""
@@ -161,12 +163,14 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tile
     lines += [f"- {k}: {v}" for k, v in _meta_lines(meta)]
     n_scenes = len(scenes_in_order(results)) if len(results) else 0
     lines += [f"- {n_scenes} scenes, {len(table)} configurations, {len(fails)} failed runs", ""]
+    many = bool(len(cfg)) and (cfg["scene_family"].map(judged_metric) == "radiance_error").any()
     lines += ["Error rate = wrong / evaluated pixels, pooled over a scene's lights; time = ms per frame, the "
               "sum of the lights' median times; setup = ms to set up for the lights (GL objects and programs, and "
               "any per-light preprocessing). Medians are taken across the scenes a configuration ran on. "
               "A win = the lowest error rate among a scene's configurations (ties count for each); a fail = "
-              f"the run failed or its error rate exceeds {100 * FAIL_ERROR_RATE:g} % of the evaluated pixels.",
-              ""]
+              f"the run failed or its error rate exceeds {100 * FAIL_ERROR_RATE:g} % of the evaluated pixels"
+              + (f" (many-light scenes: wins and fails by the shaded image's radiance error, a fail above "
+                 f"{100 * FAIL_RADIANCE_ERROR:g} %)" if many else "") + ".", ""]
     if len(truth):
         lines += [f"Ground truth ({', '.join(dict.fromkeys(truth['short_label']))}): median "
                   f"{fmt_table_ms(truth['time_ms'].median())} ms per frame over {len(truth)} scenes.", ""]
@@ -192,10 +196,11 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tile
     if len(fams):
         lines += ["## By scene family", "",
                   "Median over the family's scenes of each configuration's judged error (error rate; soft "
-                  "scenes: mean |V − G|), among the configurations that ran on most of them (coverage), equal "
-                  "values all named — exact values, no test: the verdicts above say which differences are "
-                  "significant; \"fastest within the fail threshold\" = the fastest whose median error is "
-                  f"within it ({100 * FAIL_ERROR_RATE:g} %; soft: 0.02).", ""]
+                  "scenes: mean |V − G|; many-light scenes: radiance error), among the configurations that ran "
+                  "on most of them (coverage), equal values all named — exact values, no test: the verdicts "
+                  "above say which differences are significant; \"fastest within the fail threshold\" = the fastest whose median error is "
+                  f"within it ({100 * FAIL_ERROR_RATE:g} %; soft: 0.02; many lights: "
+                  f"{100 * FAIL_RADIANCE_ERROR:g} %).", ""]
         lines.append(md_table(
             ["scene family", "scenes", "coverage", "most accurate", "error", "fastest", "ms",
              "fastest within the fail threshold", "ms"],
@@ -209,7 +214,7 @@ def write_summary_md(results: pd.DataFrame, path, meta: dict | None = None, tile
     conf = cfg[~cfg["reference"].astype(bool)]
     if len(conf):
         lines += ["## By scene", "", "Each scene's configuration of least judged error (error rate; soft scenes: mean "
-                  "|V − G|; exact values, no test) and its fastest.", ""]
+                  "|V − G|; many-light scenes: radiance error; exact values, no test) and its fastest.", ""]
         rows = []
         for scene, g in conf.groupby("scene", sort=False):
             metric = judged_metric(g["scene_family"].iloc[0])
@@ -330,10 +335,13 @@ def global_sentence(entry: dict) -> str:
 def _scene_table(c: pd.DataFrame, metric: str, scene_metric: str) -> dict:
     """A scene's configurations pooled over its lights (:func:`per_configuration`) as display
     strings: the judged error first (on a hard scene with the edge error beside it, the error the
-    verdicts decide by), the scene's own metric, then times."""
+    verdicts decide by; on a many-light scene the shaded image's signed bias and the per-light
+    error rate beside the radiance error), the scene's own metric, then times."""
     edge = metric == "error_rate" and c["edge_error_rate"].notna().any()
-    columns = ["configuration", metric] + (["edge error"] if edge else []) + ["false shadow", "false lit",
-                                                                             "boundary px", "visibility MAE"]
+    radiance = metric == "radiance_error"
+    columns = ["configuration", metric] + (["edge error"] if edge else []) \
+        + (["radiance bias", "error rate"] if radiance else []) + ["false shadow", "false lit", "boundary px",
+                                                                    "visibility MAE"]
     if scene_metric:
         columns.append(scene_metric)
     columns += ["ms per frame", "set-up ms", "moving-light ms"]
@@ -342,6 +350,8 @@ def _scene_table(c: pd.DataFrame, metric: str, scene_metric: str) -> dict:
         name = as_text(r["short_label"]) + (f" {DEGENERATE_MARK}" if r.get("degenerate") else "")
         row = [name, value_text(metric, r[metric])] + ([value_text("edge_error_rate", r["edge_error_rate"])]
                                                         if edge else [])
+        if radiance:
+            row += [metric_text("radiance_bias", r["radiance_bias"]), value_text("error_rate", r["error_rate"])]
         row += [metric_text("false_shadow_rate", r["false_shadow_rate"]),
                 metric_text("false_lit_rate", r["false_lit_rate"]),
                 metric_text("boundary_error_px", r["boundary_error_px"]), fmt_num(r["visibility_mae"])]

@@ -25,13 +25,14 @@ SCENES_PER_BLOCK = 6
 
 
 def value_text(metric: str, value) -> str:
-    """A verdict metric's value as the pages show it: a percentage for the rates, four decimals
-    for mean |V − G|; '' when missing."""
+    """A verdict metric's value as the pages show it: a percentage for the rates and the radiance
+    error, four decimals for mean |V − G|; '' when missing."""
     if is_missing(value):
         return ""
     if metric == "visibility_mae":
         return f"{float(value):.4f}"
-    # an edge error can be many times the boundary (a lost or misplaced shadow): whole per cents there
+    # an edge error can be many times the boundary (a lost or misplaced shadow), a radiance error
+    # many times the truth (a dropped light's neighbour lit): whole per cents there
     return f"{100 * float(value):,.0f} %" if float(value) >= 1 else fmt_table_pct(value)
 
 
@@ -57,7 +58,15 @@ def _cell(r: pd.Series) -> dict:
     tip = [as_text(r["short_label"])]
     if scene_metric:
         tip.append(f"{r['scene_metric']} {scene_metric}")
-    if r["metric"] != "visibility_mae" and not is_missing(r["error_rate"]):
+    if r["metric"] == "radiance_error":
+        bias = r.get("radiance_bias")
+        if not is_missing(bias):
+            tip.append(f"shaded image {value_text('radiance_error', abs(bias))} "
+                       f"{'brighter' if bias > 0 else 'darker'} than the truth on average"
+                       + (" (shadows dropped)" if bias > 0 else " (lights dropped)" if bias < 0 else ""))
+        if not is_missing(r["error_rate"]):
+            tip.append(f"per light, {fmt_table_pct(r['error_rate'])} of the evaluated pixels' visibility wrong")
+    elif r["metric"] != "visibility_mae" and not is_missing(r["error_rate"]):
         tip.append(f"{fmt_table_pct(r['error_rate'])} of the evaluated pixels wrong"
                    + (f"; {float(r['wrong_per_light']):,.0f} wrong pixels per light in this frame, "
                       f"≈ {float(r['wrong_full_hd']):,.0f} in a {FULL_HD[0]}×{FULL_HD[1]} frame with the same share of "
@@ -69,7 +78,11 @@ def _cell(r: pd.Series) -> dict:
     moving = r["moving_ms"]
     differs = not is_missing(moving) and not is_missing(r["time_ms"]) and moving > r["time_ms"] * 1.05
     label = as_text(r["short_label"])
-    return {"config": "" if label == r["technique"] else label.split(":", 1)[-1],
+    config = "" if label == r["technique"] else label.split(":", 1)[-1]
+    return {"config": config,
+            # on a many-light scene the family's configurations are its budgets and policies — which
+            # one is best is the question — so the cell names it (spaced at commas: it may wrap)
+            "shown_config": config.replace(",", ", ") if r["metric"] == "radiance_error" else "",
             "error": error, "time": fmt_ms(r["time_ms"]), "moving": fmt_ms(moving),
             # the moving time is shown where it differs, and where it wins (bold) though it does not
             "moves_differ": differs or bool(r["best_moving"]),
@@ -136,20 +149,40 @@ def verdict_legend(verdicts: pd.DataFrame, thresholds: dict, page: bool = True) 
     what = "; ".join(f"{metric_name(m)}" + (": wrong pixels per pixel of the truth's shadow boundary"
                                             if m == "edge_error_rate" else
                                             ": share of the evaluated pixels" if m == "error_rate" else
+                                            " on many-light scenes: the shaded image of every light against the "
+                                            "truth's, mean relative luminance error" if m == "radiance_error" else
                                             " on soft scenes") for m in metrics)
     tested = bool(len(verdicts) and verdicts["tested"].astype(bool).any())
-    ties = (f"with every family a paired tile bootstrap cannot tell from it at {thresholds['level']}" if tested else
-            "with every family of exactly the same error (this study has no tiles.npz: no significance test)")
+    per_pixel = [m for m in metrics if m != "radiance_error"]  # the metrics tiles.npz can resample
+    if tested:
+        ties = f"with every family a paired tile bootstrap cannot tell from it at {thresholds['level']}"
+        if "radiance_error" in metrics:
+            ties += " (radiance errors have no per-tile figures: they tie only when equal)"
+    elif per_pixel:
+        ties = "with every family of exactly the same error (this study has no tiles.npz: no significance test)"
+    else:
+        ties = "with every family of exactly the same radiance error (it has no per-tile figures: no significance test)"
     details = (f"hover for the configuration, its share of the evaluated pixels and the same share of a "
-               f"{FULL_HD[0]}×{FULL_HD[1]} frame" if page else
+               f"{FULL_HD[0]}×{FULL_HD[1]} frame"
+               + ("; on many-light scenes the configuration is named under its error, and hovering gives the "
+                  "shaded image's bias and the per-light error rate" if "radiance_error" in metrics else "")
+               if page else
                "the configuration's parameters in brackets where it is not the family's default")
+    # what a fail is decided by, for the kinds of scene the table has
+    rules = []
+    if any(m in ("edge_error_rate", "error_rate") for m in metrics) or not metrics:
+        rules.append(("decided by the share of the evaluated pixels, not by the edge error shown: "
+                      if "edge_error_rate" in metrics else "") + f"error rate above {thresholds['error_rate']}")
+    if "visibility_mae" in metrics:
+        rules.append(f"soft scenes: mean |V − G| above {thresholds['visibility_mae']}")
+    if "radiance_error" in metrics:
+        rules.append(f"many-light scenes: radiance error above {thresholds.get('radiance_error', '5 %')}")
+    fails = rules[0] + (f" ({'; '.join(rules[1:])})" if len(rules) > 1 else "")
     return (f"Each cell: the family's best configuration on the scene (lowest error) — its error ({what}) —, its ms "
             f"per frame for a static light and (↻, moving) for a moving light, where the technique redoes "
             f"preprocessing whenever the light moves or wins there; {details}. Bold: best in the scene's column, "
             f"{ties}; times whose repeat intervals (first to third quartile) overlap the fastest's, among the families "
-            f"that do not fail. ✗ = fails — decided by the share of the evaluated pixels, not by the edge error shown: "
-            f"error rate above {thresholds['error_rate']} (soft scenes: mean |V − G| above "
-            f"{thresholds['visibility_mae']}), or the run failed.")
+            f"that do not fail. ✗ = fails — {fails}, or the run failed.")
 
 
 # --------------------------------------------------------------------------- the pick
@@ -262,9 +295,10 @@ def pick_legend(predicted: str = "") -> str:
 
 def thresholds_text() -> dict:
     """The fail thresholds and the test level as the legends print them."""
-    from ..analysis.aggregate import FAIL_ERROR_RATE, FAIL_VISIBILITY_MAE
+    from ..analysis.aggregate import FAIL_ERROR_RATE, FAIL_RADIANCE_ERROR, FAIL_VISIBILITY_MAE
 
     return {"error_rate": fmt_limit("error_rate", FAIL_ERROR_RATE),
             "visibility_mae": fmt_limit("visibility_mae", FAIL_VISIBILITY_MAE),
+            "radiance_error": fmt_limit("radiance_error", FAIL_RADIANCE_ERROR),
             "level": f"{100 * significance.LEVEL:g} %"}
 

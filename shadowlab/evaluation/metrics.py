@@ -510,7 +510,7 @@ COLUMNS: tuple[Column, ...] = (
             "count", report=True, needs=("classifier",)),
     Column("degenerate", f"True when the truth shadows more than {100 * DEGENERATE_TRUTH_SHARE:g} % of the evaluated "
                          f"pixels and the configuration under {DEGENERATE_KEPT_SHARE:g} of the truth's shadowed pixels "
-                         "(it draws almost no shadow); False on the truth's rows", "text"),
+                         "(it draws almost no shadow); False on the truth's rows and on lights a shadow budget mostly dropped", "text"),
     Column("occluder_height_median", "median distance along the shadow ray from the truth's shadowed pixels to their "
                                      "first caster (the casters' height above their shadows), world units; NaN when "
                                      "no shadowed pixel meets one", "value"),

@@ -382,7 +382,10 @@ class Evaluator:
                                    self.contact_lines(slot), self.overlap(slot), m.components))
         # the sampled truth's standard error bound (docs/architecture.md#evaluation-evaluator-in-shadowlabmeasurementpipelinepy) beside every row of the light
         row["truth_stderr_max"] = float(truth_m.stats.get("truth_stderr_max", 0.0))
-        row["degenerate"] = False if reference else metrics.row_is_degenerate(row)
+        # a light whose shadow a budget mostly dropped has lost it by policy, not by a failure of
+        # the technique: it is not degenerate (the budget's run note says what it dropped)
+        dropped = m.stats.get("budget_kept_share", 1.0) < budget.MOSTLY_DROPPED
+        row["degenerate"] = False if reference or dropped else metrics.row_is_degenerate(row)
         row["occluder_height_median"] = self.occluder_height(slot, truth_m.visibility)
         row.update(m.timing.columns())
         row["setup_ms"] = m.setup_ms

@@ -275,7 +275,7 @@ def test_light_samples_parameter():
     none and unknown parameters still error (naming light_samples among the known ones)."""
     assert set(SAMPLED) == {"shadow_map", "shadow_volume", "planar", "shadow_polygons", "projective",
                             "irregular_zbuffer", "virtual_map", "cc_volume", "hierarchical_volume",
-                            "per_triangle_volume", "partitioned_volume"}
+                            "per_triangle_volume", "partitioned_volume", "imperfect_map"}
     for name in SAMPLED:
         t = from_spec(f"{name}:light_samples=9")
         assert t.spec().endswith(",light_samples=9") and t.light_samples == 9

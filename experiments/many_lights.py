@@ -5,7 +5,9 @@ shadows (the truth itself: the selection's error alone) and a shadow map (``MAP`
 faces and texels — and every shadow budget is then the lab's own selection
 (:func:`shadowlab.lighting.selection.select`) applied to those images, as
 :mod:`shadowlab.measurement.budget` applies it during a measurement (a light kept on no evaluated
-pixel is not rendered and costs nothing; a dropped light is lit unshadowed or not drawn). The
+pixel is not rendered and costs nothing; a dropped light is lit unshadowed or not drawn). Every
+cost counts only the lights that reach a covered pixel — the "every light" rows too: an engine
+culls the others, and a budget never renders them. The
 shaded image's error is :mod:`shadowlab.evaluation.radiance`'s. One configuration per scene is also
 run through the pipeline itself (``compare_frame``) and must give the same radiance error: the
 check that this shortcut measures what a study would.
@@ -69,6 +71,9 @@ class Lights:
     def __init__(self, frame: Frame, spec: str | None, evaluator: Evaluator, repeat: int, desc: str):
         n = len(frame.scene.lights)
         self.vis, self.ms, self.faces, self.texels = [], np.zeros(n), np.zeros(n), np.zeros(n)
+        #: the lights that reach a covered pixel: the only ones any configuration pays for (an
+        #: engine culls the others, and a budget never renders them)
+        self.reaches = np.array([frame.slot(li).evaluated.any() for li in range(n)])
         for li in tqdm(range(n), desc=desc, leave=False):
             if spec is None:  # the exact shadows: the truth's own images and time
                 m = evaluator.truth(li)
@@ -133,7 +138,7 @@ def still_rows(scene_name: str, size, repeat: int) -> tuple[pd.DataFrame, dict]:
         for tname, lights in techs.items():
             full, _ = radiance.radiance_columns(frame, lights.vis, truth, None, terms)
             rows.append({"scene": scene_name, "technique": tname, "policy": "all", "k": n, "drop": "none",
-                         **full, **cost(lights, np.ones(n, bool))})
+                         **full, **cost(lights, lights.reaches)})
             for policy in selection.POLICIES:
                 for k in budgets(n):
                     sel = selection.select(policy, k, scene.lights, scene.objects, frame)
@@ -158,8 +163,11 @@ def pipeline_check(frame: Frame, scene_name: str, rows: list[dict]) -> dict:
     got = float(df[~df["reference"].astype(bool)]["radiance_error"].iloc[0])
     mine = next(r["radiance_error"] for r in rows if r["technique"] == "exact" and r["policy"] == "screen"
                 and r["k"] == k and r["drop"] == "unshadowed")
+    equal = bool(np.isclose(got, mine, rtol=1e-9, atol=1e-12))
+    if not equal:
+        raise AssertionError(f"{scene_name}: {spec} through the pipeline gives radiance_error {got}, this script {mine}")
     return {"scene": scene_name, "spec": spec, "pipeline_radiance_error": got, "script_radiance_error": mine,
-            "equal": bool(np.isclose(got, mine, rtol=1e-9, atol=1e-12))}
+            "equal": equal}
 
 
 def regret(still: pd.DataFrame) -> pd.DataFrame:
@@ -211,10 +219,11 @@ def motion_rows(size, repeat: int, ks=(1, 4, 8, 16, 32)) -> pd.DataFrame:
                     if reproj is not None and key in prev:
                         row["radiance_flicker"] = temporal.radiance_pair(prev[key][0], lum, prev["truth"], truth_lum,
                                                                          reproj, floor)
-                        row["selection_change_rate"] = temporal.selection_change(prev[key][1], kept, reproj)
+                        row["selection_change_rate"] = temporal.selection_change(prev[key][1], kept, prev["evals"],
+                                                                                 evals, reproj)
                     rows.append(row)
                     prev[key] = (lum, kept)
-            prev["truth"] = truth_lum
+            prev["truth"], prev["evals"] = truth_lum, evals
             prev_geom, prev_cov = geom, frame.covered.copy()
         finally:
             frame.release()
@@ -239,7 +248,7 @@ def imperfect_rows(scene_name: str, size, repeat: int) -> pd.DataFrame:
         for name, lights in (("all full maps", maps), ("all imperfect maps", isms)):
             image, _ = radiance.radiance_columns(frame, lights.vis, exact.vis, None, terms)
             rows.append({"scene": scene_name, "kind": "budget", "config": name, "k": n, **image,
-                         **cost(lights, np.ones(n, bool))})
+                         **cost(lights, lights.reaches)})
         for k in budgets(n)[:-1]:
             sel = selection.select("screen", k, scene.lights, scene.objects, frame)
             for drop, rest in (("unshadowed", None), ("imperfect", isms)):

@@ -288,16 +288,20 @@ def _add_radiance(frame: Frame, frame_ms: dict, frame_rows: dict, evals: list, g
     truth_lum = radiance.luminance_image(frame, truth, None, terms)
     floor = radiance.DARK_FLOOR * max(float(np.nanmean(truth_lum)) if frame.covered.any() else 0.0, 1e-12)
     reproj = None if prev_geom is None else temporal.reproject(geom, prev_geom, frame.covered, covered_prev)
+    truth_prev = previous.get(GROUND_TRUTH_KEY)  # read before the loop below replaces it with this frame's
     for key, ms in frame_ms.items():
         vis, weights = [m.visibility for m in ms], [m.weight for m in ms]
         image, per_light = radiance.radiance_columns(frame, vis, truth, weights, terms)
         lum = radiance.luminance_image(frame, vis, weights, terms)
+        budgeted = any(m.budget_kept is not None for m in ms)
         kept = [m.budget_kept if m.budget_kept is not None else evals[li] for li, m in enumerate(ms)]
-        if reproj is not None and key in previous:
+        if reproj is not None and key in previous and truth_prev is not None:
             prev_lum, prev_kept = previous[key]
-            changes = {"radiance_flicker": temporal.radiance_pair(prev_lum, lum, previous[GROUND_TRUTH_KEY][0],
-                                                                  truth_lum, reproj, floor),
-                       "selection_change_rate": temporal.selection_change(prev_kept, kept, reproj)}
+            changes = {"radiance_flicker": temporal.radiance_pair(prev_lum, lum, truth_prev[0], truth_lum, reproj,
+                                                                  floor),
+                       # without a budget every light's shadow is computed everywhere: nothing to change
+                       "selection_change_rate": (temporal.selection_change(prev_kept, kept, previous["_evals"], evals,
+                                                                           reproj) if budgeted else 0.0)}
         else:
             changes = {c: float("nan") for c in temporal.RADIANCE_TEMPORAL_COLUMNS}
         for row, light in zip(frame_rows[key], per_light):
@@ -305,6 +309,7 @@ def _add_radiance(frame: Frame, frame_ms: dict, frame_rows: dict, evals: list, g
             row.update(light)
             row.update(changes)
         previous[key] = (lum, kept)
+    previous["_evals"] = evals
     return frame.covered.copy()
 
 

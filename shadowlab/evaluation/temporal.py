@@ -106,16 +106,20 @@ def radiance_pair(lum_prev: np.ndarray, lum_curr: np.ndarray, truth_prev: np.nda
     return float(np.mean(np.abs((l1 - l0) - (t1 - t0)) / np.maximum(t1, floor)))
 
 
-def selection_change(kept_prev: list, kept_curr: list, reproj: Reprojection) -> float:
+def selection_change(kept_prev: list, kept_curr: list, evaluated_prev: list, evaluated_curr: list,
+                     reproj: Reprojection) -> float:
     """``selection_change_rate``: the share of the valid matches of ``reproj`` whose set of lights
-    with shadows changed between the frames (``kept_*``: per light a bool (H, W) image of where a
-    shadow budget computes its shadow, on its evaluated pixels) — the cause of a budget's flicker
-    (Godot's "lights flickering in and out as the camera moves"). 0 with no valid pixel."""
+    with shadows changed between the frames — the cause of a budget's flicker (Godot's "lights
+    flickering in and out as the camera moves"). ``kept_*``: per light a bool (H, W) image of
+    where a shadow budget computes its shadow; a light counts at a match only where it is
+    evaluated in both frames (a pixel that leaves a light's range or cone changes its lights, not
+    the budget's choice). 0 with no valid pixel."""
     valid = reproj.valid
     if not valid.any():
         return 0.0
     q = reproj.source[valid]
     changed = np.zeros(int(valid.sum()), bool)
-    for k0, k1 in zip(kept_prev, kept_curr):
-        changed |= k1[valid] != k0.reshape(-1)[q]
+    for k0, k1, e0, e1 in zip(kept_prev, kept_curr, evaluated_prev, evaluated_curr):
+        both = e1[valid] & e0.reshape(-1)[q]
+        changed |= both & (k1[valid] != k0.reshape(-1)[q])
     return float(changed.mean())

@@ -10,9 +10,10 @@ policy decides, per (light, face) of the frame, whether the light's shadow is co
 face (:class:`Selection`):
 
 - ``face`` — the seed's rule: per receiver face, the K lights of largest unshadowed contribution
-  at its centroid (:func:`face_contributions`: λ · |N·L| · luminance of the light's colour);
-  chosen once from the scene, whatever the camera sees. Ties are kept (a face may keep more
-  than K lights when contributions are equal), as ``shadow_polygons:max_lights`` has always done.
+  at its centroid (:func:`face_contributions`: λ · |N·L| · luminance of the light's colour) —
+  lights that contribute nothing there are not among them; chosen once from the scene, whatever
+  the camera sees. Ties are kept (a face may keep more than K lights when contributions are
+  equal); ``shadow_polygons:max_lights`` uses this same rule.
 - ``closest`` — the K lights closest to the camera (one set for the frame; a light at infinity
   counts as the closest): the baseline of ReSTIR-sampled shadow maps (Zhang, Lin, Wyman &
   Yuksel, EG 2025: "maps only for the closest lights").
@@ -36,6 +37,7 @@ frame's scene (its index in the frame's triangle order, as the G-buffer's triang
 """
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -55,6 +57,7 @@ VIEW_DEPENDENT = frozenset({"closest", "screen", "restir"})
 RESERVOIR_HISTORY = 8
 #: The fixed seed of the reservoirs' random numbers (a run is reproducible).
 RESERVOIR_SEED = 20_251_127
+_SERIALS = itertools.count()
 
 
 def light_luminance(light) -> float:
@@ -81,12 +84,14 @@ def face_contributions(lights, triangles: np.ndarray) -> np.ndarray:
 
 
 def top_k_with_ties(scores: np.ndarray, k: int) -> np.ndarray:
-    """Bool like ``scores`` (lights, F): per column, the entries with fewer than ``k`` strictly
-    larger entries — the K largest, ties at the K-th kept (so all K when no ties)."""
+    """Bool like ``scores`` (lights, F): per column, the K largest entries, ties at the K-th kept
+    (so exactly K when there are no ties) — among the entries > 0 only: a light that contributes
+    nothing at a face's centroid is not one of its K most significant, even when fewer than K
+    lights contribute there (with ranged lights, most faces are reached by a few)."""
     if scores.shape[0] <= k:
         return np.ones(scores.shape, bool)
     kth = -np.partition(-scores, k - 1, axis=0)[k - 1]  # the K-th largest per column
-    return scores >= kth
+    return (scores >= kth) & (scores > 0)
 
 
 def top_k(scores: np.ndarray, k: int) -> np.ndarray:
@@ -158,6 +163,9 @@ class ReservoirState:
     numbers: np.ndarray | None = None
     ages: np.ndarray | None = None
     frame: int = 0
+    #: A number no other state of the process has (what a cache of plans may key on: an id() can
+    #: be reused once a state is gone).
+    serial: int = field(default_factory=lambda: next(_SERIALS))
 
     def select(self, importance: np.ndarray, k: int) -> np.ndarray:
         """Bool (lights,): this frame's K lights, updating the state.

@@ -8,7 +8,8 @@ like any configuration, with three differences, all here:
   (:func:`shadowlab.lighting.selection.select`) and, with ``atlas``, the atlas's tiles — is made
   once per frame (per reservoir state for ``restir``) and shared by every light's measurement;
 - a light kept on no evaluated pixel is not rendered at all: its time is 0 and its
-  ``budget_rendered`` 0 (what the budget saves); with ``atlas`` a kept light is rendered at the
+  ``budget_rendered`` 0 (what the budget saves; with ``drop=imperfect`` the imperfect map's time,
+  set-up and stats, ``imperfect_*``, are the light's); with ``atlas`` a kept light is rendered at the
   per-face resolution its tile gives (``atlas_resolution``), and a light the atlas could not hold
   (``atlas_overflow`` = 1, and a note) is treated as dropped everywhere — never silently;
 - the visibility is the technique's where the light is kept, and elsewhere 1 (``drop=unshadowed``:
@@ -29,10 +30,11 @@ import numpy as np
 from ..gpu import timing
 from ..lighting import selection
 from ..techniques import from_spec
+from ..techniques.base import ATLAS_MIN_SIZE
 from .result import Measurement
 
 #: The smallest per-face resolution the atlas gives a kept light before it reports an overflow.
-ATLAS_MIN_RESOLUTION = 32
+ATLAS_MIN_RESOLUTION = ATLAS_MIN_SIZE
 #: A light whose shadow the budget computes on less than this share of its evaluated pixels is
 #: "mostly dropped": the budget's one run note counts it instead of a note per light.
 MOSTLY_DROPPED = 0.5
@@ -72,31 +74,45 @@ def plan_for(tech, frame) -> BudgetPlan:
     reservoir state)."""
     b = tech.budget_settings()
     state = reservoir_state(tech) if b["select"] == "restir" else None
-    key = (b["budget"], b["select"], b["atlas"], getattr(tech, "resolution", None), id(state))
+    key = (tech.spec(), None if state is None else state.serial)
     plans = _PLANS.setdefault(frame, {})
     if key not in plans:
         scene = frame.scene
         sel = selection.select(b["select"], b["budget"], scene.lights, scene.objects, frame, state)
         atlas, overflow = None, frozenset()
         if b["atlas"]:
-            atlas, overflow = _atlas_plan(sel, frame, b["atlas"], int(tech.resolution))
+            atlas, overflow = _atlas_plan(tech, sel, frame, b["atlas"], int(tech.resolution))
         plans[key] = BudgetPlan(sel, atlas, overflow)
     return plans[key]
 
 
-def _atlas_plan(sel: selection.Selection, frame, size: int, max_resolution: int):
+def _atlas_plan(tech, sel: selection.Selection, frame, size: int, max_resolution: int):
     """The atlas of the selection's kept lights (:func:`shadowlab.lighting.atlas.allocate`): their
-    importance is their screen-space importance (:func:`shadowlab.lighting.selection.screen_importance`);
-    a point light takes six faces (a cube), any other one."""
+    importance is their screen-space importance (:func:`shadowlab.lighting.selection.screen_importance`),
+    their faces those the technique renders for them (:func:`faces_of`)."""
     from ..lighting import atlas
 
     lights = frame.scene.lights
     importance = selection.screen_importance(lights, frame)
-    kept = np.flatnonzero(sel.lights())
-    plan = atlas.allocate({int(i): float(importance[i]) for i in kept},
-                          {int(i): 6 if lights[i].type_name == "point" else 1 for i in kept},
+    kept = [int(i) for i in np.flatnonzero(sel.lights()) if frame.slot(int(i)).evaluated.any()]
+    plan = atlas.allocate({i: float(importance[i]) for i in kept}, {i: faces_of(tech, frame, i) for i in kept},
                           size, max_resolution, ATLAS_MIN_RESOLUTION)
     return plan, frozenset(int(i) for i in plan.overflow)
+
+
+def faces_of(tech, frame, index: int) -> int:
+    """The faces ``tech`` renders for the scene's light ``index``: its own fit of the light's views
+    (``fit_views``: a cube's six, a frustum's one, cascades) times its light samples on an area
+    light; a technique without one: six for a point light, one for any other."""
+    light = frame.scene.lights[index]
+    samples = int(tech.params().get("light_samples", 1)) if light.type_name == "area" else 1
+    fit = getattr(tech, "fit_views", None)
+    if fit is None:
+        return samples * (6 if light.type_name == "point" else 1)
+    if light.type_name == "area" and tech.LIGHT_SAMPLED:
+        return samples * 6  # each sample a point light: a cube at most
+    views, _ = fit(frame, frame.slot(index))
+    return len(views)
 
 
 def measure_budgeted(tech, frame, slot, alone: Callable[[object], Measurement], repeat: int) -> Measurement:
@@ -116,7 +132,8 @@ def measure_budgeted(tech, frame, slot, alone: Callable[[object], Measurement], 
     kept_eval = covered_kept & evaluated
     rendered = bool(kept_eval.any())
     stats = {"budget_rendered": int(rendered),
-             "budget_kept_share": float(kept_eval.sum() / evaluated.sum()) if evaluated.any() else 0.0,
+             # NaN for a light that reaches no pixel: nothing of it is kept or dropped
+             "budget_kept_share": float(kept_eval.sum() / evaluated.sum()) if evaluated.any() else float("nan"),
              "budget_lights": int(plan.selection.lights().sum())}
     notes = []
     if plan.atlas is not None:
@@ -139,7 +156,7 @@ def measure_budgeted(tech, frame, slot, alone: Callable[[object], Measurement], 
     else:
         h, w = frame.height, frame.width
         m = Measurement(tech, slot.index, np.ones((h, w), np.float32),
-                        timing.Timing(0.0, 0.0, [0.0] * max(1, repeat), None, 0.0, 0.0), {}, setup_ms=0.0)
+                        timing.Timing(0.0, 0.0, [0.0] * max(1, repeat), 0.0, 0.0, 0.0), {}, setup_ms=0.0)
     kept_image = frame.to_image(covered_kept, fill=False, dtype=bool)
     vis = m.visibility.astype(np.float32)
     weight = None
@@ -154,8 +171,10 @@ def measure_budgeted(tech, frame, slot, alone: Callable[[object], Measurement], 
         if dropped_any:
             im = alone(ism)
             dropped = im.visibility.astype(np.float32)
-            m = dataclasses.replace(m, timing=_summed(m.timing, im.timing))
+            m = dataclasses.replace(m, timing=_summed(m.timing, im.timing), setup_ms=m.setup_ms + im.setup_ms,
+                                    notes=list(m.notes) + [f"{IMPERFECT_SPEC}: {n}" for n in im.notes])
             stats["imperfect_rendered"] = 1
+            stats.update({f"imperfect_{k}": v for k, v in im.stats.items()})
         else:
             dropped = np.float32(1.0)
             stats["imperfect_rendered"] = 0
@@ -186,7 +205,7 @@ def budget_note(tech, ms) -> list[str]:
     if not b or not ms:
         return []
     rendered = sum(int(m.stats.get("budget_rendered", 0)) for m in ms)
-    dropped = [m.light for m in ms if m.stats.get("budget_kept_share", 1.0) == 0.0]
+    dropped = [m.light for m in ms if m.stats.get("budget_kept_share", 1.0) == 0.0]  # NaN (reaches no pixel): neither
     mostly = [m.light for m in ms if 0.0 < m.stats.get("budget_kept_share", 1.0) < MOSTLY_DROPPED]
     what = {"unshadowed": "lit without their shadows", "unlit": "not drawn",
             "imperfect": "shadowed by imperfect shadow maps"}[b["drop"]]

@@ -189,24 +189,28 @@ LIGHT_SAMPLES = Param(1, "area lights: hard renders averaged, one from each of N
                          "light (1 = its centre); ignored, with a note, on other lights", min=1, max=4096)
 
 
+#: What a light outside the budget does at a face (``drop``).
+DROP_POLICIES = ("unshadowed", "unlit", "imperfect")
+#: The smallest atlas (and per-face tile) a budget's ``atlas`` takes, texels on a side.
+ATLAS_MIN_SIZE = 32
 #: The shadow budget every technique's spec accepts (docs/many-lights.md): at most ``budget`` lights
 #: get their shadows computed on each face, chosen by the ``select`` policy
 #: (:mod:`shadowlab.lighting.selection`); the others are drawn without a shadow there
 #: (``drop=unshadowed``), not drawn there at all (``unlit``, the seed's and Godot's/Unity's
-#: per-object lists) or shadowed by an imperfect shadow map (``imperfect``); ``atlas`` > 0 gives the
-#: kept lights' maps one shared atlas of that many texels on a side, each light's resolution from
-#: its screen-space importance (:mod:`shadowlab.lighting.atlas`). Not part of ``PARAMS``: a spec
+#: per-object lists) or shadowed by an imperfect shadow map (``imperfect``); ``atlas`` > 0 sizes the
+#: kept lights' maps as one shared atlas of that many texels on a side would, each light's
+#: resolution from its screen-space importance (:mod:`shadowlab.lighting.atlas`). Not part of ``PARAMS``: a spec
 #: without them is the technique alone, and its label is what it always was; the pipeline applies
 #: them (:mod:`shadowlab.measurement.budget`).
-DROP_POLICIES = ("unshadowed", "unlit", "imperfect")
 BUDGET_PARAMS: dict[str, Param] = {
     "budget": Param(0, "shadow budget: the most lights whose shadows are computed on one face (0 = every light)",
                     min=0, max=65536),
     "select": Param("face", "which lights get the budget's shadows: " + ", ".join(POLICIES), choices=POLICIES),
     "drop": Param("unshadowed", "what a light outside the budget does at a face: lit without a shadow, not drawn, "
                                 "or shadowed by an imperfect shadow map", choices=DROP_POLICIES),
-    "atlas": Param(0, "one shadow atlas of this many texels on a side for the kept lights' maps, each light's "
-                      "resolution from its screen-space importance (0 = each map at the technique's resolution)",
+    "atlas": Param(0, "size the kept lights' maps as one shadow atlas of this many texels on a side allocates them, "
+                      "each light's resolution from its screen-space importance, overflow reported (0 = each map at "
+                      "the technique's resolution)",
                    min=0, max=32768),
 }
 
@@ -389,9 +393,17 @@ class Technique:
             others = ", ".join(k for k in given if k != "budget")
             raise TechniqueError(f"{self.name}: {others or 'budget'} needs a shadow budget: give budget=K with K >= 1 "
                                  f"(the most lights with shadows per face)")
-        if out["atlas"] and "resolution" not in self.PARAMS:
-            raise TechniqueError(f"{self.name}: atlas={out['atlas']} sets each kept light's map resolution, and "
-                                 f"{self.name} has no resolution parameter")
+        if out["atlas"]:
+            if "resolution" not in self.PARAMS:
+                raise TechniqueError(f"{self.name}: atlas={out['atlas']} sets each kept light's map resolution, and "
+                                     f"{self.name} has no resolution parameter")
+            size, res = out["atlas"], self._params["resolution"]
+            if size & (size - 1) or size < ATLAS_MIN_SIZE:
+                raise TechniqueError(f"{self.name}: atlas must be a power of two >= {ATLAS_MIN_SIZE} (texels on a side), "
+                                     f"got {size}")
+            if res & (res - 1) or not ATLAS_MIN_SIZE <= res <= size:
+                raise TechniqueError(f"{self.name}: with atlas={size}, resolution (the largest per-face tile) must be a "
+                                     f"power of two from {ATLAS_MIN_SIZE} to {size}, got {res}")
         if out["drop"] == "imperfect" and self.name == "imperfect_map":
             raise TechniqueError(f"{self.name}: drop=imperfect would give the dropped lights the technique itself")
         return out

@@ -31,3 +31,18 @@ def test_radiance_flicker_and_selection_change(tmp_path):
     assert np.array_equal(changed.to_numpy(), (restir["radiance_flicker"] > 0).to_numpy())
     summary = pd.read_csv(out / "summary.csv")
     assert {"radiance_error_mean", "radiance_flicker_mean", "selection_change_mean"} <= set(summary.columns)
+
+
+@pytest.mark.slow  # six frames of the 64-light walk
+def test_radiance_flicker_with_a_moving_camera(tmp_path):
+    """A moving camera: exact shadows for every light flicker exactly as the truth (0) and change no
+    selection; a budget's selection changes as the camera walks, and its image flickers."""
+    specs = ["raytrace:budget=64,select=screen,seed=1", "shadow_map:resolution=256,budget=4,select=screen"]
+    out = animate("ml_city_walk", specs, frames=6, size=(64, 48), out=tmp_path / "w")
+    df = pd.read_csv(out / "frames.csv").drop_duplicates(["frame", "label"])
+    later = df[df["frame"] > 0]
+    assert np.isfinite(later["radiance_flicker"]).all()
+    exact = later[later["short_label"].str.startswith("raytrace:")]
+    assert (exact["radiance_flicker"] == 0).all() and (exact["selection_change_rate"] == 0).all()
+    budget = later[later["short_label"].str.startswith("shadow_map")]
+    assert (budget["selection_change_rate"] > 0).any() and (budget["radiance_flicker"] > 0).any()

@@ -31,7 +31,10 @@ def test_spec_round_trip_and_errors():
                        ("shadow_map:budget=2,select=scren", "did you mean 'screen'"),
                        ("shadow_map:budget=2,drop=none", "drop must be one of"),
                        ("raytrace:budget=2,atlas=2048", "no resolution parameter"),
-                       ("shadow_volume:budget=-1", ">= 0")):
+                       ("shadow_volume:budget=-1", ">= 0"),
+                       ("shadow_map:budget=2,atlas=1000", "power of two >= 32"),
+                       ("shadow_map:budget=2,atlas=1024", "from 32 to 1024, got 2048"),
+                       ("shadow_map:resolution=500,budget=2,atlas=4096", "got 500")):
         with pytest.raises(TechniqueError, match=match):
             from_spec(bad)
 
@@ -108,3 +111,40 @@ def test_drop_imperfect_shadows_the_rest_with_imperfect_maps(frame):
     assert np.array_equal(m.visibility[ev], ism.visibility[ev])
     assert m.timing.median_ms > 0
     assert (m.visibility[ev] < 0.5).any()  # the ISM shadows something the unshadowed drop would not
+
+
+@pytest.mark.slow  # 64 lights
+def test_ranged_lights_the_face_rule_keeps_at_most_k_and_unreached_lights_are_neither():
+    """With ranged lights most faces are reached by fewer than K lights: the seed's rule keeps only
+    the lights that contribute (at most K per face, no ties at zero), so it renders fewer lights
+    than there are; a light that reaches no pixel has no kept share (NaN) and is not "dropped"."""
+    from shadowlab.lighting import selection
+
+    frame = Frame(load_measured_scene("ml_city_64"), 96, 72)
+    try:
+        scene = frame.scene
+        sel = selection.select("face", 4, scene.lights, scene.objects, frame)
+        assert sel.kept.sum(axis=0).max() <= 4 and (sel.kept.sum(axis=0) < 4).mean() > 0.5
+        reaching = [li for li in range(len(scene.lights)) if frame.slot(li).evaluated.any()]
+        result = compare_frame(frame, [from_spec("raytrace:budget=64,select=screen"),
+                                       from_spec("raytrace:budget=1,select=face")], repeat=1, warmup=0)
+        one = result.rows[result.rows["label"] == result.results[1][0].technique.spec()]
+        assert one["radiance_error"].iloc[0] > 0.001  # one light per face: shadows are lost
+        rows = result.rows[result.rows["label"] == result.results[0][0].technique.spec()]
+        unreached = rows[rows["evaluated_pixels"] == 0]
+        assert len(unreached) and unreached["budget_kept_share"].isna().all()
+        assert (rows["radiance_error"] == 0).all()
+        note = next(n for n in result.notes if "shadows computed for" in n)
+        assert f"shadows computed for {len(reaching)} of 64 lights; 0 lights" in note
+    finally:
+        frame.release()
+
+
+def test_the_atlas_counts_the_faces_the_technique_renders(frame):
+    """A point light fitted with one frustum takes one face of the atlas, not a cube's six."""
+    from shadowlab.measurement.budget import faces_of
+
+    point = 0  # multi_light's point light
+    assert faces_of(from_spec("shadow_map:projection=frustum"), frame, point) == 1
+    assert faces_of(from_spec("shadow_map:projection=cube"), frame, point) == 6
+    assert faces_of(from_spec("raytrace"), frame, point) == 6  # no fit of its own: a point light's cube

@@ -23,7 +23,8 @@ available at setup (``MEMORY_SHARE``: on a machine with 20 GiB free, about 90 mi
 triangles) and an error beyond. Long preprocessing shows a progress bar on a terminal.
 
 Several lights: for each receiver triangle, only the ``max_lights`` lights with the largest
-unshadowed contribution (λ · N·L · luminance at its centroid) get fragments; the others leave it
+unshadowed contribution (λ · N·L · luminance at its centroid; lights contributing nothing there
+are not among them) get fragments; the others leave it
 lit, and the metrics show what dropping them costs (``dropped_faces`` counts them). This is the
 seed's rule, which every technique now takes as a shadow budget (``budget=K,select=face``,
 :mod:`shadowlab.lighting.selection`; a test holds the two selections equal).
@@ -41,6 +42,7 @@ from ...geometry import adjacency as adj
 from ...geometry.clipping import CLIPPERS, FragmentMemoryError, fragment_triangles  # noqa: F401  (CLIPPERS: the back-ends)
 from ...geometry.triangles import triangle_normals
 from ...gpu.glstate import PassState
+from ...lighting.selection import top_k_with_ties
 from ..base import FIRST, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
 
 #: Share of the memory available at setup that the fragments' geometry may take: beyond it the
@@ -148,8 +150,7 @@ class ShadowPolygons(Technique):
             facing = np.abs(np.einsum("ij,ij->i", dirs, normal))  # two-sided receivers
             contrib.append(light.footprint(centre) * facing * float(light.color @ _LUMA))
         contrib = np.array(contrib)  # (lights, faces)
-        rank = (contrib > contrib[slot.index]).sum(axis=0)  # lights strictly stronger
-        return rank < self.max_lights
+        return top_k_with_ties(contrib, self.max_lights)[slot.index]  # the seed's rule, as a budget's face policy
 
     def render(self) -> None:
         """Draw the precomputed fragments over the G-buffer."""

@@ -318,6 +318,7 @@ def plot_still(still: pd.DataFrame, out: Path) -> None:
                         label=policy if drop == "unshadowed" else None)
         ax.set_xscale("log", base=2)
         ax.set_yscale("symlog", linthresh=0.1)
+        ax.set_ylim(bottom=0)
         ax.set_xlabel("budget K (lights with shadows per face)")
         ax.set_ylabel("radiance error, %")
         ax.set_title(f"{scene} ({int(d['k'].max())} lights)")
@@ -354,6 +355,7 @@ def plot_frontier(still: pd.DataFrame, out: Path) -> None:
             ax.step(*zip(*front), where="post", color="black", lw=0.8, alpha=0.6)
         ax.set_xscale("symlog", linthresh=10)
         ax.set_yscale("symlog", linthresh=0.1)
+        ax.set_ylim(bottom=0)
         ax.set_xlabel(f"{MAP}: summed ms per frame (llvmpipe)")
         ax.set_ylabel("radiance error, %")
         ax.set_title(scene)
@@ -394,12 +396,19 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("results/many_lights"))
     ap.add_argument("--size", default="320x240")
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--only", choices=["still", "motion", "imperfect", "atlas"])
+    ap.add_argument("--only", choices=["still", "motion", "imperfect", "atlas", "plots"],
+                    help="one part; 'plots' redraws the pictures from the CSVs in --out")
     ap.add_argument("--scenes", nargs="*", default=STILL)
     args = ap.parse_args()
     size = tuple(int(v) for v in args.size.split("x"))
     args.out.mkdir(parents=True, exist_ok=True)
     DOCS_IMAGES.mkdir(parents=True, exist_ok=True)
+    if args.only == "plots":
+        plot_still(pd.read_csv(args.out / "still.csv"), DOCS_IMAGES / "many-lights-error-vs-k.png")
+        plot_frontier(pd.read_csv(args.out / "still.csv"), DOCS_IMAGES / "many-lights-frontier.png")
+        if (args.out / "motion.csv").exists():
+            plot_motion(pd.read_csv(args.out / "motion.csv"), DOCS_IMAGES / "many-lights-motion.png")
+        return
     if args.only in (None, "still"):
         parts = [still_rows(s, size, args.repeat) for s in args.scenes]
         still = pd.concat([p[0] for p in parts], ignore_index=True)

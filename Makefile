@@ -33,10 +33,10 @@ test: $(STAMP)
 
 # Every experiment at its small default size (a few minutes); each writes results/<name>.* and
 # a .json record of the code revision, renderer, package versions, CPU and command line.
-# (prepare_meshes.py, prepare_city.py, make_city_wires.py and make_sv_scenes.py are not experiments:
+# (prepare_meshes.py, prepare_city.py, make_city_wires.py, make_sv_scenes.py and make_many_light_scenes.py are not experiments:
 # they remake the shipped meshes and scenes, the first two from a downloaded package;
 # volumes_vs_maps.py reads a study directory given to it.)
-EXPERIMENTS := $(filter-out experiments/prepare_meshes.py experiments/prepare_city.py experiments/make_city_wires.py experiments/make_sv_scenes.py experiments/volumes_vs_maps.py,$(wildcard experiments/*.py))
+EXPERIMENTS := $(filter-out experiments/prepare_meshes.py experiments/prepare_city.py experiments/make_city_wires.py experiments/make_sv_scenes.py experiments/make_many_light_scenes.py experiments/volumes_vs_maps.py,$(wildcard experiments/*.py))
 experiments: $(STAMP)
 	@set -e; for e in $(EXPERIMENTS); do echo "== $$e"; $(BIN)/python $$e; done
 

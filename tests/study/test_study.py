@@ -66,7 +66,8 @@ def test_shipped_suites_load_and_cover_every_family():
     # is measured by some shipped suite (a new one joins a suite with one line in its file)
     quick = families(load_suite("quick"))
     assert quick <= hard and {"shadow_map", "shadow_volume", "planar", "shadow_polygons"} <= quick
-    assert set().union(*(families(load_suite(n)) for n in suites)) == set(REGISTRY) - {"raytrace"}
+    # (raytrace itself appears under a shadow budget in many_lights: exact shadows for the kept lights)
+    assert set().union(*(families(load_suite(n)) for n in suites)) - {"raytrace"} == set(REGISTRY) - {"raytrace"}
 
 
 def test_sweeps_expand_to_canonical_specs_on_their_scenes_only(tmp_path):

@@ -220,7 +220,8 @@ def test_auto_gives_the_zfail_mask_on_every_shipped_scene_and_light(variant):
                     # shadowed); there auto must give depth-clamped z-fail's mask, which is right
                     clamped = measure(from_spec(f"shadow_volume:mode=zfail,far=clamp{variant}"), frame, li,
                                       repeat=1, warmup=0)
-                    assert np.array_equal(clamped.visibility[cov], got.visibility[cov]), (name, li)
+                    ev = frame.evaluated(li)  # on the light's evaluated pixels (off them z-fail's sides differ)
+                    assert np.array_equal(clamped.visibility[ev] < 0.5, got.visibility[ev] < 0.5), (name, li)
                     infinite_zfail_broken.add((name, li))
                     continue
                 assert np.array_equal(want.visibility[cov], got.visibility[cov]), (name, li)

@@ -195,7 +195,6 @@ def _summed(a: timing.Timing, b: timing.Timing) -> timing.Timing:
     return combined_timing([a, b])
 
 
-
 def budget_note(tech, ms) -> list[str]:
     """One run note for a configuration with a budget, from its measurements ``ms`` (one per
     light): how many lights got their shadows somewhere, and what the others got — so that the

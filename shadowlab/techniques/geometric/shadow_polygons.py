@@ -40,15 +40,13 @@ import numpy as np
 from ...gpu import glstate, memory, programs
 from ...geometry import adjacency as adj
 from ...geometry.clipping import CLIPPERS, FragmentMemoryError, fragment_triangles  # noqa: F401  (CLIPPERS: the back-ends)
-from ...geometry.triangles import triangle_normals
 from ...gpu.glstate import PassState
-from ...lighting.selection import top_k_with_ties
+from ...lighting.selection import face_contributions, top_k_with_ties
 from ..base import FIRST, SUM, Param, PlotStyle, Technique, TechniqueError, TuneRange
 
 #: Share of the memory available at setup that the fragments' geometry may take: beyond it the
 #: technique stops with an error rather than push the machine into swap.
 MEMORY_SHARE = 0.5
-_LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
 class ShadowPolygons(Technique):
@@ -141,15 +139,7 @@ class ShadowPolygons(Technique):
         lights = slot.scene_lights
         if len(lights) <= self.max_lights:
             return np.ones(len(obj.faces), bool)
-        tris = obj.triangles
-        centre = tris.mean(axis=1)
-        normal, _ = triangle_normals(tris)
-        contrib = []
-        for light in lights:
-            dirs, _ = light.to_light(centre)
-            facing = np.abs(np.einsum("ij,ij->i", dirs, normal))  # two-sided receivers
-            contrib.append(light.footprint(centre) * facing * float(light.color @ _LUMA))
-        contrib = np.array(contrib)  # (lights, faces)
+        contrib = face_contributions(lights, obj.triangles)  # (lights, faces): λ · |N·L| · luminance at centroids
         return top_k_with_ties(contrib, self.max_lights)[slot.index]  # the seed's rule, as a budget's face policy
 
     def render(self) -> None:

@@ -180,12 +180,7 @@ def measure_budgeted(tech, frame, slot, alone: Callable[[object], Measurement], 
             stats["imperfect_rendered"] = 0
     vis = np.where(kept_image | ~frame.covered, vis, dropped).astype(np.float32)  # nothing to drop where nothing is seen
     return dataclasses.replace(m, visibility=vis, stats={**m.stats, **stats}, notes=list(m.notes) + notes,
-                               weight=weight, budget_kept=kept_image & evaluated_image(frame, slot))
-
-
-def evaluated_image(frame, slot) -> np.ndarray:
-    """Bool (height, width): the slot's evaluated pixels."""
-    return frame.to_image(slot.evaluated, fill=False, dtype=bool)
+                               weight=weight, budget_kept=kept_image & frame.evaluated_image(slot))
 
 
 def _summed(a: timing.Timing, b: timing.Timing) -> timing.Timing:

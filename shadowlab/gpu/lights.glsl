@@ -16,6 +16,8 @@ uniform float light_cos_inner;    // spot: cos(beta / 2)
 uniform float light_radius_outer; // target-direct: R
 uniform float light_radius_inner; // target-direct: r
 uniform float light_range;        // point, spot: > 0 = distance falloff to 0 at this distance; 0 = none
+uniform float light_inverse_square_near; // point, spot without range: > 0 = 1/max(d^2, near^2) falloff; 0 = none
+uniform int light_cone_squared;   // spot: 1 = the cone ramp squared (KHR_lights_punctual), 0 = linear
 
 // Unit vector from p towards the light.
 vec3 light_dir_to(vec3 p) {
@@ -36,13 +38,25 @@ float light_attenuation(vec3 p) {
     return window * window / max(d2, (0.01 * 0.01) * r2);
 }
 
+// Inverse-square falloff of a light without a range that asks for it (KHR_lights_punctual's light
+// without a range): 1 / max(d^2, near^2). Numpy twin: inverse_square_attenuation() in
+// shadowlab/scene/lights.py (INVERSE_SQUARE_NEAR), operation for operation.
+float light_inverse_square(vec3 p) {
+    vec3 v = p - light_position;
+    float d2 = dot(v, v);
+    return 1.0 / max(d2, light_inverse_square_near * light_inverse_square_near);
+}
+
 // Shape factor of λ: the spot's cone, the target-direct cylinder, else 1.
 float light_shape_footprint(vec3 p) {
     if (light_type == LIGHT_SPOT) {
         float cos_phi = dot(normalize(p - light_position), light_direction);
         float width = light_cos_inner - light_cos_outer;
-        return width > 0.0 ? clamp((cos_phi - light_cos_outer) / width, 0.0, 1.0)
-                           : float(cos_phi >= light_cos_outer);
+        if (width > 0.0) {
+            float ramp = clamp((cos_phi - light_cos_outer) / width, 0.0, 1.0);
+            return light_cone_squared != 0 ? ramp * ramp : ramp;
+        }
+        return float(cos_phi >= light_cos_outer);
     }
     if (light_type == LIGHT_TARGET_DIRECT) {
         vec3 v = p - light_position;
@@ -58,8 +72,9 @@ float light_shape_footprint(vec3 p) {
 
 // Footprint factor λ >= 0 at p: the shape factor, times the distance attenuation when the light
 // has a range (then λ may exceed 1: the colour is the intensity at distance 1); without a range
-// exactly the shape factor, in [0, 1].
+// exactly the shape factor, in [0, 1], unless the light asks for inverse-square falloff.
 float light_footprint(vec3 p) {
     float lam = light_shape_footprint(p);
-    return light_range > 0.0 ? lam * light_attenuation(p) : lam;
+    if (light_range > 0.0) return lam * light_attenuation(p);
+    return light_inverse_square_near > 0.0 ? lam * light_inverse_square(p) : lam;
 }

@@ -22,7 +22,11 @@ inner radius r) — 1 within r of the axis, linear to 0 at R, 0 behind the light
 or spot light with a ``range`` (> 0) multiplies that by the distance attenuation of
 :func:`range_attenuation` (glTF KHR_lights_punctual's recommended falloff over 1/d²), so λ is
 then ≥ 0 but no longer bounded by 1 (its ``color`` is its intensity at distance 1); without a
-range, λ is the shape factor alone, bit for bit as before ranges existed.
+range, λ is the shape factor alone, bit for bit as before ranges existed — unless the light asks for
+``inverse_square`` (no range, KHR_lights_punctual's infinite-range light): then the shape factor
+times the unwindowed 1/d² of :func:`inverse_square_attenuation`. A spot's shape factor is the
+linear ramp in cos φ above, or, with ``cone_falloff = "squared"``, that ramp squared (the
+KHR_lights_punctual spot, as glTF files are lit; :mod:`shadowlab.scene.gltf`).
 """
 from __future__ import annotations
 
@@ -50,6 +54,8 @@ _UNUSED_UNIFORMS = {
     "light_radius_outer": 0.0,
     "light_radius_inner": 0.0,
     "light_range": 0.0,
+    "light_inverse_square_near": 0.0,
+    "light_cone_squared": 0,
 }
 
 #: Below this fraction of a light's ``range``, the distance in the 1/d² of
@@ -74,6 +80,24 @@ def range_attenuation(d2: np.ndarray, light_range: float) -> np.ndarray:
     x = d2 / r2  # (d / range)²
     window = np.clip(1.0 - x * x, 0.0, 1.0)
     return window * window / np.maximum(d2, (RANGE_NEAR * RANGE_NEAR) * r2)
+
+
+#: The distance below which :func:`inverse_square_attenuation` holds d² constant (scene units; a
+#: millimetre in a glTF file's metres): λ stays finite at the light itself, at most 10⁶.
+INVERSE_SQUARE_NEAR = 1e-3
+
+
+def inverse_square_attenuation(d2: np.ndarray) -> np.ndarray:
+    """The distance attenuation of a light without a ``range`` that asks for ``inverse_square``:
+    ``1 / max(d², INVERSE_SQUARE_NEAR²)`` at squared distances ``d2`` (N,) float64.
+
+    KHR_lights_punctual's point and spot lights without a range: "the light is assumed to have
+    infinite range" with physical inverse-square falloff, so the light's colour is its intensity
+    (candela) at distance 1. The lab's plain light without a range has no falloff at all (λ = 1),
+    which is why this is a mode of its own rather than a default. The clamp
+    (:data:`INVERSE_SQUARE_NEAR`) keeps a receiver at the light finite. Must match
+    ``light_inverse_square()`` in shadowlab/gpu/lights.glsl operation for operation."""
+    return 1.0 / np.maximum(d2, INVERSE_SQUARE_NEAR * INVERSE_SQUARE_NEAR)
 
 
 def _vec(v) -> tuple:
@@ -163,10 +187,13 @@ class Light:
 @dataclass
 class PointLight(Light):
     """An omnidirectional light at ``position``; with ``range`` > 0 its λ falls off with distance
-    (:func:`range_attenuation`) to 0 at ``range``; 0 (the default) means no falloff."""
+    (:func:`range_attenuation`) to 0 at ``range``; 0 (the default) means no falloff, unless
+    ``inverse_square`` asks for the unwindowed 1/d² of :func:`inverse_square_attenuation` (glTF's
+    light without a range; it may not be combined with a range)."""
 
     position: np.ndarray = field(default_factory=lambda: np.zeros(3))
     range: float = 0.0
+    inverse_square: bool = False
     type_name = "point"
     type_id = 0
 
@@ -181,14 +208,22 @@ class PointLight(Light):
         if self.range > 0:
             v = np.asarray(points, np.float64) - self.position
             lam = lam * range_attenuation(np.einsum("ij,ij->i", v, v), self.range)
+        elif self.inverse_square:
+            v = np.asarray(points, np.float64) - self.position
+            lam = lam * inverse_square_attenuation(np.einsum("ij,ij->i", v, v))
         return lam
 
     def describe(self):
-        """As :meth:`Light.describe`; ``range`` only when the light has one (a light without it
-        reads as it did before ranges existed)."""
+        """As :meth:`Light.describe`; ``range``, ``inverse_square`` and a spot's ``cone_falloff``
+        only when they are not the defaults (a light without them reads as it did before they
+        existed)."""
         out = super().describe()
         if not out.get("range"):
             out.pop("range", None)
+        if not out.get("inverse_square"):
+            out.pop("inverse_square", None)
+        if out.get("cone_falloff", "linear") == "linear":
+            out.pop("cone_falloff", None)
         return out
 
     def to_light(self, points):
@@ -234,13 +269,18 @@ class PointLight(Light):
         near, far, fit_notes = frusta.perspective_fit(p, points, casters, [tf.look_along(p, axis)], 2 * half, near)
         return [frusta.perspective_view(p, axis, 2 * half, near, far, resolution)], notes + fit_notes
 
+    def _falloff_uniforms(self) -> dict:
+        """``light_range`` and ``light_inverse_square_near`` (> 0 only for an inverse-square light)."""
+        return {"light_range": float(self.range),
+                "light_inverse_square_near": INVERSE_SQUARE_NEAR if self.inverse_square and not self.range > 0 else 0.0}
+
     def _shape_uniforms(self):
-        return {"light_position": _vec(self.position), "light_range": float(self.range)}
+        return {"light_position": _vec(self.position), **self._falloff_uniforms()}
 
     @classmethod
     def parse(cls, rd: TableReader, common: dict) -> "PointLight":
         """From a ``[[lights]]`` table of this type (the common keys already read)."""
-        return cls(position=rd.vector("position", 3), range=_range(rd), **common)
+        return cls(position=rd.vector("position", 3), **_falloff(rd), **common)
 
 
 @dataclass
@@ -285,11 +325,14 @@ class SpotLight(PointLight):
     direction: np.ndarray = field(default_factory=lambda: np.array([0.0, -1.0, 0.0]))
     alpha: float = 60.0
     beta: float = 40.0
+    #: ``linear`` (the lab's ramp in cos φ) or ``squared`` (that ramp squared: KHR_lights_punctual).
+    cone_falloff: str = "linear"
     type_name = "spot"
     type_id = 2
 
     def _shape_footprint(self, points):
-        """1 inside the hotspot, linear in cos φ to 0 at the cone edge."""
+        """1 inside the hotspot, linear in cos φ to 0 at the cone edge (``cone_falloff =
+        "squared"``: that ramp squared, as KHR_lights_punctual's spot)."""
         v = np.asarray(points, np.float64) - self.position
         with np.errstate(invalid="ignore", divide="ignore"):
             cos_phi = (v @ self.direction) / np.linalg.norm(v, axis=-1)
@@ -298,7 +341,8 @@ class SpotLight(PointLight):
         # Must match light_footprint() in shadowlab/gpu/lights.glsl operation for operation.
         width = cos_i - cos_o
         if width > 0:
-            return np.clip((cos_phi - cos_o) / width, 0.0, 1.0)
+            ramp = np.clip((cos_phi - cos_o) / width, 0.0, 1.0)
+            return ramp * ramp if self.cone_falloff == "squared" else ramp
         return (cos_phi >= cos_o).astype(np.float64)
 
     def shadow_views(self, points, casters, resolution, *, projection="auto", near=0.0):
@@ -311,7 +355,8 @@ class SpotLight(PointLight):
     def _shape_uniforms(self):
         return {"light_position": _vec(self.position), "light_direction": _vec(self.direction),
                 "light_cos_outer": float(np.cos(np.radians(self.alpha / 2))),
-                "light_cos_inner": float(np.cos(np.radians(self.beta / 2))), "light_range": float(self.range)}
+                "light_cos_inner": float(np.cos(np.radians(self.beta / 2))),
+                "light_cone_squared": int(self.cone_falloff == "squared"), **self._falloff_uniforms()}
 
     @classmethod
     def parse(cls, rd: TableReader, common: dict) -> "SpotLight":
@@ -323,7 +368,8 @@ class SpotLight(PointLight):
         if beta > alpha:
             raise rd.error("beta", f"hotspot angle must be <= alpha ({alpha}), got {beta}")
         return cls(position=rd.vector("position", 3), direction=_unit(rd, "direction"),
-                   alpha=alpha, beta=beta, range=_range(rd), **common)
+                   alpha=alpha, beta=beta, cone_falloff=rd.string("cone_falloff", "linear", choices=CONE_FALLOFFS),
+                   **_falloff(rd), **common)
 
 
 @dataclass
@@ -406,10 +452,24 @@ def _range(rd: TableReader) -> float:
     return value
 
 
+#: The spot's ``cone_falloff`` values: the lab's linear ramp in cos φ, or KHR_lights_punctual's square of it.
+CONE_FALLOFFS = ("linear", "squared")
+
+
+def _falloff(rd: TableReader) -> dict:
+    """The optional ``range`` and ``inverse_square`` keys of a point or spot light (at most one of them)."""
+    out = {"range": _range(rd), "inverse_square": rd.boolean("inverse_square", False)}
+    if out["range"] and out["inverse_square"]:
+        raise rd.error("inverse_square", "a light with a range already falls off as 1/d² (windowed); "
+                                         "give range or inverse_square, not both")
+    return out
+
+
 def _unit(rd: TableReader, name: str) -> np.ndarray:
     vec = rd.vector(name, 3, nonzero=True)
     return vec / np.linalg.norm(vec)
 
 
 __all__ = ["Light", "PointLight", "DirectionalLight", "SpotLight", "TargetDirectLight", "LIGHT_TYPES",
-           "LIGHT_TYPE_IDS", "SceneError", "T_LIGHT", "T_INFINITE", "RANGE_NEAR", "range_attenuation"]
+           "LIGHT_TYPE_IDS", "SceneError", "T_LIGHT", "T_INFINITE", "RANGE_NEAR", "range_attenuation",
+           "INVERSE_SQUARE_NEAR", "inverse_square_attenuation", "CONE_FALLOFFS"]

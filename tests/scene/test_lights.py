@@ -29,12 +29,20 @@ LIGHTS = [
     PointLight(position=np.array([0.5, 2.0, -1.0]), range=3.0),
     SpotLight(position=np.array([0.0, 3.0, 0.5]), direction=np.array([0.0, -1.0, 0.0]), alpha=80.0, beta=50.0,
               range=4.5),
+    # glTF's lights (issue 41): inverse square without a range; KHR's squared cone ramp
+    PointLight(position=np.array([0.5, 2.0, -1.0]), inverse_square=True),
+    SpotLight(position=np.array([0.0, 3.0, 0.5]), direction=np.array([0.0, -1.0, 0.0]), alpha=80.0, beta=30.0,
+              inverse_square=True, cone_falloff="squared"),
+    SpotLight(position=np.array([0.0, 3.0, 0.5]), direction=np.array([0.2, -1.0, 0.0]) / np.linalg.norm([0.2, -1, 0]),
+              alpha=70.0, beta=20.0, cone_falloff="squared", range=5.0),
 ]
 
 
 def light_id(light) -> str:
     """A test id: the area shape, else the type, with ``_ranged`` for a light with a range."""
-    return getattr(light, "shape", light.type_name) + ("_ranged" if getattr(light, "range", 0) > 0 else "")
+    return (getattr(light, "shape", light.type_name) + ("_ranged" if getattr(light, "range", 0) > 0 else "")
+            + ("_inverse_square" if getattr(light, "inverse_square", False) else "")
+            + ("_squared_cone" if getattr(light, "cone_falloff", "linear") == "squared" else ""))
 
 
 def glsl_eval(ctx, light, points):
@@ -114,6 +122,32 @@ def test_range_attenuation_values():
     assert spot.footprint(pts)[2] == 0.0  # behind the spot: the cone still rules
 
 
+def test_inverse_square_and_squared_cone_values():
+    """glTF's lights (issue 41): without a range, λ = shape / max(d², 1e-6), no window at any
+    distance; KHR's spot cone is the lab's linear ramp squared; parse reads both keys and
+    refuses a range together with inverse_square."""
+    light = PointLight(position=np.zeros(3), inverse_square=True)
+    at = lambda *ds: light.footprint(np.array([[x, 0.0, 0.0] for x in ds]))
+    assert at(1.0, 2.0, 1e3).tolist() == [1.0, 0.25, 1e-6]
+    assert at(0.0)[0] == pytest.approx(1e6) and at(1e-4)[0] == at(0.0)[0]  # the guard: d < 1 mm
+    assert light.uniforms()["light_inverse_square_near"] == 1e-3 and light.describe()["inverse_square"] is True
+    lin = SpotLight(position=np.zeros(3), direction=np.array([0.0, -1.0, 0.0]), alpha=60.0, beta=40.0)
+    sq = SpotLight(position=np.zeros(3), direction=np.array([0.0, -1.0, 0.0]), alpha=60.0, beta=40.0,
+                   cone_falloff="squared")
+    pts = np.array([[np.sin(np.radians(a)), -np.cos(np.radians(a)), 0.0] for a in (0, 15, 22, 25, 28, 31)])
+    assert np.array_equal(sq.footprint(pts), lin.footprint(pts) ** 2) and sq.footprint(pts)[3] < lin.footprint(pts)[3]
+    assert sq.uniforms()["light_cone_squared"] == 1 and lin.uniforms()["light_cone_squared"] == 0
+    assert "cone_falloff" not in lin.describe() and sq.describe()["cone_falloff"] == "squared"
+    parsed = parse_light({"type": "spot", "position": [0, 0, 0], "direction": [0, -1, 0], "alpha": 60, "beta": 40,
+                          "inverse_square": True, "cone_falloff": "squared"}, "lights[0]", "x.toml")
+    assert parsed.inverse_square and parsed.cone_falloff == "squared"
+    with pytest.raises(SceneError, match=r"lights\[0\]\.inverse_square: .*not both"):
+        parse_light({"type": "point", "position": [0, 0, 0], "range": 3.0, "inverse_square": True}, "lights[0]", "x.toml")
+    with pytest.raises(SceneError, match="cone_falloff.*did you mean 'squared'"):
+        parse_light({"type": "spot", "position": [0, 0, 0], "direction": [0, -1, 0], "alpha": 60, "beta": 40,
+                     "cone_falloff": "square"}, "lights[0]", "x.toml")
+
+
 def test_no_range_is_the_old_footprint_bit_for_bit(rng):
     """range = 0 (absent) leaves λ the shape factor alone, bit for bit, and sends light_range 0."""
     pts = rng.uniform(-3, 3, size=(5000, 3))
@@ -123,6 +157,9 @@ def test_no_range_is_the_old_footprint_bit_for_bit(rng):
     for light in LIGHTS:
         assert light.uniforms()["light_range"] == float(getattr(light, "range", 0.0))
         assert ("range" in light.describe()) == (getattr(light, "range", 0.0) > 0)
+        plain = not getattr(light, "inverse_square", False)
+        assert (light.uniforms()["light_inverse_square_near"] == 0.0) == plain
+        assert ("inverse_square" in light.describe()) == (not plain)
 
 
 def test_type_ids_match_glsl():

@@ -36,7 +36,7 @@ test: $(STAMP)
 # (prepare_meshes.py, prepare_city.py, make_city_wires.py, make_sv_scenes.py and make_many_light_scenes.py are not experiments:
 # they remake the shipped meshes and scenes, the first two from a downloaded package;
 # volumes_vs_maps.py reads a study directory given to it.)
-EXPERIMENTS := $(filter-out experiments/prepare_meshes.py experiments/prepare_city.py experiments/make_city_wires.py experiments/make_sv_scenes.py experiments/make_many_light_scenes.py experiments/volumes_vs_maps.py,$(wildcard experiments/*.py))
+EXPERIMENTS := $(filter-out experiments/prepare_meshes.py experiments/prepare_city.py experiments/make_city_wires.py experiments/make_sv_scenes.py experiments/make_many_light_scenes.py experiments/make_gltf_scene.py experiments/volumes_vs_maps.py,$(wildcard experiments/*.py))
 experiments: $(STAMP)
 	@set -e; for e in $(EXPERIMENTS); do echo "== $$e"; $(BIN)/python $$e; done
 

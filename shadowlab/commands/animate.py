@@ -266,7 +266,9 @@ def _run(rd: RunDirectory, scene: Scene, techniques, n: int, size, repeat: int, 
                      "threshold": metrics.THRESHOLD, "flicker_caption": caption,
                      "images_light": 0},
         "images": images,
-        "notes": group_notes(notes),  # a note every frame repeats once: "frames 0–23: spec: note"
+        # the scene's own notes (what reading it left out), then a note every frame repeats once:
+        # "frames 0–23: spec: note"
+        "notes": list(scene.notes) + group_notes(notes),
         **provenance.record(),
     }
     rd.record("animation.json", record)

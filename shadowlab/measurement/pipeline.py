@@ -437,7 +437,7 @@ def compare_frame(frame: Frame, techniques: Sequence[Technique], repeat: int = 5
     lights = range(len(frame.scene.lights))
     total = total_steps(len(lights), len(techniques), repeat, warmup)
     evaluator = Evaluator(frame, truth, repeat, warmup, pass_timing)
-    notes = []
+    notes = list(frame.scene.notes)  # what reading the scene left out (a glTF file's skins, ...)
     if frame.degenerate_triangles:
         notes.append(f"{frame.degenerate_triangles} degenerate (zero-area) triangles in the scene")
     truths = [evaluator.truth(li, _stepper(on_step, total, f"{evaluator.truth_technique.name} light {li}"))

@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import posixpath
 import tomllib
 import zipfile
 from pathlib import Path
@@ -25,7 +26,7 @@ import numpy as np
 
 from ..output import provenance
 from ..util.files import replacing
-from ..scene import PRIMITIVES
+from ..scene import PRIMITIVES, gltf
 
 #: Bumped when the layout or meaning of cached entries changes.
 CACHE_FORMAT = 2
@@ -36,13 +37,23 @@ def scene_mesh_files(path: Path) -> list[tuple[str, Path]]:
     per object mesh that is not a primitive, in file order. The one list of a scene's files that
     both its content hash and its Dask bundle (:mod:`shadowlab.study.bundle`) use, so a bundle
     always holds exactly what the hash covers. A file that is not valid TOML names none (loading
-    it fails on its own)."""
+    it fails on its own). A glTF file's own buffer files count as its meshes, and a scene's
+    ``[gltf]`` file as one of its meshes, with that file's buffer files
+    (:func:`shadowlab.scene.gltf.buffer_files`)."""
     path = Path(path)
+    if gltf.is_gltf(path):
+        return gltf.buffer_files(path)
     try:
         data = tomllib.loads(path.read_text())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError):
         return []
     files = []
+    included = data.get("gltf") if isinstance(data.get("gltf"), dict) else {}
+    if isinstance(included.get("file"), str):
+        ref = included["file"]
+        files.append((ref, (path.parent / ref).resolve()))
+        folder = posixpath.dirname(ref)
+        files += [(posixpath.join(folder, r) if folder else r, p) for r, p in gltf.buffer_files(path.parent / ref)]
     for obj in data.get("objects", []) if isinstance(data.get("objects"), list) else []:
         ref = obj.get("mesh") if isinstance(obj, dict) else None
         if isinstance(ref, str) and ref not in PRIMITIVES:

@@ -320,7 +320,7 @@ class DirectionalLight(Light):
 @dataclass
 class SpotLight(PointLight):
     """A point light restricted to a cone around ``direction``: full cone angle ``alpha``,
-    full hotspot angle ``beta`` (degrees, 0 < beta <= alpha < 180)."""
+    full hotspot angle ``beta`` (degrees, 0 <= beta <= alpha < 180)."""
 
     direction: np.ndarray = field(default_factory=lambda: np.array([0.0, -1.0, 0.0]))
     alpha: float = 60.0
@@ -362,7 +362,7 @@ class SpotLight(PointLight):
     def parse(cls, rd: TableReader, common: dict) -> "SpotLight":
         """From a ``[[lights]]`` table of this type; rejects beta > alpha and alpha ≥ 180."""
         alpha = rd.number("alpha", min=0.0, min_open=True)
-        beta = rd.number("beta", min=0.0, min_open=True)
+        beta = rd.number("beta", min=0.0)  # 0: no hotspot (glTF's default innerConeAngle)
         if alpha >= 180.0:
             raise rd.error("alpha", f"full cone angle must be < 180 degrees, got {alpha}")
         if beta > alpha:

@@ -171,6 +171,9 @@ class Scene:
     #: by and judges it on; None when the file declares none (a study then falls back on the name,
     #: :func:`family_from_name`, with a note).
     family: str | None = None
+    #: What reading the scene left out or decided (e.g. a glTF file's skins, extensions, exposure):
+    #: carried into the run notes of compare, animate and studies.
+    notes: list[str] = field(default_factory=list)
 
     def bounds(self) -> np.ndarray:
         """Axis-aligned bounds of every object, (2, 3)."""

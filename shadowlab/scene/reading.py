@@ -1,5 +1,9 @@
 """Reading scene files (TOML, the contract of docs/contracts.md#scene-files) into the scene model.
 
+A glTF 2.0 file (``.gltf``, ``.glb``) is a scene file too, read by :mod:`shadowlab.scene.gltf`,
+either on its own (``scene.glb``, ``scene.glb#Camera`` choosing its camera) or included by a TOML
+scene's ``[gltf]`` table, which may add or override lights, camera, objects and animation.
+
 A loaded :class:`~shadowlab.scene.model.Scene` is plain data: every object's triangles are
 already in world space (float64), welded (vertices merged, so seams do not break edge
 adjacency) and validated. A shipped scene is named by its file stem (``box_on_plane``); any
@@ -21,10 +25,11 @@ import trimesh
 from ..geometry import transforms as tf
 from ..util.text import first_sentence
 from ..util.validation import SceneError, TableReader, did_you_mean
+from . import gltf
 from .animation import parse_animation
 from .area_lights import AREA_SHAPES
 from .lights import LIGHT_TYPES, Light
-from .model import SCENE_FAMILIES, Camera, Material, Scene, SceneObject, Shading, default_of
+from .model import GENERAL_FAMILY, SCENE_FAMILIES, Camera, Material, Scene, SceneObject, Shading, default_of
 
 
 # --------------------------------------------------------------------------- primitives
@@ -224,20 +229,37 @@ def parse_light(table, where: str, file: str) -> Light:
 
 
 def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> Scene:
-    """Build a Scene from a parsed TOML dict; ``base`` is the folder mesh paths are relative to."""
+    """Build a Scene from a parsed TOML dict; ``base`` is the folder mesh paths (and a ``[gltf]``
+    file) are relative to."""
     rd = TableReader(data, "", file)
     name = rd.string("name", default=Path(file).stem)
     metric = _scene_metric(rd)
     family = scene_family_key(rd)
-    camera = _parse_camera(rd.raw("camera"), file)
-    light_tables = rd.table_list("lights")
-    if not light_tables:
-        raise rd.error("lights", "at least one [[lights]] table is required")
-    lights = [parse_light(t, f"lights[{i}]", file) for i, t in enumerate(light_tables)]
-    obj_tables = rd.table_list("objects")
-    if not obj_tables:
-        raise rd.error("objects", "at least one [[objects]] table is required")
-    objects = [_parse_object(t, i, file, base or Path.cwd()) for i, t in enumerate(obj_tables)]
+    imported = None if "gltf" not in rd.table else _GltfPart(rd.raw("gltf"), file, base or Path.cwd())
+    if imported is None:
+        camera = _parse_camera(rd.raw("camera"), file)
+        light_tables = rd.table_list("lights")
+        if not light_tables:
+            raise rd.error("lights", "at least one [[lights]] table is required")
+        lights = [parse_light(t, f"lights[{i}]", file) for i, t in enumerate(light_tables)]
+        obj_tables = rd.table_list("objects")
+        if not obj_tables:
+            raise rd.error("objects", "at least one [[objects]] table is required")
+        objects = [_parse_object(t, i, file, base or Path.cwd()) for i, t in enumerate(obj_tables)]
+    else:  # objects first: the file's camera aims at their bounds, the exposure at its target
+        objects = imported.objects + [_parse_object(t, i, file, base or Path.cwd())
+                                      for i, t in enumerate(rd.table_list("objects", []))]
+        taken = {o.name for o in imported.objects}
+        for i, o in enumerate(objects[len(imported.objects):]):
+            if o.name in taken:
+                raise rd.error(f"objects[{i}].name", f"{o.name!r} is already an object of the glTF file "
+                                                     f"(animation keyframes name objects: give another name)")
+        camera = imported.camera(_bounds(objects)) if "camera" not in rd.table else _parse_camera(rd.raw("camera"), file)
+        lights = imported.lights(camera.target) + [parse_light(t, f"lights[{i}]", file)
+                                                   for i, t in enumerate(rd.table_list("lights", []))]
+        if not lights:
+            raise rd.error("lights", "at least one light is required: the glTF file has none (or [gltf] lights = "
+                                     "false), so add [[lights]]")
     shading_rd = TableReader(rd.raw("shading", {}), "shading", file)
     shading = Shading(density=shading_rd.number("density", default_of(Shading, "density"), min=0.0, max=1.0),
                       shadow_color=shading_rd.vector("shadow_color", 3, default=default_of(Shading, "shadow_color")))
@@ -246,7 +268,96 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
     animation = None if anim_table is None else parse_animation(anim_table, file, lights, [o.name for o in objects])
     rd.finish()
     return Scene(name, camera, lights, objects, shading, Path(file) if file != "<scene>" else None, animation,
-                 metric, family)
+                 metric, family, imported.notes if imported else [])
+
+
+def _bounds(objects: list[SceneObject]) -> np.ndarray:
+    b = np.stack([o.bounds() for o in objects])
+    return np.stack([b[:, 0].min(0), b[:, 1].max(0)])
+
+
+class _GltfPart:
+    """A scene file's ``[gltf]`` table (docs/contracts.md#gltf-scenes): the file it includes,
+    read at once, and what the scene takes from it — objects, a camera (unless the scene gives
+    a ``[camera]``), lights (unless ``lights = false``), scaled by the exposure, with the
+    overrides of ``[gltf.light_overrides.<name>]`` applied — and the file's notes."""
+
+    def __init__(self, table, file: str, base: Path, path: Path | None = None, camera=None):
+        rd = TableReader(table, "gltf", file)
+        self.rd, self.file = rd, file
+        if path is None:
+            ref = rd.string("file")
+            path = (base / ref).resolve()
+            if not gltf.is_gltf(path):
+                raise rd.error("file", f"must name a .gltf or .glb file, got {ref!r}")
+            if not path.is_file():
+                raise rd.error("file", f"glTF file not found: {path}")
+        self.source = gltf.read_gltf(path)
+        choice = rd.raw("camera", camera)
+        if choice is not None and (isinstance(choice, bool) or not isinstance(choice, (str, int))):
+            raise rd.error("camera", f"must be a camera's name or index, got {choice!r}")
+        self.camera_choice = choice
+        self.import_lights = rd.boolean("lights", True)
+        exposure = rd.raw("exposure", "auto")
+        if exposure != "auto":
+            exposure = rd.number("exposure", min=0.0, min_open=True)
+        self.exposure = exposure
+        self.ambient = rd.number("ambient", gltf.DEFAULT_AMBIENT_SHARE, min=0.0)
+        overrides = rd.raw("light_overrides", {})
+        if not isinstance(overrides, dict) or not all(isinstance(v, dict) for v in overrides.values()):
+            raise rd.error("light_overrides", "must be a table of tables ([gltf.light_overrides.<light name>])")
+        names = [l.name for l in self.source.lights]
+        for key, value in overrides.items():
+            if key not in names:
+                raise rd.error(f"light_overrides.{key}", f"no light {key!r} in {path.name}{did_you_mean(key, names)} "
+                                                          f"(lights: {', '.join(names) or 'none'})")
+            if "type" in value:
+                raise rd.error(f"light_overrides.{key}.type", "an override changes a light's values, not its type "
+                                                              "(set lights = false and add [[lights]] instead)")
+        self.overrides = overrides
+        rd.finish()
+        self.objects = self.source.objects
+        self.notes = list(self.source.notes)
+
+    def camera(self, bounds: np.ndarray) -> Camera:
+        """The chosen camera of the file (SceneError naming ``gltf.camera`` when it has none)."""
+        cam, _ = gltf.choose_camera(self.source, self.camera_choice, key="gltf.camera")
+        return gltf.lab_camera(cam, bounds)
+
+    def lights(self, target: np.ndarray) -> list[Light]:
+        """The file's lights (none with ``lights = false``), the exposure fixed from the camera
+        ``target``, each read through :func:`parse_light` after its override."""
+        if not self.import_lights:
+            return []
+        exposure = self.exposure
+        if exposure == "auto":
+            exposure = gltf.auto_exposure(self.source.lights, target)
+            if self.source.lights:
+                self.notes.append(f"glTF {self.source.path.name}: exposure 'auto' = {exposure:.6g} "
+                                  f"(each light's colour = colour · intensity · exposure)")
+        out = []
+        for light in self.source.lights:
+            table = gltf.light_table(light, exposure, self.ambient)
+            override = self.overrides.get(light.name, {})
+            if "range" in override and "inverse_square" not in override:
+                table.pop("inverse_square", None)  # a range brings its own (windowed) falloff
+            table.update(override)
+            out.append(parse_light(table, f"gltf.light_overrides.{light.name}" if override else
+                                   f"{self.source.path.name}#{light.name}", self.file))
+        return out
+
+
+def gltf_scene(path: Path, camera=None) -> Scene:
+    """A glTF file as a scene on its own: its objects, its lights at the automatic exposure, the
+    camera ``camera`` names (None: the first); family general."""
+    part = _GltfPart({}, str(path), path.parent, path=Path(path), camera=camera)
+    cam = part.camera(_bounds(part.objects))
+    lights = part.lights(cam.target)
+    if not lights:
+        raise SceneError(str(path), "lights", f"{Path(path).name} has no lights; write a TOML scene that includes "
+                                              f"it ([gltf] file = ...) and adds [[lights]]")
+    return Scene(Path(path).stem, cam, lights, part.objects, Shading(), Path(path), None, None, GENERAL_FAMILY,
+                 part.notes)
 
 
 def _scene_metric(rd: TableReader) -> str | None:
@@ -278,7 +389,8 @@ def builtin_scenes() -> dict[str, Path]:
 
 
 def resolve_scene_path(ref: str | Path) -> Path:
-    """A shipped scene's name or a path to a scene file → the file's path (SceneError if neither)."""
+    """A shipped scene's name or a path to a scene file → the file's path (SceneError if neither).
+    A glTF file's path may carry a camera choice after ``#`` (``scene.glb#Camera``), dropped here."""
     ref = str(ref)
     shipped = builtin_scenes()
     if ref in shipped:
@@ -286,6 +398,9 @@ def resolve_scene_path(ref: str | Path) -> Path:
     path = Path(ref)
     if path.is_file():
         return path
+    head, choice = gltf.split_reference(ref)
+    if choice is not None and Path(head).is_file():
+        return Path(head)
     raise SceneError(ref, "scene", f"no such scene file, and not a shipped scene{did_you_mean(ref, shipped)} "
                                    f"({', '.join(shipped)})")
 
@@ -294,8 +409,12 @@ def load_scene(ref: str | Path) -> Scene:
     """Load and validate a scene by shipped name or path; raises SceneError on any problem. The
     ``metric`` key is kept as read: commands and studies load through
     :func:`shadowlab.measurement.scenes.load_measured_scene`, which also checks that it names a
-    metrics column."""
+    metrics column. A ``.gltf``/``.glb`` path is read by :func:`gltf_scene`, with the camera a
+    ``#name`` or ``#index`` after the path chooses."""
     path = resolve_scene_path(ref)
+    if gltf.is_gltf(path):
+        head, choice = gltf.split_reference(str(ref))
+        return gltf_scene(path, choice if Path(head).is_file() and not Path(str(ref)).is_file() else None)
     try:
         data = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
@@ -322,7 +441,10 @@ def scene_purpose(path: Path) -> str:
     it (every shipped scene has one), shortened to about :data:`PURPOSE_LENGTH` characters the
     way the README's summaries are (:func:`shadowlab.util.text.first_sentence`: parentheses
     dropped first, then cut at a dash or colon or at a word boundary with "…"); "" when the
-    file opens with no comment. Reads only the comment: the scene is not loaded."""
+    file opens with no comment. Reads only the comment: the scene is not loaded. A glTF file's
+    purpose is what wrote it (``asset.generator``)."""
+    if gltf.is_gltf(path):
+        return first_sentence(gltf.describe(path), limit=PURPOSE_LENGTH)
     lines = []
     for line in Path(path).read_text(encoding="utf-8").splitlines():
         if not line.strip() and not lines:

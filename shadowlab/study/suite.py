@@ -171,10 +171,16 @@ def _scene(ref: str, where: str, file: str, base: Path) -> SceneEntry:
     """Resolve a scene reference (shipped name, or a path relative to the suite file) and check
     that it is a readable TOML file. Its family is the file's ``family`` key, read as strictly as
     a scene load reads it; a file without one gets the family its name suggests
-    (:func:`shadowlab.scene.family_from_name`) and a note that says so."""
-    from ..scene import builtin_scenes, family_from_name, scene_family_key
+    (:func:`shadowlab.scene.family_from_name`) and a note that says so. A glTF file (``.gltf``,
+    ``.glb``) is resolved the same way and read whole here (its lights' types are its own, its
+    family ``general``); its camera is its first: a study that wants another names a TOML scene
+    that includes the file with ``[gltf] camera = ...``."""
+    from ..scene import GENERAL_FAMILY, builtin_scenes, family_from_name, gltf, scene_family_key
 
     shipped = builtin_scenes()
+    if gltf.split_reference(ref)[1] is not None:
+        raise SuiteError(f"{file}: {where}: {ref!r}: a suite cannot choose a glTF file's camera with '#'; name a TOML "
+                         f"scene that includes the file ([gltf] file = ..., camera = ...)")
     candidates = [base / ref, Path(ref)]
     if ref in shipped:
         path = shipped[ref]
@@ -183,6 +189,15 @@ def _scene(ref: str, where: str, file: str, base: Path) -> SceneEntry:
     else:
         raise SuiteError(f"{file}: {where}: unknown scene {ref!r}{did_you_mean(ref, shipped)} (not a shipped scene "
                          f"— see 'shadowlab scenes' — and no file {candidates[0]})")
+    if gltf.is_gltf(path):
+        from ..scene import load_scene
+
+        try:
+            scene = load_scene(path)
+        except SceneError as exc:
+            raise SuiteError(f"{exc} (scene {ref!r} of {file}: {where})") from None
+        return SceneEntry(scene.name, path.resolve(), GENERAL_FAMILY, tuple(l.type_name for l in scene.lights),
+                          None, None)
     try:
         data = tomllib.loads(path.read_text())
     except (tomllib.TOMLDecodeError, OSError, UnicodeDecodeError) as exc:

@@ -191,7 +191,8 @@ def _truth(task: dict) -> dict:
     arrays = {f"truth_{li}": m.visibility.astype(np.float32) for li, m in zip(lights, truths)}
     arrays["mask_0"] = np.where(ev0, truths[0].visibility, np.nan).astype(np.float32)
     cam = frame.camera
-    notes = [f"{frame.degenerate_triangles} degenerate (zero-area) triangles in the scene"] \
+    notes = list(frame.scene.notes)  # what reading the scene left out (a glTF file's skins, ...)
+    notes += [f"{frame.degenerate_triangles} degenerate (zero-area) triangles in the scene"] \
         if frame.degenerate_triangles else []
     notes += [n for n in [perceptual.missing_note()] if n]
     meta = {"rows": rows, "notes": notes + list(dict.fromkeys(evaluator.truth_technique.notes)),

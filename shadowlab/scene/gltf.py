@@ -96,6 +96,7 @@ class GltfCamera:
     yfov: float | None = None  # radians
     znear: float | None = None
     zfar: float | None = None
+    node: str = ""            # its node's name (a choice may name either)
 
 
 @dataclass
@@ -418,6 +419,8 @@ def read_gltf(path) -> GltfFile:
     if not objects:
         raise rd.error("meshes", "the scene holds no triangle meshes")
     generator = str(rd.get(rd.doc, "asset", dict, "asset").get("generator", ""))
+    notes += [f"camera {c.name!r} is orthographic and cannot be chosen (the lab's camera is perspective)"
+              for c in cameras if c.type != "perspective"]
     notes[:0] = _unsupported(rd, nodes, meshes, materials, walk)
     return GltfFile(rd.path, generator, objects, lights, cameras, [f"glTF {name}: {n}" for n in notes])
 
@@ -542,7 +545,7 @@ def _camera(rd: _Reader, ci: int, d: dict, node_name: str, world: np.ndarray) ->
     if kind not in ("perspective", "orthographic"):
         raise rd.error(f"{key}.type", f"must be perspective or orthographic, got {kind!r}")
     cam = GltfCamera(str(d.get("name") or node_name), kind, world[:3, 3].copy(), _axis(world, [0.0, 0.0, -1.0]),
-                     _axis(world, [0.0, 1.0, 0.0]))
+                     _axis(world, [0.0, 1.0, 0.0]), node=node_name)
     if kind == "perspective":
         p = rd.get(d, "perspective", dict, f"{key}.perspective", None)
         if p is None:
@@ -632,6 +635,8 @@ def choose_camera(g: GltfFile, choice: str | int | None = None, *, key: str = "c
         i = persp[0]
     elif str(choice) in names:
         i = names.index(str(choice))
+    elif str(choice) in [c.node for c in g.cameras]:
+        i = [c.node for c in g.cameras].index(str(choice))
     elif str(choice).lstrip("-").isdigit() and 0 <= int(choice) < len(g.cameras):
         i = int(choice)
     else:

@@ -20,7 +20,17 @@ Variants (``variant=``), tuned by ``bias``, ``slope_scale``, ``normal_offset`` (
   everywhere, ``bias`` × the map's depth range, and is kept: the defaults were chosen so
   (docs/tuning.md, "Near planes and the world-distance bias").
 - ``window``: window-depth units [0, 1], the seed's and the literature's form (the bias
-  experiments, ``dual``'s offset cap).
+  experiments, ``dual``'s offset cap);
+- ``units``: an absolute distance in scene units towards the light, as Bevy and Godot give their
+  depth bias (metres): converted at each receiver on perspective maps, ``bias`` / the depth range
+  of window depth on orthographic ones (the same distance: window depth is linear there);
+- ``texels``: that many texels of the map, as Unity scales its depth bias: on orthographic maps
+  the texel's world size, on perspective maps one texel's size at the far plane (Unity takes it
+  at the light's range), as a distance converted at each receiver.
+
+``preset=godot|bevy|threejs|unity|ue5`` starts from that engine's default shadow settings for the
+light at hand (directional, or point/spot), keys given in the spec overriding them; the values,
+their sources and how faithful each mapping is are in :mod:`shadowlab.techniques.maps.presets`.
 
 The variants:
 
@@ -136,7 +146,8 @@ COMPARISON_PARAMS = {
                         tune=TuneRange(256, 8192, log=True)),
     "bias": Param(0.002, "constant depth bias: with bias_space=world a distance towards the light, as a fraction "
                          "of the scene's extent (perspective maps) or of the depth range (orthographic maps); "
-                         "with window, window-depth units [0, 1] (dual: the offset cap, window depth)",
+                         "with window, window-depth units [0, 1] (dual: the offset cap, window depth); with units, scene "
+                         "units; with texels, map texels",
                   # acne below ~1e-6 of the depth range (or extent) even at 32 bits; 0.05 detaches every contact
                   min=0.0, max=1.0, tune=TuneRange(1e-6, 0.05, log=True)),
     "bias_space": Param("world", "what bias measures: world (a distance moved towards the light at each receiver, "
@@ -144,7 +155,7 @@ COMPARISON_PARAMS = {
                                  "converted to window depth at the receiver; on orthographic maps window depth is "
                                  "linear and the bias is kept as it is, bias x the depth range) or window (window "
                                  "depth, the seed's and the literature's form, which a near plane close to the light "
-                                 "turns into metres), units (an absolute distance in scene units moved towards the light, as engines "
+                                 "turns into metres); shadow_map also takes units (an absolute distance in scene units moved towards the light, as engines "
                                  "give it: Bevy's and Godot's depth bias) or texels (that many of the map's texels: on "
                                  "orthographic maps the texel's world size, on perspective maps a texel's size at the "
                                  "far plane; Unity's depth bias)",

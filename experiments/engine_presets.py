@@ -52,7 +52,8 @@ def tune_one(preset: str, scene: str, size: str, work: Path) -> dict:
                 "error": (done.stderr.strip().splitlines() or ["?"])[-1]}
     best = json.loads((out / "best.json").read_text())
     rows = pd.read_csv(out / "metrics.csv")
-    rows = rows[rows["technique"] == "shadow_map"].reset_index(drop=True)
+    # light 0 only (the tuned light; a scene with two lights has rows for both)
+    rows = rows[(rows["technique"] == "shadow_map") & (rows["light"] == 0)].reset_index(drop=True)
     default, tuned = rows.iloc[0], rows.iloc[len(rows) - 1]
     record = {"preset": preset, "scene": scene, "status": "ok", "route": best.get("route"),
               "light_type": _light_type(out)}
@@ -81,15 +82,23 @@ def main() -> None:
     ap.add_argument("--out", default="results/presets")
     ap.add_argument("--size", default="320x240")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--scenes", nargs="*", default=None,
+                    help="rerun only these scenes, replacing their rows of an existing presets.csv")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        jobs = [(p, s) for p in PRESETS for s in SCENES]
+        jobs = [(p, s) for p in PRESETS for s in (args.scenes or SCENES)]
         with ThreadPoolExecutor(args.jobs) as pool:
             rows = list(pool.map(lambda job: tune_one(*job, args.size, Path(tmp)), jobs))
     table = pd.DataFrame(rows)
+    if args.scenes and (out / "presets.csv").exists():  # a partial rerun: replace those scenes' rows
+        old = pd.read_csv(out / "presets.csv")
+        table = pd.concat([old[~old["scene"].isin(args.scenes)], table], ignore_index=True)
+        order = {s: i for i, s in enumerate(SCENES)}
+        table = table.sort_values(["preset", "scene"], key=lambda c: c.map(order) if c.name == "scene" else
+                                  c.map({p: i for i, p in enumerate(PRESETS)})).reset_index(drop=True)
     table.to_csv(out / "presets.csv", index=False)
     record = {"experiment": "engine_presets", "size": args.size, "scenes": SCENES, "presets": list(PRESETS),
               "bias_range": BIAS_RANGE, "tuned_parameter": "bias",

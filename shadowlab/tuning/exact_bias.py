@@ -167,7 +167,10 @@ def world_thresholds(tech: Technique, thresholds: np.ndarray, normal_offset: flo
     Q = P + N * (normal_offset * np.asarray(texel))[..., None]
     to_light, _ = light.to_light(Q)
     mats = np.stack([BIAS @ f.view_proj for f in tech.atlas.faces])[tech.face_index(Q)]
-    extent = float(frame.scene.extent())
+    # one unit of bias as a world distance: the scene's extent (bias_space=world), 1 (units), a
+    # texel at the far plane (texels): shadow_map's bias_unit
+    unit = getattr(tech, "bias_unit", None)
+    extent = unit()[1] if unit is not None else float(frame.scene.extent())
     for k in range(len(out)):
         t = out[k, ok].astype(np.float64)
         convert = np.isfinite(t) & (t > 0)
@@ -484,6 +487,13 @@ def exact_bias_tune(evaluator: Evaluator, spec: str, light: int = 0, lo: float =
                 offset = float(value) if grid_param == "normal_offset" else \
                     (float(tech.normal_offset) if tech.variant == "normal_offset" else 0.0)
                 th = world_thresholds(tech, th, offset, away)
+            elif hasattr(tech, "bias_unit") and tech.bias_unit()[1] != 1.0:
+                # a window-depth bias in other units (units, texels on an orthographic map): the
+                # thresholds in those units; float32 rounding of the product can differ from the
+                # shader's by one step, which emulation_mismatch counts
+                unit = tech.bias_unit()[1]
+                finite = np.isfinite(th)
+                th = np.where(finite, th.astype(np.float64) / unit, th).astype(np.float32)
             curve = BiasCurve.build(th[:, ev.ravel()], truth[ev], lo, hi,
                                     None if away is None else away[:, ev.ravel()])
             seconds["curves"] = seconds.get("curves", 0.0) + time.perf_counter() - t0

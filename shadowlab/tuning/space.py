@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Sequence
 
-from ..techniques.base import Param, Technique, TechniqueError, format_value
+from ..techniques.base import Param, Technique, TechniqueError, format_value, parse_spec
 from ..util.validation import did_you_mean
 
 KINDS = ("float", "int", "choice")
@@ -271,4 +271,7 @@ def with_params(tech: Technique, values: dict) -> str:
     """The full spec of ``tech`` with ``values`` (parameter → value) replacing its own, checked
     as a spec would be (TechniqueError for an unknown key or a bad value); ``from_spec`` of the
     result rebuilds the technique with those values."""
-    return type(tech)(**{**tech.params(), **values}).spec()
+    # from the spec, not params(): a spec with an engine preset leaves out the keys the preset
+    # fills in per light type (shadowlab/techniques/maps/presets.py), and they must stay so
+    name, given = parse_spec(tech.spec())
+    return type(tech)(**{**given, **values}).spec()

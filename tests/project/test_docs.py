@@ -47,7 +47,7 @@ def test_technique_pages_read_the_declarations(registry_snapshot):
     text = technique_pages.page(ShadowMap)
     assert text.startswith("# `shadow_map`") and "[maps](README.md#maps)" in text
     assert "| `resolution` | `2048` | int, ≥ 16, ≤ 16384 | 256 – 8192, log |" in text
-    assert "| `bias_space` | `world` | `world` \\| `window` |" in text
+    assert "| `bias_space` | `world` | `world` \\| `window` \\| `units` \\| `texels` |" in text
     assert "1. `depth`" in text and "4. `lookup`" in text
     assert "[`shadow_lookup.glsl`](../../shadowlab/techniques/maps/shadow_lookup.glsl)" in text  # the toolkit's
     assert "[`lights.glsl`](../../shadowlab/gpu/lights.glsl)" in text  # included from gpu/

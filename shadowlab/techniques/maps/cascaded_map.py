@@ -58,6 +58,7 @@ from ...geometry.frusta import MIN_EXTENT, PAD, LightView
 from ..base import FIRST, Param, PlotStyle, TechniqueError, TuneRange
 from .toolkit import DEPTH_MAP_STATS, FILTERS, MAX_FACES, DepthMapTechnique, shadowable_mask
 from .contact import ContactShadows
+from .presets import PRESET_NAMES, PresetMixin
 
 #: Most cascades: one per face of the map toolkit's atlas.
 MAX_CASCADES = MAX_FACES
@@ -257,7 +258,7 @@ def cover_intervals(splits: np.ndarray, blend_start: np.ndarray) -> np.ndarray:
     return np.stack([np.maximum(z0 - margin, 0.0), z1 + margin], axis=1)
 
 
-class CascadedShadowMap(ContactShadows, DepthMapTechnique):
+class CascadedShadowMap(PresetMixin, ContactShadows, DepthMapTechnique):
     """Cascaded shadow maps (Engel 2006) with Zhang et al.'s split scheme, optional blending,
     Valient's stabilisation, and SDSM fitting (Lauritzen et al. 2011); directional lights only."""
 
@@ -301,6 +302,9 @@ class CascadedShadowMap(ContactShadows, DepthMapTechnique):
         "depth_bits": Param(24, "depth format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
         "filter": Param("nearest", "nearest, pcf3, pcf5 (texel-exact percentage-closer filtering)",
                         choices=("nearest", "pcf3", "pcf5")),
+        "preset": Param("none", "start from an engine's default cascade settings (count, resolution, splits, "
+                                "blending, filter; keys given in the spec override them; "
+                                "shadowlab/techniques/maps/presets.py)", choices=PRESET_NAMES),
     }
 
     # ------------------------------------------------------------------ fitting

@@ -20,7 +20,17 @@ Variants (``variant=``), tuned by ``bias``, ``slope_scale``, ``normal_offset`` (
   everywhere, ``bias`` × the map's depth range, and is kept: the defaults were chosen so
   (docs/tuning.md, "Near planes and the world-distance bias").
 - ``window``: window-depth units [0, 1], the seed's and the literature's form (the bias
-  experiments, ``dual``'s offset cap).
+  experiments, ``dual``'s offset cap);
+- ``units``: an absolute distance in scene units towards the light, as Bevy and Godot give their
+  depth bias (metres): converted at each receiver on perspective maps, ``bias`` / the depth range
+  of window depth on orthographic ones (the same distance: window depth is linear there);
+- ``texels``: that many texels of the map, as Unity scales its depth bias: on orthographic maps
+  the texel's world size, on perspective maps one texel's size at the far plane (Unity takes it
+  at the light's range), as a distance converted at each receiver.
+
+``preset=godot|bevy|threejs|unity|ue5`` starts from that engine's default shadow settings for the
+light at hand (directional, or point/spot), keys given in the spec overriding them; the values,
+their sources and how faithful each mapping is are in :mod:`shadowlab.techniques.maps.presets`.
 
 The variants:
 
@@ -116,6 +126,7 @@ from ...geometry.frusta import LightView
 from ..base import Param, PlotStyle, TechniqueError, TuneRange
 from .toolkit import FILTERS, DepthMapTechnique, fit_light_views
 from .contact import ContactShadows
+from .presets import PRESET_NAMES, PresetMixin
 
 VARIANTS = ("none", "constant", "slope", "normal_offset", "second_depth", "midpoint", "dual",
             "receiver_plane", "adaptive", "oriented")
@@ -135,7 +146,8 @@ COMPARISON_PARAMS = {
                         tune=TuneRange(256, 8192, log=True)),
     "bias": Param(0.002, "constant depth bias: with bias_space=world a distance towards the light, as a fraction "
                          "of the scene's extent (perspective maps) or of the depth range (orthographic maps); "
-                         "with window, window-depth units [0, 1] (dual: the offset cap, window depth)",
+                         "with window, window-depth units [0, 1] (dual: the offset cap, window depth); with units, scene "
+                         "units; with texels, map texels",
                   # acne below ~1e-6 of the depth range (or extent) even at 32 bits; 0.05 detaches every contact
                   min=0.0, max=1.0, tune=TuneRange(1e-6, 0.05, log=True)),
     "bias_space": Param("world", "what bias measures: world (a distance moved towards the light at each receiver, "
@@ -143,8 +155,11 @@ COMPARISON_PARAMS = {
                                  "converted to window depth at the receiver; on orthographic maps window depth is "
                                  "linear and the bias is kept as it is, bias x the depth range) or window (window "
                                  "depth, the seed's and the literature's form, which a near plane close to the light "
-                                 "turns into metres)",
-                        choices=("world", "window")),
+                                 "turns into metres); shadow_map also takes units (an absolute distance in scene units moved towards the light, as engines "
+                                 "give it: Bevy's and Godot's depth bias) or texels (that many of the map's texels: on "
+                                 "orthographic maps the texel's world size, on perspective maps a texel's size at the "
+                                 "far plane; Unity's depth bias)",
+                        choices=("world", "window", "units", "texels")),
     "depth_bits": Param(24, "depth format: 16 / 24 fixed point, 32 float", choices=(16, 24, 32)),
     "variant": Param("constant", "depth comparison", choices=VARIANTS),
     "slope_scale": Param(2.0, "slope variant: multiple of the receiver's depth change over one texel",
@@ -195,21 +210,47 @@ class ComparisonVariants:
 
     def converts_world_bias(self) -> bool:
         """True when the lookup converts a world-distance bias at each receiver: ``bias_space``
-        world on a perspective map. An orthographic map's window depth is linear, so there a
-        window-depth bias already is one world distance everywhere (× the depth range)."""
+        world, units or texels on a perspective map. An orthographic map's window depth is
+        linear, so there a window-depth bias already is one world distance everywhere (× the
+        depth range)."""
         atlas = getattr(self, "atlas", None)  # before setup the map's projection is not known yet
-        return self.bias_space == "world" and (atlas is None or atlas.faces[0].proj[3, 3] != 1.0)
+        return self.bias_space != "window" and (atlas is None or atlas.faces[0].proj[3, 3] != 1.0)
+
+    def bias_unit(self) -> tuple[str, float]:
+        """What one unit of ``bias`` is in the lookup, after setup: ("world", s) — a distance of
+        s world units towards the light, converted at each receiver — or ("window", s), s of
+        window depth. ``world``: the scene's extent on perspective maps, 1 window unit on
+        orthographic ones (the defaults' form, docs/tuning.md); ``window``: 1 window unit;
+        ``units``: 1 world unit (perspective), 1 / the depth range of window depth
+        (orthographic: window depth is linear in distance, so this is the same distance);
+        ``texels``: one texel's world size — on orthographic maps ``texel_world`` (as window
+        depth), on perspective maps ``texel_angle`` × the far plane's distance, one texel's size
+        where the map ends (Unity's texel at the light's range is the same idea)."""
+        if self.bias_space == "window":
+            return "window", 1.0
+        face = self.atlas.faces[0]
+        ortho = face.proj[3, 3] == 1.0
+        if self.bias_space == "world":
+            return ("window", 1.0) if ortho else ("world", float(self.frame.scene.extent()))
+        if self.bias_space == "units":
+            return ("window", 1.0 / face.depth_range) if ortho else ("world", 1.0)
+        # texels
+        if ortho:
+            return "window", float(face.texel_world) / face.depth_range
+        return "world", float(face.texel_angle) * face.near_far()[1]
 
     def bias_window_world(self) -> tuple[float, float]:
-        """The constant bias as (window depth, world distance), as the lookup applies it: with
-        ``bias_space=world``, ``bias`` × the scene's extent as a distance on perspective maps,
-        and ``bias`` in window depth (= ``bias`` × the depth range, in world units) on
-        orthographic ones; with ``window``, window depth. None for the variants without one."""
+        """The constant bias as (window depth, world distance), as the lookup applies it
+        (:meth:`bias_unit`): with ``bias_space=world``, ``bias`` × the scene's extent as a
+        distance on perspective maps, and ``bias`` in window depth (= ``bias`` × the depth
+        range, in world units) on orthographic ones; with ``window``, window depth; ``units``
+        and ``texels`` likewise through their unit. (0, 0) for the variants without one."""
         if self.variant in UNBIASED_VARIANTS:
             return 0.0, 0.0
-        if self.converts_world_bias():
-            return 0.0, float(self.bias) * float(self.frame.scene.extent())
-        return float(self.bias), 0.0
+        kind, unit = self.bias_unit()
+        if kind == "world":
+            return 0.0, float(self.bias) * unit
+        return (float(self.bias) if unit == 1.0 else float(self.bias) * unit), 0.0
 
     def comparison_uniforms(self) -> dict:
         """The variant's bias terms, the first face's texel size, the PCF radius, the per-tap
@@ -235,7 +276,7 @@ class ComparisonVariants:
         }
 
 
-class ShadowMap(ContactShadows, ComparisonVariants, DepthMapTechnique):
+class ShadowMap(PresetMixin, ContactShadows, ComparisonVariants, DepthMapTechnique):
     """Depth-buffer shadow maps: every light type, the bias family, two-layer variants, filters."""
 
     name = "shadow_map"
@@ -252,7 +293,16 @@ class ShadowMap(ContactShadows, ComparisonVariants, DepthMapTechnique):
         "near": Param(0.0, "perspective maps: force this near plane (0 = fitted to the casters)", min=0.0),
         "fit": Param("shadowable", "cover the receivers that can be shadowed (shadowable) or all visible "
                                    "receivers (receivers, the classic fit)", choices=("shadowable", "receivers")),
+        "preset": Param("none", "start from an engine's default shadow settings for the light at hand (keys given "
+                                "in the spec override them; shadowlab/techniques/maps/presets.py, docs/your-scenes.md)",
+                        choices=PRESET_NAMES),
     }
+
+    def _check_params(self) -> None:
+        """The per-tap variants need a depth test per texel: refused with hw2x2 (as when parsed)."""
+        if self.variant in PER_TAP_VARIANTS and FILTERS[self.filter] is None:
+            raise TechniqueError(f"{self.name}: variant={self.variant} compares each texel with its own receiver "
+                                 f"depth; filter={self.filter} compares one depth in the texture unit")
 
     def fit_views(self, frame, slot) -> tuple[list[LightView], list[str]]:
         """The map's faces and notes for the run (:func:`~shadowlab.techniques.maps.toolkit.fit_light_views`)."""

@@ -1,4 +1,4 @@
-"""The viewer's pictures, made by the lab's own pipeline on the lab's own GL context.
+"""The viewer's pictures, made by the lab's own pipeline on the window's GL context.
 
 For each camera the viewer stands at, :class:`LabRenderer` makes one :class:`shadowlab.gpu.frame.Frame`
 (the G-buffer and exact points, as ``compare`` does for a scene file's camera), measures the shown

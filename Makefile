@@ -10,7 +10,7 @@ STAMP  := $(VENV)/.installed
 $(STAMP): pyproject.toml setup.py constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,perceptual]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[test,perceptual,viewer]'
 	touch $(STAMP)
 
 install: $(STAMP)
@@ -23,7 +23,10 @@ run: $(STAMP)
 # The tests, the lab installed from its wheel into a fresh venv outside the tree (an editable
 # install hides packaging mistakes), then the quick study and the soft-shadow study held against
 # their committed baselines (what CI runs).
+# The viewer's tests need an X server: Xvfb, installed here when missing and possible (root and
+# apt-get; best effort, never failing the build — without it those tests skip with the hint).
 test: $(STAMP)
+	@command -v Xvfb >/dev/null || (apt-get install -y xvfb >/dev/null 2>&1 || true)
 	$(BIN)/python -m pytest -q
 	bash tests/install_check/run.sh $(BIN)/python
 	$(BIN)/shadowlab study quick --out results/study-quick

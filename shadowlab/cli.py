@@ -10,7 +10,7 @@ import argparse
 import re
 import sys
 
-from .util.sizes import ANIMATE_SIZE, COMPARE_SIZE, size_text
+from .util.sizes import ANIMATE_SIZE, COMPARE_SIZE, VIEW_SIZE, size_text
 from .util.validation import SceneError
 
 EXIT_BAD_INPUT = 2
@@ -150,6 +150,26 @@ def _parser() -> argparse.ArgumentParser:
     c.add_argument("--pass-timing", action="store_true",
                    help="also time each named pass (pass_<name>_ms columns, a stacked bar chart in the report; "
                         "measured in runs of their own)")
+    vw = sub.add_parser("view", help="fly through a scene in a window: a technique's shaded image, the truth, the "
+                        "error map, the texel footprint, the visibility (needs a display: xvfb-run without one)",
+                        epilog=_view_keys_text(), formatter_class=argparse.RawDescriptionHelpFormatter)
+    vw.add_argument("scene", help="a shipped scene's name or a path to a scene file")
+    vw.add_argument("--technique", "-t", action="append", default=None, metavar="SPEC",
+                    help="a configuration to show, name or name:key=value,... (repeatable; Tab and 1-9 switch; "
+                         "default: shadow_map, shadow_volume and a few others that render for the scene's lights)")
+    vw.add_argument("--size", default=size_text(VIEW_SIZE),
+                    help=f"window and image size WIDTHxHEIGHT (default {size_text(VIEW_SIZE)})")
+    vw.add_argument("--view", default="shaded", choices=("shaded", "truth", "error", "footprint", "visibility"),
+                    help="the view shown first (default shaded)")
+    vw.add_argument("--screenshot", default=None, metavar="PNG",
+                    help="draw the first frame (the truth computed first), save it as PNG and exit")
+    vw.add_argument("--script", default=None, metavar="FILE",
+                    help="drive the viewer from a TOML script of [[step]]s (keys, mouse drags, screenshots, saved "
+                         "views, frame times, quit; docs/your-scenes.md#the-viewer)")
+    vw.add_argument("--out", default=".", metavar="DIR",
+                    help="where screenshots and saved views go (default: the current directory)")
+    vw.add_argument("--hud", action=argparse.BooleanOptionalAction, default=True,
+                    help="draw the HUD: configuration, view, times, error (default on; key h toggles)")
     st = sub.add_parser("study", help="run a suite of scenes x techniques and draw the comparison")
     st.add_argument("suite", help="a shipped suite's name (see 'shadowlab suites') or a path to a suite file")
     st.add_argument("--out", default=None, help="study directory (default results/study-<suite name>)")
@@ -227,6 +247,39 @@ def _parser() -> argparse.ArgumentParser:
     ch.add_argument("baseline", help="baseline CSV (scene, light, config, label, held metrics)")
     ch.add_argument("--update", action="store_true", help="write the study's metrics as the new baseline instead")
     return p
+
+
+def _view_keys_text() -> str:
+    """The viewer's keys, for ``shadowlab view --help`` (from the key map the viewer uses)."""
+    from .viewer.state import ACTION_HELP, KEYMAP
+
+    lines = ["keys:", "  W A S D, Q E    fly forward, left, back, right, down, up (shift: faster)",
+             "  mouse drag      look around"]
+    shown = set()
+    for key, action in KEYMAP.items():
+        name = "config_n" if action.startswith("config_") else action
+        if name in shown:
+            continue
+        shown.add(name)
+        lines.append(f"  {'1-9' if name == 'config_n' else key:<15s} {ACTION_HELP[name]}")
+    return "\n".join(lines)
+
+
+def _cmd_view(args) -> int:
+    from pathlib import Path
+
+    from .gpu.gl import GLContextError
+    from .viewer.app import NoDisplay, view
+
+    try:
+        return view(args.scene, args.technique, parse_size(args.size), view_name=args.view,
+                    screenshot=args.screenshot, script=args.script, out=Path(args.out), hud=args.hud)
+    except NoDisplay as exc:
+        print(f"shadowlab: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except GLContextError as exc:
+        print(f"shadowlab: {exc}", file=sys.stderr)
+        return EXIT_NO_GL
 
 
 def _cmd_suites() -> int:
@@ -499,6 +552,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_cost(args)
         if args.command == "pick":
             return _cmd_pick(args)
+        if args.command == "view":
+            return _cmd_view(args)
         return _cmd_compare(args)
     except (SceneError, TechniqueError, RunError, SuiteError, TuneError) as exc:
         print(f"shadowlab: error: {exc}", file=sys.stderr)

@@ -1,4 +1,5 @@
-"""Headless OpenGL for the whole lab: the one place that makes the GL context.
+"""Headless OpenGL for the whole lab: the one place that makes the GL context (or, for the
+viewer, adopts its window's: :func:`adopt`).
 
 moderngl drives programs, buffers and draws; PyOpenGL, on moderngl's current context, does
 what moderngl has no API for. This module makes the context (EGL, no window), names the device
@@ -51,6 +52,22 @@ def context():
         except Exception as exc:  # moderngl raises plain Exceptions here
             raise GLContextError(f"cannot create a headless OpenGL context through EGL: {exc}; {EGL_HINT}") from exc
     return _CONTEXT
+
+
+def adopt(ctx) -> None:
+    """Make ``ctx`` — a moderngl context on a window, current on this thread — the lab's context
+    instead of a headless one: ``shadowlab view`` renders the lab's passes on its window's context
+    (docs/your-scenes.md#the-viewer). A process with two GL contexts would have to switch between
+    them around every call (moderngl contexts do not make themselves current; an EGL and a GLX
+    context on one thread do not restore each other reliably through libglvnd), so the viewer
+    has one. GLContextError when the lab has already made its own context, or when ``ctx`` is
+    older than OpenGL 3.3."""
+    global _CONTEXT
+    if _CONTEXT is not None and _CONTEXT is not ctx:
+        raise GLContextError("the lab's GL context already exists; adopt a window's context before any GL work")
+    if ctx.version_code < 330:
+        raise GLContextError(f"the window's OpenGL context is {ctx.version_code}, the lab needs 330 or later")
+    _CONTEXT = ctx
 
 
 def renderer() -> str:

@@ -54,7 +54,8 @@ PIPELINE_STATS = {**{k: FIRST for k in texel_footprint.COLUMNS}, "light_samples"
 
 def measure(tech: Technique, frame: Frame, light: LightSlot | int, repeat: int = 5, warmup: int = 1,
             on_step: Callable[[], None] | None = None, release: bool = True,
-            pass_timing: bool = False, count: bool = True, budgeted: bool = True) -> Measurement:
+            pass_timing: bool = False, count: bool = True, budgeted: bool = True,
+            footprint: bool = True) -> Measurement:
     """Set ``tech`` up for one light slot (or a scene light's index), time ``warmup`` +
     ``repeat`` renders of its passes, read its visibility and cost figures, check GL errors,
     and (``release``) free its GL objects — also when any step fails.
@@ -63,7 +64,9 @@ def measure(tech: Technique, frame: Frame, light: LightSlot | int, repeat: int =
     (:class:`shadowlab.gpu.timing.PassTimer`); they run after the timed renders, so the finishes
     between passes do not perturb ``time_ms_median``. ``count`` (default): one more render
     counts the work (:func:`count_work`, ``Measurement.work``); False leaves ``work`` empty (the
-    test suite's shared measurements, which do not read it, save that render).
+    test suite's shared measurements, which do not read it, save that render). ``footprint``
+    False skips the texel-footprint image and columns (the viewer, which shows them only in its
+    footprint view, saves their cost on every other frame).
 
     A light-sampled technique (``LIGHT_SAMPLED``) on an area light is measured as the average of
     ``light_samples`` hard measurements, one per point of the light, each on a stand-in slot
@@ -80,13 +83,13 @@ def measure(tech: Technique, frame: Frame, light: LightSlot | int, repeat: int =
     if tech.budget_settings() and budgeted:
         return budget.measure_budgeted(
             tech, frame, slot, lambda t: measure(t, frame, slot, repeat, warmup, on_step, release, pass_timing, count,
-                                                 budgeted=False), repeat)
+                                                 budgeted=False, footprint=footprint), repeat)
     if light_sampling.is_sampled(tech, slot.light):
-        return measure_sampled(tech, frame, slot, repeat, warmup, on_step, release, pass_timing, count)
+        return measure_sampled(tech, frame, slot, repeat, warmup, on_step, release, pass_timing, count, footprint)
     note = light_sampling.ignored_note(tech, slot)
     if note is not None:
         tech.notes.append(note)
-    m = _measure_hard(tech, frame, slot, repeat, warmup, on_step, release, pass_timing, count=count)
+    m = _measure_hard(tech, frame, slot, repeat, warmup, on_step, release, pass_timing, footprint, count)
     if note is not None:
         m.notes.insert(0, note)
     if tech.LIGHT_SAMPLED:
@@ -121,7 +124,7 @@ class _EveryNth:
 
 def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int = 5, warmup: int = 1,
                     on_step: Callable[[], None] | None = None, release: bool = True,
-                    pass_timing: bool = False, count: bool = True) -> Measurement:
+                    pass_timing: bool = False, count: bool = True, footprint: bool = True) -> Measurement:
     """The light-sampling loop (:mod:`shadowlab.measurement.light_sampling`): ``tech`` measured on a stand-in
     point-light slot at each of the ``light_samples`` points of ``slot``'s area light, one
     sample set up, rendered and released at a time, combined into one Measurement — the
@@ -141,7 +144,7 @@ def measure_sampled(tech: Technique, frame: Frame, slot: LightSlot, repeat: int 
     for i, point_light in enumerate(points):
         try:
             m = _measure_hard(tech, frame, frame.stand_in(slot, point_light), repeat, warmup, step,
-                              release=release or i < n - 1, pass_timing=pass_timing, footprint=i == 0,
+                              release=release or i < n - 1, pass_timing=pass_timing, footprint=footprint and i == 0,
                               count=count)
         except Exception as exc:
             exc.add_note(f"{tech.name}: light sample {i + 1} of {n} at {point_light.position.tolist()} "

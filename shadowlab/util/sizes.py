@@ -10,6 +10,9 @@ ANIMATE_SIZE = (320, 240)
 #: What :func:`shadowlab.measurement.pipeline.measure_configs` (sweeps and tests, writing
 #: nothing) measures at unless a size is given.
 SWEEP_SIZE = (640, 480)
+#: The window of ``shadowlab view`` unless a size is given (the lab re-renders it whenever the
+#: camera moves: on llvmpipe a few frames a second).
+VIEW_SIZE = (640, 480)
 
 
 def size_text(size: tuple[int, int]) -> str:

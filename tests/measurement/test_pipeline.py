@@ -126,3 +126,16 @@ def test_a_program_held_by_a_live_technique_is_not_shared(lab):
         first.release()
     second.prepare(frame, 0)  # free again once the first is released
     second.release()
+
+
+def test_the_footprint_is_left_out_when_not_asked_for(lab):
+    """``measure(footprint=False)`` (the viewer, outside its footprint view): no texel-footprint
+    image or columns, and the same visibility as with them."""
+    from shadowlab.evaluation import texel_footprint
+
+    frame = lab.frame("box_on_plane", SMALL)
+    with_fp = measure(from_spec("shadow_map"), frame, 0, repeat=1, warmup=0, count=False)
+    without = measure(from_spec("shadow_map"), frame, 0, repeat=1, warmup=0, count=False, footprint=False)
+    assert with_fp.footprint is not None and set(texel_footprint.COLUMNS) <= set(with_fp.stats)
+    assert without.footprint is None and not set(texel_footprint.COLUMNS) & set(without.stats)
+    assert np.array_equal(with_fp.visibility, without.visibility)

@@ -60,7 +60,7 @@ LAYERS = [
     ["tuning"],
     ["study"],
     ["docgen"],
-    ["commands"],
+    ["commands", "viewer"],
     ["cli"],
 ]
 LAYER_OF = {unit: i for i, units in enumerate(LAYERS) for unit in units}

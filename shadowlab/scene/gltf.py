@@ -679,8 +679,8 @@ def light_strength(light: GltfLight, at: np.ndarray) -> float:
 
 def auto_exposure(lights: list[GltfLight], at: np.ndarray) -> float:
     """The ``exposure = "auto"`` factor: 1 over the sum of the lights' :func:`light_strength` at
-    ``at`` (the camera's target), so that all of them together light a white surface facing
-    them there at 1 — the picture neither washes out nor goes dark, whatever units the exporter
+    ``at`` (the centre of the scene's bounds, the same for every camera), so that all of them
+    together light a white surface facing them there at 1 — the picture neither washes out nor goes dark, whatever units the exporter
     wrote; 1 when no light has any strength."""
     total = sum(light_strength(l, at) for l in lights)
     return 1.0 / total if total > 0 else 1.0

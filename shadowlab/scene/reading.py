@@ -246,7 +246,7 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
         if not obj_tables:
             raise rd.error("objects", "at least one [[objects]] table is required")
         objects = [_parse_object(t, i, file, base or Path.cwd()) for i, t in enumerate(obj_tables)]
-    else:  # objects first: the file's camera aims at their bounds, the exposure at its target
+    else:  # objects first: the file's camera aims at their bounds, the exposure at their centre
         objects = imported.objects + [_parse_object(t, i, file, base or Path.cwd())
                                       for i, t in enumerate(rd.table_list("objects", []))]
         taken = {o.name for o in imported.objects}
@@ -255,7 +255,7 @@ def parse_scene(data: dict, file: str = "<scene>", base: Path | None = None) -> 
                 raise rd.error(f"objects[{i}].name", f"{o.name!r} is already an object of the glTF file "
                                                      f"(animation keyframes name objects: give another name)")
         camera = imported.camera(_bounds(objects)) if "camera" not in rd.table else _parse_camera(rd.raw("camera"), file)
-        lights = imported.lights(camera.target) + [parse_light(t, f"lights[{i}]", file)
+        lights = imported.lights(_bounds(objects).mean(0)) + [parse_light(t, f"lights[{i}]", file)
                                                    for i, t in enumerate(rd.table_list("lights", []))]
         if not lights:
             raise rd.error("lights", "at least one light is required: the glTF file has none (or [gltf] lights = "
@@ -325,8 +325,10 @@ class _GltfPart:
         return gltf.lab_camera(cam, bounds)
 
     def lights(self, target: np.ndarray) -> list[Light]:
-        """The file's lights (none with ``lights = false``), the exposure fixed from the camera
-        ``target``, each read through :func:`parse_light` after its override."""
+        """The file's lights (none with ``lights = false``), the exposure fixed at ``target`` (the
+        centre of the scene's bounds: one exposure whatever camera looks at the scene, so a view
+        saved from another camera keeps the lights), each read through :func:`parse_light` after
+        its override."""
         if not self.import_lights:
             return []
         exposure = self.exposure
@@ -351,8 +353,9 @@ def gltf_scene(path: Path, camera=None) -> Scene:
     """A glTF file as a scene on its own: its objects, its lights at the automatic exposure, the
     camera ``camera`` names (None: the first); family general."""
     part = _GltfPart({}, str(path), path.parent, path=Path(path), camera=camera)
-    cam = part.camera(_bounds(part.objects))
-    lights = part.lights(cam.target)
+    bounds = _bounds(part.objects)
+    cam = part.camera(bounds)
+    lights = part.lights(bounds.mean(0))
     if not lights:
         raise SceneError(str(path), "lights", f"{Path(path).name} has no lights; write a TOML scene that includes "
                                               f"it ([gltf] file = ...) and adds [[lights]]")

@@ -6,8 +6,9 @@ For a TOML scene the file is a copy of the scene file with its ``[camera]`` tabl
 every relative file path (``mesh`` of an object, ``file`` of a ``[gltf]`` table) rewritten to
 resolve from the new file's folder; the opening comment is kept under a line saying where the view
 came from. For a glTF scene (.glb / .gltf) the file is ``[gltf] file = "<path>"`` plus a
-``[camera]`` table, which overrides the glTF file's camera (docs/your-scenes.md#gltf-scenes);
-that form waits for the lab's glTF reading (:data:`GLTF_SAVING`).
+``[camera]`` table, which overrides the glTF file's camera (docs/your-scenes.md#gltf-scenes).
+Either way the lights are the ones shown: a glTF file's automatic exposure does not depend on
+the camera.
 
 The camera is written with Python's shortest round-trip float text, so the file's camera is the
 viewer's bit for bit, and near and far only where the scene file gave them (otherwise both are
@@ -21,15 +22,10 @@ import re
 import tomllib
 from pathlib import Path
 
-from ..scene import PRIMITIVES, Scene
+from ..scene import PRIMITIVES, Scene, gltf
 from ..scene.model import Camera
 from ..util.validation import RunError
 
-#: Whether a view of a glTF scene can be saved: the ``[gltf]`` form needs the lab's glTF reader
-#: (shadowlab.scene.gltf, issue 41 part A). Until then saving such a view says so (RunError).
-GLTF_SAVING = False
-#: Scene file suffixes read as glTF.
-GLTF_SUFFIXES = (".glb", ".gltf")
 _BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
 
 
@@ -115,16 +111,13 @@ def _opening_comment(text: str) -> list[str]:
 
 def view_scene_text(scene: Scene, camera: Camera, out: Path) -> str:
     """The text of the scene file ``out`` that holds ``scene`` seen from ``camera``
-    (docstring of the module); RunError for a scene with no file, or a glTF scene while
-    :data:`GLTF_SAVING` is off."""
+    (docstring of the module); RunError for a scene with no file."""
     if scene.path is None:
         raise RunError(f"scene {scene.name} has no file to save a view of")
     src, folder = Path(scene.path), Path(out).parent
     header = [f"# The view of {src.name} saved by `shadowlab view` (camera replaced; file paths resolve from "
               f"this file's folder)."]
-    if src.suffix.lower() in GLTF_SUFFIXES:
-        if not GLTF_SAVING:
-            raise RunError(f"saving the view of a glTF scene ({src.name}) is not supported yet")
+    if gltf.is_gltf(src):
         return gltf_view_text(src, camera, out)
     text = src.read_text()
     data = tomllib.loads(text)
@@ -134,9 +127,9 @@ def view_scene_text(scene: Scene, camera: Camera, out: Path) -> str:
         mesh = obj.get("mesh")
         if isinstance(mesh, str) and mesh not in PRIMITIVES:
             obj["mesh"] = _relative(src.parent / mesh, folder)
-    gltf = data.get("gltf")
-    if isinstance(gltf, dict) and isinstance(gltf.get("file"), str):
-        gltf["file"] = _relative(src.parent / gltf["file"], folder)
+    included = data.get("gltf")
+    if isinstance(included, dict) and isinstance(included.get("file"), str):
+        included["file"] = _relative(src.parent / included["file"], folder)
     comment = _opening_comment(text)
     return "\n".join(header + (["#"] + comment if comment else [])) + "\n" + toml_text(data)
 

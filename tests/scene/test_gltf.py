@@ -106,16 +106,19 @@ def test_what_is_left_out_is_named(fixture):
 
 def test_a_gltf_path_is_a_scene(tmp_path):
     """``load_scene`` reads a glTF path, ``#name`` / ``#index`` choosing the camera; the lights
-    at the automatic exposure: the lights' summed strengths at the camera's target are 1."""
+    at the automatic exposure: the lights' summed strengths at the centre of the scene's bounds
+    are 1, whichever camera is chosen."""
     scene = load_scene(FIXTURE)
     assert scene.name == "fixture" and scene.family == "general" and len(scene.objects) == 3
     assert [type(l) for l in scene.lights] == [SpotLight, PointLight]
     assert np.allclose(scene.camera.eye, [0, 2, 8]) and any("exposure 'auto'" in n for n in scene.notes)
-    target = scene.camera.target
+    target = scene.bounds().mean(0)
     spot, lamp = gltf.read_gltf(FIXTURE).lights
     strength = sum(l.intensity * l.color.max() / np.sum((target - l.position) ** 2) for l in (spot, lamp))
     assert scene.lights[0].color.max() == pytest.approx(400.0 / strength)
-    assert np.allclose(load_scene(f"{FIXTURE}#B").camera.eye, [8, 2, 0])
+    other = load_scene(f"{FIXTURE}#B")
+    assert np.allclose(other.camera.eye, [8, 2, 0])
+    assert all(np.array_equal(a.color, b.color) for a, b in zip(other.lights, scene.lights))
     assert np.allclose(load_scene(f"{FIXTURE}#1").camera.eye, [8, 2, 0])
     assert "general" == load_scene(f"{FIXTURE}#CamA").family
     assert "3 objects" in scene_summary(FIXTURE) and "tests/scene/gltf/make_fixture.py" in scene_purpose(FIXTURE)

@@ -202,11 +202,22 @@ def test_a_saved_view_is_the_scene_from_the_new_camera(tmp_path):
     assert not mesh.startswith("/") and mesh.endswith("meshes/city_sf_terrain.ply.gz")
 
 
-def test_gltf_views_wait_for_the_gltf_reader(tmp_path):
-    scene = load_scene("box_on_plane")
-    scene.path = tmp_path / "model.glb"
-    with pytest.raises(RunError, match="not supported yet"):
-        scene_file.view_scene_text(scene, scene.camera, tmp_path / "v.toml")
+def test_a_gltf_view_saves_as_an_include_with_its_camera(tmp_path):
+    """A view of a .glb scene is saved as ``[gltf] file`` (relative to the new file) plus the
+    viewer's ``[camera]``; read back, it is the same scene — objects and lights (the automatic
+    exposure does not depend on the camera) — seen from that camera, bit for bit."""
+    from shadowlab.scene import builtin_scene_dir
+
+    glb = builtin_scene_dir() / "gltf" / "blender_cube.glb"
+    scene = load_scene(f"{glb}#TopCamera")
+    moved = Camera(scene.camera.eye + np.array([0.25, -0.5, 1.0]), scene.camera.target, scene.camera.up, 37.5)
+    out = scene_file.save_view(scene, moved, tmp_path / "views" / "v.toml")
+    data = tomllib.loads(out.read_text())
+    assert not data["gltf"]["file"].startswith("/") and data["gltf"]["file"].endswith("gltf/blender_cube.glb")
+    again = load_scene(out)
+    assert np.array_equal(again.camera.eye, moved.eye) and again.camera.fov_y == 37.5
+    assert [l.describe() for l in again.lights] == [l.describe() for l in scene.lights]
+    assert all(np.array_equal(a.vertices, b.vertices) for a, b in zip(again.objects, scene.objects))
     text = scene_file.gltf_view_text(tmp_path / "assets" / "model.glb", _camera(), tmp_path / "views" / "v.toml")
     data = tomllib.loads(text)
     assert data["gltf"] == {"file": "../assets/model.glb"}

@@ -26,7 +26,8 @@ run: $(STAMP)
 # The viewer's tests need an X server: Xvfb, installed here when missing and possible (root and
 # apt-get; best effort, never failing the build — without it those tests skip with the hint).
 test: $(STAMP)
-	@command -v Xvfb >/dev/null || (apt-get install -y xvfb >/dev/null 2>&1 || true)
+	@command -v Xvfb >/dev/null || (export DEBIAN_FRONTEND=noninteractive; apt-get install -y xvfb >/dev/null 2>&1 \
+	  || (apt-get update -qq >/dev/null 2>&1 && apt-get install -y xvfb >/dev/null 2>&1) || true)
 	$(BIN)/python -m pytest -q
 	bash tests/install_check/run.sh $(BIN)/python
 	$(BIN)/shadowlab study quick --out results/study-quick

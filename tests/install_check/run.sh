@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The lab as a user installs it (issue 36): a wheel built from a clean copy of the tracked
 # sources, installed (not editable) into a fresh venv outside the source tree, and the commands
-# run from there — compare, tune, one tiny study, animate, and a cost model fitted and used. An editable install hides packaging mistakes
+# run from there — compare, tune, one tiny study, animate, a cost model fitted and used, the glTF
+# scene and (under xvfb-run) a viewer screenshot. An editable install hides packaging mistakes
 # (a package missing from the wheel broke every command of a plain install).
 # Usage: tests/install_check/run.sh PYTHON   (make test passes the repository's .venv python)
 set -euo pipefail
@@ -15,7 +16,8 @@ mkdir "$work/src"
 "$python" -m pip wheel --quiet --no-deps -w "$work/dist" "$work/src"
 "$python" -m venv "$work/venv"
 "$work/venv/bin/python" -m pip install --quiet --upgrade pip
-"$work/venv/bin/python" -m pip install --quiet -c "$repo/constraints.txt" "$work"/dist/shadowlab-*.whl
+wheel=$(ls "$work"/dist/shadowlab-*.whl)
+"$work/venv/bin/python" -m pip install --quiet -c "$repo/constraints.txt" "$wheel[viewer]"
 cp "$repo/tests/install_check/tiny.toml" "$work/tiny.toml"
 cd "$work"   # outside the source tree: the installed package is what runs
 lab="$work/venv/bin/shadowlab"
@@ -26,6 +28,16 @@ lab="$work/venv/bin/shadowlab"
 "$lab" animate tm_moving_caster -t shadow_map --frames 2 --size 96x72 --out "$work/animate"
 "$lab" cost fit "$work/study" --out "$work/cost_model.json"
 "$lab" cost predict "$work/study" "$work/cost_model.json"
+# issue 41: the shipped glTF scene (package data: the .glb beside the TOML that includes it) and a preset
+"$lab" compare gltf_blender_cube -t shadow_map:preset=godot --size 96x72 --repeat 1 --out "$work/gltf"
 test -f "$work/compare/report.html" && test -f "$work/tune/best.json" && test -f "$work/study/study.html"
-test -f "$work/animate/report.html" && test -f "$work/cost_model.json"
-echo "install check: compare, tune, study, animate and cost ran from the installed wheel"
+test -f "$work/animate/report.html" && test -f "$work/cost_model.json" && test -f "$work/gltf/report.html"
+# the viewer (its extra, moderngl-window, installed with the wheel): one screenshot under Xvfb where there is one
+if command -v xvfb-run >/dev/null; then
+  xvfb-run -a "$lab" view gltf_blender_cube -t shadow_map --size 96x72 --screenshot "$work/view.png"
+  test -f "$work/view.png"
+  viewed="and the viewer"
+else
+  viewed="(not the viewer: no xvfb-run)"
+fi
+echo "install check: compare, tune, study, animate, cost, a glTF scene $viewed ran from the installed wheel"

@@ -1,7 +1,8 @@
 """Documentation tables generated from the code and data, so that they cannot go stale: the
 technique table (from the registry, each name linked to its reference page) and the code-layout
-table (from the modules' docstrings) in docs/guide.md, and the README's headline verdicts (from
-the committed quick study in results/quick).
+table (from the modules' docstrings) in docs/guide.md, the README's headline verdicts (from
+the committed quick study in results/quick), and the engine presets' per-value sources in
+docs/your-scenes.md (from :mod:`shadowlab.techniques.maps.presets`).
 
 Each page holds each table between marker comments (``<!-- technique-table:begin -->`` …
 ``<!-- technique-table:end -->``); ``tests/project/test_docs.py`` regenerates them and fails, showing
@@ -31,10 +32,13 @@ from .technique_pages import lights_cell
 #: The README of a source checkout (the package's parent folder), and the user's guide in docs/.
 README = Path(__file__).resolve().parents[2] / "README.md"
 GUIDE = README.parent / "docs" / "guide.md"
+#: The page that walks a user through their own scenes (it holds the engine presets' sources).
+YOUR_SCENES = README.parent / "docs" / "your-scenes.md"
 #: The committed run of the quick study the README's headline verdicts are generated from.
 HEADLINE_STUDY = README.parent / "results" / "quick"
 #: The generated tables, by marker name → the page that holds them.
-HOMES = {"technique-table": GUIDE, "layout-table": GUIDE, "headline-verdicts": README}
+HOMES = {"technique-table": GUIDE, "layout-table": GUIDE, "headline-verdicts": README,
+         "preset-sources": YOUR_SCENES}
 TABLES = tuple(HOMES)
 #: The command that brings the generated tables and pages up to date (shown when they differ).
 FIX_COMMAND = "python -m shadowlab.docgen.tables --write"
@@ -126,11 +130,27 @@ def headline_verdicts(study: Path = HEADLINE_STUDY) -> str:
     return "\n".join([source, ""] + lines).strip()
 
 
+def preset_sources() -> str:
+    """Every engine preset value with the engine setting it stands for, where that default is
+    written (repository@commit:path:line, or the documentation page) and how faithful the lab's
+    mapping is: the rows of :func:`shadowlab.techniques.maps.presets.table_rows`, so that the page
+    says exactly what the code holds (issue 41: a mapping that is uncertain says so)."""
+    from ..techniques.maps.presets import PRESETS, table_rows
+
+    lines = ["Read: " + "; ".join(f"`{p.name}`: {_cell(p.version)}" for p in PRESETS.values()) + ".", "",
+             "| preset | technique | light | parameter | value | engine setting | source | fidelity | note |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in table_rows():
+        lines.append("| " + " | ".join(_cell(r[k]) for k in ("preset", "technique", "light", "parameter", "value",
+                                                              "setting", "source", "fidelity", "note")) + " |")
+    return "\n".join(lines)
+
+
 @functools.lru_cache(maxsize=1)
 def generated() -> dict[str, str]:
     """Each generated table, freshly made, by marker name."""
     return {"technique-table": technique_table(), "layout-table": layout_table(),
-            "headline-verdicts": headline_verdicts()}
+            "headline-verdicts": headline_verdicts(), "preset-sources": preset_sources()}
 
 
 def _markers(name: str) -> tuple[str, str]:

@@ -15,45 +15,51 @@ renders as point lights at their samples). The technique resolves them when it l
 (:class:`PresetMixin`); before that, :meth:`Technique.params` shows the directional values.
 
 Each value records where it comes from: the engine version or commit, the source file and line
-(or documentation page and setting), and how faithfully the lab's parameter reproduces the
-engine's meaning (:data:`EXACT`, :data:`APPROXIMATE`, :data:`UNCERTAIN`). What the engines' biases
+(``repo@commit:path:line``, or the documentation page and setting), and how faithfully the lab's
+parameter reproduces the engine's meaning (:data:`EXACT`, :data:`APPROXIMATE`, :data:`UNCERTAIN`);
+docs/your-scenes.md lists every one (generated from :func:`table_rows`). What the engines' biases
 mean, read from their code (units matter; none of the code is copied here):
 
-- **Godot 4** (``scene/3d/light_3d.cpp``; ``servers/rendering/renderer_rd/storage_rd/light_storage.cpp``
-  and the forward shaders' ``BIAS_FUNC``): the directional light's ``shadow_bias`` is divided by 100
-  and scaled per split (1 on the first), then added to the lookup point along the light direction —
-  a world distance: ``bias_space=units``. ``shadow_normal_bias`` is multiplied by the split's texel
-  size and by (1 − N·L) and moves the lookup point along the normal: the lab's ``normal_offset`` in
-  texels, without the (1 − N·L) factor (approximate). Omni lights subtract ``shadow_bias`` (world
-  units) from the radial distance, spot lights add ``shadow_bias``/100 to the projected depth
-  divided by the distance; both normal biases are ``shadow_normal_bias`` × texel size × 10 (spot:
-  also × distance). Default filter: soft PCF over a rotated Poisson disk (quality "soft low"):
-  no lab twin, nearest is ``pcf3``.
-- **Bevy** (``crates/bevy_light/src/*_light.rs``; ``crates/bevy_pbr/src/render/shadows.wgsl``): the
-  lookup point moves ``shadow_depth_bias`` world units towards the light (``bias_space=units``) and
-  ``shadow_normal_bias`` × the cascade's texel size along the normal (``normal_offset`` in texels:
-  exact for directional lights). For point lights the CPU pre-multiplies the normal bias by the
-  cube face's texel size at unit distance and √2, and the shader by the distance (major axis):
-  ``normal_offset`` = 0.6 × √2 texels, approximate (major axis against Euclidean distance).
-  Default filter: ``ShadowFilteringMethod::Gaussian`` (Castaño 2013's weighted 5×5 footprint):
-  nearest lab twin ``pcf5`` (a box).
-- **three.js** (``src/lights/LightShadow.js``; ``shadowmap_pars_fragment.glsl.js``): ``bias`` is
-  added to the window depth (``bias_space=window``) and defaults to 0; ``normalBias`` (world units)
-  is 0; ``mapSize`` 512; the renderer's default ``PCFShadowMap`` averages nearest-texel comparisons
-  within one texel of the point: ``pcf3``.
-- **Unity URP** (``UniversalRenderPipelineAsset.cs`` defaults; ``ShadowUtils.GetShadowBias`` and
-  ``ApplyShadowBias`` in ``Shadows.hlsl``): depth bias 1 and normal bias 1, each × the light's texel
-  size (directional: the orthographic frustum's width / resolution; spot and point: the frustum's
-  half-width at the light's range / resolution), applied to the *casters* in the shadow pass
-  (moved away from the light; shrunk along their normal by (1 − N·L) × normal bias). Lab: the
-  receiver moved towards the light by 1 texel (``bias_space=texels``) plus ``normal_offset`` 1
-  texel — approximate (receiver side, no (1 − N·L)). Main light map 2048, additional lights 512
-  (the asset's default tier). Soft shadows are off by default: ``nearest``.
-- **Unreal Engine 5**: not public on GitHub; from its documentation, not code. Its default for
+- **Godot 4** (``scene/3d/light_3d.cpp`` read at godotengine/godot@8ea4ec9, without line numbers:
+  the repository is too large to fetch here): ``Light3D`` sets ``shadow_bias`` 0.1 and
+  ``shadow_normal_bias`` 1.0, ``DirectionalLight3D`` raises the normal bias to 2.0, ``OmniLight3D``
+  keeps both, ``SpotLight3D`` lowers the bias to 0.03. How the renderer applies them was read in
+  an earlier pass and not re-read at this commit (uncertain): the directional bias / 100 × the
+  split's bias scale, added to the lookup point along the light — a world distance:
+  ``bias_space=units``; the normal bias × the split's texel size × (1 − N·L) along the normal
+  (the lab's ``normal_offset`` in texels, without the (1 − N·L) factor); omni lights subtract
+  ``shadow_bias`` (world units) from the radial distance, normal bias × texel size × 10. Default
+  filter: soft PCF over a rotated Poisson disk: no lab twin, nearest is ``pcf3``.
+- **Bevy** (bevyengine/bevy@4805ca7: ``crates/bevy_light/src/*_light.rs``;
+  ``crates/bevy_pbr/src/render/light.rs`` and ``shadows.wesl``): the lookup point moves
+  ``shadow_depth_bias`` world units towards the light (``bias_space=units``) and
+  ``shadow_normal_bias`` × √2 (applied when the light is extracted) × the cascade's texel size
+  along the normal: ``normal_offset`` = 1.8 × √2 texels, exact for directional lights. For point
+  lights the CPU pre-multiplies the normal bias by the cube face's texel size at unit distance
+  and √2, and the shader by the distance: ``normal_offset`` = 0.6 × √2 texels, approximate (Bevy's
+  distance to the light against the lab's). Default filter: ``ShadowFilteringMethod::Gaussian``
+  (Castaño 2013's weighted footprint): nearest lab twin ``pcf5`` (a box).
+- **three.js** (r187, the npm release three@0.187.0: ``src/lights/LightShadow.js``;
+  ``shadowmap_pars_fragment.glsl.js``): ``bias`` is added to the window depth
+  (``bias_space=window``) and defaults to 0; ``normalBias`` (world units) is 0; ``mapSize`` 512;
+  the renderer's default ``PCFShadowMap`` averages five Vogel-disk taps of hardware 2×2
+  comparisons within one texel of the point, rotated per pixel: nearest lab twin ``pcf3``.
+- **Unity URP** (14.0.12, Unity 2022.3: ``UniversalRenderPipelineAsset.cs`` defaults;
+  ``ShadowUtils.GetShadowBias`` and ``ApplyShadowBias`` in ``Shadows.hlsl``): depth bias 1 and
+  normal bias 1, each × the light's texel size (directional: the orthographic frustum's width /
+  resolution; spot and point: the frustum's half-width at the light's range / resolution), applied
+  to the *casters* in the shadow pass (moved away from the light; shrunk along their normal by
+  (1 − N·L) × normal bias); point lights' normal bias is forced to 0. Lab: the receiver moved
+  towards the light by 1 texel (``bias_space=texels``) plus ``normal_offset`` 1 texel (0 for the
+  local kind, a point light's) — approximate (receiver side, no (1 − N·L)). Main light map 2048;
+  additional lights: tier High (1024) in a 2048 atlas, where a point light's six faces are scaled
+  to 512. Soft shadows are off by default: ``nearest``.
+- **Unreal Engine 5**: not public on GitHub; from documentation pages, not code. Its default for
   movable lights is the virtual shadow map (the lab's ``virtual_map``); the values here are the
-  conventional shadow map's light defaults (Shadow Bias 0.5, Shadow Slope Bias 0.5) and
-  ``r.Shadow.CSMDepthBias`` / ``r.Shadow.CSMSlopeScaleDepthBias`` (10 / 3) whose units (UE scales
-  them by the map's texel and depth range inside the renderer) could not be checked: uncertain.
+  conventional shadow map's: the light's Shadow Bias and Shadow Slope Bias (whose defaults were
+  not found in the documentation read: Epic's page recommends about 0.5) and the cvars
+  ``r.Shadow.CSMSlopeScaleDepthBias`` 3 and ``r.Shadow.MaxResolution`` 2048, whose units (UE
+  scales them inside the renderer) could not be checked: uncertain.
 """
 from __future__ import annotations
 
@@ -113,14 +119,27 @@ class Preset:
         return {k for per in self.settings.get(technique, {}).values() for k in per}
 
 
-_GODOT = "Godot 4.x, godotengine/godot@0225c6d"
-_GODOT_LIGHT = "scene/3d/light_3d.cpp"
-_GODOT_STORE = "servers/rendering/renderer_rd/storage_rd/light_storage.cpp (update_light_buffers)"
-_BEVY = "Bevy 0.16-era main, bevyengine/bevy@a0d0176 (directional_light.rs), @459870a (point_light.rs)"
-_THREE = "three.js r16x, mrdoob/three.js@078eee1 (LightShadow.js), @012f562 (shadowmap_pars_fragment)"
-_URP = "URP 14+ (Unity-Technologies/Graphics, com.unity.render-pipelines.universal)"
-_URP_ASSET = "Runtime/Data/UniversalRenderPipelineAsset.cs (Shadows Settings)"
-_UE5 = "Unreal Engine 5 documentation (source not public on GitHub)"
+_GODOT_AT = "godotengine/godot@8ea4ec9"
+_GODOT = ("Godot 4 master, godotengine/godot@8ea4ec9531e385802c08b97cb214e2de03056ddc (scene/3d/light_3d.cpp "
+          "read at that commit; no line numbers: the repository is too large to fetch here)")
+_GODOT_LIGHT = f"{_GODOT_AT}:scene/3d/light_3d.cpp"
+_GODOT_STORE = ("servers/rendering/renderer_rd/storage_rd/light_storage.cpp (update_light_buffers; "
+                "not re-read at 8ea4ec9: UNVERIFIED)")
+_GODOT_DOC = "Godot ProjectSettings reference (not re-read: UNVERIFIED)"
+_BEVY_AT = "bevyengine/bevy@4805ca7"
+_BEVY = "Bevy main (0.20.0-dev), bevyengine/bevy@4805ca792c3e94eef07afd6fa9a2712f388c9a67"
+_THREE_AT = "mrdoob/three.js@r187 (npm three@0.187.0)"
+_THREE = "three.js r187, the npm release three@0.187.0 (its src/ tree)"
+_URP_AT = ("URP 14.0.12 (Unity 2022.3) as vendored unmodified in "
+           "AnyGCn/AnyG-URPExtensions@b3a5b80:Packages/com.unity.render-pipelines.universal")
+_URP = ("URP 14.0.12 (com.unity.render-pipelines.universal, Unity 2022.3), read as vendored in "
+        "AnyGCn/AnyG-URPExtensions@b3a5b8078073692320e442b4e43813e3368a7305")
+_URP_ASSET = "Runtime/Data/UniversalRenderPipelineAsset.cs"
+_UE5 = "Unreal Engine 5 documentation (source not public on GitHub): Epic's API pages and a UE 5.4.4 cvar wiki"
+_UE5_CVARS = "https://indxzero.github.io/ue544cvarwiki/articles/"
+_UE5_BIAS = ("https://dev.epicgames.com/documentation/en-us/unreal-engine/API/Runtime/Engine/Components/"
+             "ULightComponent/ShadowBias?application_version=5.5")
+_NOT_FOUND = "not found in the documentation read"
 
 
 def _s(value, engine, source, fidelity, note=""):
@@ -131,107 +150,139 @@ PRESETS: dict[str, Preset] = {
     "godot": Preset("godot", "Godot", _GODOT, {
         "shadow_map": {
             "directional": {
-                "variant": _s("normal_offset", "depth bias + normal bias together", "scene_forward_clustered.glsl BIAS_FUNC",
+                "variant": _s("normal_offset", "depth bias + normal bias together",
+                              "servers/rendering/renderer_rd/forward_clustered/scene_forward_clustered.glsl BIAS_FUNC "
+                              "(not re-read: UNVERIFIED)",
                               APPROXIMATE, "both move the lookup point; the lab's normal offset has no (1 - N.L) factor"),
-                "bias_space": _s("units", "shadow_bias is a world distance along the light", "BIAS_FUNC: light_dir * shadow_bias",
-                                 EXACT),
-                "bias": _s(0.001, "DirectionalLight3D shadow_bias 0.1, / 100 x bias_scale (1 on the first split)",
-                           f"{_GODOT_LIGHT} DirectionalLight3D::DirectionalLight3D, set_param(PARAM_SHADOW_BIAS, 0.1); "
-                           f"{_GODOT_STORE}: / 100.0 * bias_scale", APPROXIMATE,
-                           "bias_scale grows on later splits; the lab's single map uses the first split's"),
-                "normal_offset": _s(1.0, "shadow_normal_bias 1.0 x the split's texel size",
-                                    f"{_GODOT_LIGHT} Light3D::Light3D, set_param(PARAM_SHADOW_NORMAL_BIAS, 1.0); "
-                                    f"{_GODOT_STORE}: * shadow_texel_size", APPROXIMATE,
-                                    "Godot scales by (1 - N.L) and drops the part along the light"),
+                "bias_space": _s("units", "shadow_bias is a world distance along the light",
+                                 "BIAS_FUNC: light_dir * shadow_bias (not re-read: UNVERIFIED)", APPROXIMATE),
+                "bias": _s(0.001, "DirectionalLight3D keeps Light3D's shadow_bias 0.1, / 100 x bias_scale "
+                                  "(1 on the first split)",
+                           f"{_GODOT_LIGHT} Light3D::Light3D(LightType): set_param(PARAM_SHADOW_BIAS, 0.1) "
+                           f"(DirectionalLight3D::DirectionalLight3D does not override it); {_GODOT_STORE}: / 100.0",
+                           APPROXIMATE, "bias_scale grows on later splits; the lab's single map uses the first split's"),
+                "normal_offset": _s(2.0, "DirectionalLight3D shadow_normal_bias 2.0 x the split's texel size",
+                                    f"{_GODOT_LIGHT} DirectionalLight3D::DirectionalLight3D: "
+                                    f"set_param(PARAM_SHADOW_NORMAL_BIAS, 2.0); {_GODOT_STORE}: x shadow_texel_size",
+                                    APPROXIMATE, "Godot scales by (1 - N.L) and drops the part along the light"),
                 "resolution": _s(4096, "rendering/lights_and_shadows/directional_shadow/size 4096",
-                                 "project settings doc, directional_shadow/size (4 splits share it: 2048 each)",
-                                 APPROXIMATE, "one 4096 atlas split 2x2 among the PSSM splits; the lab draws one map"),
+                                 f"{_GODOT_DOC}, directional_shadow/size (4 splits share it: 2048 each)",
+                                 UNCERTAIN, "one 4096 atlas split 2x2 among the PSSM splits; the lab draws one map"),
                 "filter": _s("pcf3", "soft_shadow_filter_quality 2 (soft low): rotated Poisson-disk PCF",
-                             "project settings doc, directional_shadow/soft_shadow_filter_quality", APPROXIMATE,
+                             f"{_GODOT_DOC}, directional_shadow/soft_shadow_filter_quality", UNCERTAIN,
                              "no disk-kernel PCF in the lab; pcf3 is the nearest"),
             },
             "local": {
-                "variant": _s("normal_offset", "depth bias + normal bias together", "scene_forward_lights_inc.glsl",
-                              APPROXIMATE, "as directional"),
+                "variant": _s("normal_offset", "depth bias + normal bias together",
+                              "scene_forward_lights_inc.glsl (not re-read: UNVERIFIED)", APPROXIMATE, "as directional"),
                 "bias_space": _s("units", "omni: shadow_bias subtracted from the radial distance (world units)",
-                                 "scene_forward_lights_inc.glsl light_process_omni_shadow", APPROXIMATE,
-                                 "spot lights divide by 100 and by the distance in projected depth"),
-                "bias": _s(0.2, "OmniLight3D shadow_bias 0.2 (SpotLight3D keeps Light3D's 0.03, / 100)",
-                           f"{_GODOT_LIGHT} OmniLight3D::OmniLight3D, set_param(PARAM_SHADOW_BIAS, 0.2)", APPROXIMATE,
-                           "the omni value; spot lights would get 0.0003 x distance in projected depth"),
+                                 "scene_forward_lights_inc.glsl light_process_omni_shadow (not re-read: UNVERIFIED)",
+                                 UNCERTAIN, "spot lights divide by 100 and by the distance in projected depth"),
+                "bias": _s(0.1, "OmniLight3D keeps Light3D's shadow_bias 0.1 (SpotLight3D sets 0.03)",
+                           f"{_GODOT_LIGHT} Light3D::Light3D(LightType): set_param(PARAM_SHADOW_BIAS, 0.1) "
+                           f"(OmniLight3D::OmniLight3D does not override it); SpotLight3D::SpotLight3D: "
+                           f"set_param(PARAM_SHADOW_BIAS, 0.03)", APPROXIMATE,
+                           "the omni value; spot lights would get 0.03 / 100 x distance in projected depth"),
                 "normal_offset": _s(10.0, "shadow_normal_bias 1.0 x texel size x 10",
-                                    f"{_GODOT_STORE}: PARAM_SHADOW_NORMAL_BIAS * shadow_texel_size * 10.0", APPROXIMATE,
-                                    "(1 - |N.L|) factor not modelled"),
+                                    f"{_GODOT_LIGHT} Light3D::Light3D(LightType): set_param(PARAM_SHADOW_NORMAL_BIAS, "
+                                    f"1.0); {_GODOT_STORE}: x shadow_texel_size x 10.0", UNCERTAIN,
+                                    "the x 10 was not re-read at this commit; (1 - |N.L|) factor not modelled"),
                 "resolution": _s(1024, "positional shadow atlas 4096, quadrant subdivision 2/4/16/64: a first-quadrant "
                                        "light gets 1024 (a cube face of an omni light less)",
-                                 "project settings doc, positional_shadow/atlas_size and atlas_quadrant_*_subdiv",
+                                 f"{_GODOT_DOC}, positional_shadow/atlas_size and atlas_quadrant_*_subdiv",
                                  UNCERTAIN, "depends on how many lights share the atlas"),
-                "filter": _s("pcf3", "soft_shadow_filter_quality 2 (soft low)", "project settings doc", APPROXIMATE,
+                "filter": _s("pcf3", "soft_shadow_filter_quality 2 (soft low)", _GODOT_DOC, UNCERTAIN,
                              "no disk-kernel PCF in the lab"),
             },
         },
         "cascaded_map": {
             "directional": {
                 "cascades": _s(4, "DirectionalLight3D directional_shadow_mode PSSM 4 splits",
-                               f"{_GODOT_LIGHT} DirectionalLight3D: set_shadow_mode(SHADOW_PARALLEL_4_SPLITS)", EXACT),
+                               f"{_GODOT_LIGHT} DirectionalLight3D::DirectionalLight3D: "
+                               f"set_shadow_mode(SHADOW_PARALLEL_4_SPLITS)", EXACT),
                 "resolution": _s(2048, "directional_shadow/size 4096 shared 2x2 by four splits",
-                                 "project settings doc, directional_shadow/size", EXACT),
+                                 f"{_GODOT_DOC}, directional_shadow/size", UNCERTAIN),
                 "split_lambda": _s(0.5, "splits at 0.1 / 0.2 / 0.5 of max distance 100",
-                                   f"{_GODOT_LIGHT} Light3D: SPLIT_1/2/3_OFFSET 0.1, 0.2, 0.5", UNCERTAIN,
-                                   "fixed fractions, not a lambda mix; 0.5 lies between their uniform and log fits"),
-                "blend": _s(False, "directional_shadow_blend_splits false", f"{_GODOT_LIGHT} blend_splits = false", EXACT),
-                "filter": _s("pcf3", "soft low Poisson-disk PCF", "project settings doc", APPROXIMATE),
+                                   f"{_GODOT_LIGHT} Light3D::Light3D(LightType): PARAM_SHADOW_SPLIT_1/2/3_OFFSET 0.1, "
+                                   f"0.2, 0.5; DirectionalLight3D::DirectionalLight3D: PARAM_SHADOW_MAX_DISTANCE 100",
+                                   UNCERTAIN, "fixed fractions, not a lambda mix; 0.5 lies between their uniform and "
+                                              "log fits"),
+                "blend": _s(False, "directional_shadow_blend_splits false",
+                            f"{_GODOT_LIGHT} DirectionalLight3D::DirectionalLight3D: blend_splits = false", EXACT),
+                "filter": _s("pcf3", "soft low Poisson-disk PCF", _GODOT_DOC, UNCERTAIN),
             },
         },
     }),
     "bevy": Preset("bevy", "Bevy", _BEVY, {
         "shadow_map": {
             "directional": {
-                "variant": _s("normal_offset", "depth_offset + normal_offset together", "bevy_pbr shadows.wgsl sample_cascade",
+                "variant": _s("normal_offset", "depth_offset + normal_offset together",
+                              f"{_BEVY_AT}:crates/bevy_pbr/src/render/shadows.wesl:189-191 (sample_directional_cascade)",
                               EXACT),
                 "bias_space": _s("units", "shadow_depth_bias x direction_to_light (world units)",
-                                 "bevy_pbr shadows.wgsl sample_cascade: depth_offset", EXACT),
+                                 f"{_BEVY_AT}:crates/bevy_pbr/src/render/shadows.wesl:190", EXACT),
                 "bias": _s(0.02, "DirectionalLight::DEFAULT_SHADOW_DEPTH_BIAS = 0.02",
-                           "crates/bevy_light/src/directional_light.rs, impl DirectionalLight", EXACT),
-                "normal_offset": _s(1.8, "DirectionalLight::DEFAULT_SHADOW_NORMAL_BIAS = 1.8 x cascade texel_size",
-                                    "crates/bevy_light/src/directional_light.rs; shadows.wgsl normal_offset", EXACT),
+                           f"{_BEVY_AT}:crates/bevy_light/src/directional_light.rs:165", EXACT),
+                "normal_offset": _s(2.5456, "DirectionalLight::DEFAULT_SHADOW_NORMAL_BIAS 1.8, x SQRT_2 when the "
+                                            "light is extracted, x the cascade's texel_size in the shader",
+                                    f"{_BEVY_AT}:crates/bevy_light/src/directional_light.rs:167; "
+                                    f"{_BEVY_AT}:crates/bevy_pbr/src/render/light.rs:880 (x SQRT_2); "
+                                    f"{_BEVY_AT}:crates/bevy_pbr/src/render/shadows.wesl:189 (x texel_size); "
+                                    f"{_BEVY_AT}:crates/bevy_light/src/cascade.rs:291 (texel_size = diameter / size)",
+                                    EXACT, "1.8 x sqrt(2) texels of the map"),
                 "resolution": _s(2048, "DirectionalLightShadowMap::default size 2048",
-                                 "crates/bevy_light/src/directional_light.rs, impl Default for DirectionalLightShadowMap",
-                                 EXACT),
+                                 f"{_BEVY_AT}:crates/bevy_light/src/directional_light.rs:204", EXACT),
                 "filter": _s("pcf5", "ShadowFilteringMethod::Gaussian (Castano 2013, 5x5 weighted)",
-                             "crates/bevy_light/src/lib.rs ShadowFilteringMethod #[default] Gaussian", APPROXIMATE,
+                             f"{_BEVY_AT}:crates/bevy_light/src/lib.rs:305-306 (#[default] Gaussian); "
+                             f"{_BEVY_AT}:crates/bevy_pbr/src/render/shadow_sampling.wesl:101", APPROXIMATE,
                              "the lab's pcf5 is a box, Castano's weights are a tent"),
             },
             "local": {
-                "variant": _s("normal_offset", "depth_offset + normal_offset together", "shadows.wgsl fetch_point_shadow",
-                              EXACT),
-                "bias_space": _s("units", "shadow_depth_bias x normalize(surface_to_light)", "shadows.wgsl fetch_point_shadow",
-                                 EXACT),
+                "variant": _s("normal_offset", "depth_offset + normal_offset together",
+                              f"{_BEVY_AT}:crates/bevy_pbr/src/render/shadows.wesl:34-36 (fetch_point_shadow)", EXACT),
+                "bias_space": _s("units", "shadow_depth_bias x normalize(surface_to_light)",
+                                 f"{_BEVY_AT}:crates/bevy_pbr/src/render/shadows.wesl:35", EXACT),
                 "bias": _s(0.08, "PointLight::DEFAULT_SHADOW_DEPTH_BIAS = 0.08 (SpotLight 0.02)",
-                           "crates/bevy_light/src/point_light.rs, impl PointLight", APPROXIMATE,
+                           f"{_BEVY_AT}:crates/bevy_light/src/point_light.rs:149; "
+                           f"{_BEVY_AT}:crates/bevy_light/src/spot_light.rs:139 (spot)", APPROXIMATE,
                            "the point light's value; spot lights default to 0.02"),
-                "normal_offset": _s(0.8485, "PointLight::DEFAULT_SHADOW_NORMAL_BIAS 0.6 x texel at unit distance x sqrt 2 "
-                                            "x distance (major axis)",
-                                    "point_light.rs; bevy_pbr render/light.rs (x point texel size x SQRT_2)", APPROXIMATE,
-                                    "0.6 x sqrt(2) texels; Bevy's distance is the major axis, the lab's Euclidean"),
+                "normal_offset": _s(0.8485, "PointLight::DEFAULT_SHADOW_NORMAL_BIAS 0.6 x texel at unit distance x "
+                                            "sqrt 2 x distance (major axis)",
+                                    f"{_BEVY_AT}:crates/bevy_light/src/point_light.rs:151; "
+                                    f"{_BEVY_AT}:crates/bevy_pbr/src/render/light.rs:466,582-584 (2 / size x SQRT_2); "
+                                    f"{_BEVY_AT}:crates/bevy_pbr/src/render/shadows.wesl:34 (x distance_to_light)",
+                                    APPROXIMATE,
+                                    "0.6 x sqrt(2) texels; Bevy's distance is the major axis, the lab's Euclidean; "
+                                    "spot lights: 1.8 x sqrt(2) (spot_light.rs:141, light.rs:721-723)"),
                 "resolution": _s(1024, "PointLightShadowMap::default size 1024",
-                                 "crates/bevy_light/src/point_light.rs, impl Default for PointLightShadowMap", EXACT),
-                "projection": _s("cube", "point lights render a cube map", "bevy_pbr render/light.rs (6 cube faces)", EXACT),
-                "filter": _s("pcf5", "ShadowFilteringMethod::Gaussian", "crates/bevy_light/src/lib.rs", APPROXIMATE,
-                             "cube maps sample a jittered disk in Bevy"),
+                                 f"{_BEVY_AT}:crates/bevy_light/src/point_light.rs:188", EXACT,
+                                 "spot lights use the directional map's 2048 (light.rs:702)"),
+                "projection": _s("cube", "point lights render a cube map",
+                                 f"{_BEVY_AT}:crates/bevy_pbr/src/render/light.rs:1498-1499 (cube faces of "
+                                 f"point_light_shadow_map.size)", EXACT),
+                "filter": _s("pcf5", "ShadowFilteringMethod::Gaussian",
+                             f"{_BEVY_AT}:crates/bevy_light/src/lib.rs:305-306; "
+                             f"{_BEVY_AT}:crates/bevy_pbr/src/render/shadow_sampling.wesl:509 (sample_shadow_cubemap)",
+                             APPROXIMATE, "cube maps sample a jittered disk in Bevy"),
             },
         },
         "cascaded_map": {
             "directional": {
-                "cascades": _s(4, "CascadeShadowConfigBuilder::default num_cascades 4 (native)",
-                               "crates/bevy_light/src/cascade.rs, impl Default for CascadeShadowConfigBuilder", EXACT),
-                "resolution": _s(2048, "DirectionalLightShadowMap size 2048", "directional_light.rs", EXACT),
-                "split_lambda": _s(0.5, "first_cascade_far_bound 5, maximum_distance 1000, geometric splits after the "
-                                        "first", "crates/bevy_light/src/cascade.rs", UNCERTAIN,
+                "cascades": _s(4, "CascadeShadowConfigBuilder::default num_cascades 4 (native; 1 on WebGL 2)",
+                               f"{_BEVY_AT}:crates/bevy_light/src/cascade.rs:143-151", EXACT),
+                "resolution": _s(2048, "DirectionalLightShadowMap size 2048",
+                                 f"{_BEVY_AT}:crates/bevy_light/src/directional_light.rs:204", EXACT),
+                "split_lambda": _s(0.5, "first_cascade_far_bound 10, maximum_distance 150, minimum_distance 0.1, "
+                                        "geometric bounds from the first",
+                                   f"{_BEVY_AT}:crates/bevy_light/src/cascade.rs:152-154 (defaults), 41-56 "
+                                   f"(calculate_cascade_bounds)", UNCERTAIN,
                                    "Bevy fixes the first bound in metres; no lambda reproduces it on every scene"),
-                "blend": _s(True, "overlap_proportion 0.2 (cascades overlap and blend)", "cascade.rs", APPROXIMATE),
-                "blend_width": _s(0.2, "overlap_proportion 0.2", "cascade.rs", APPROXIMATE),
-                "filter": _s("pcf5", "ShadowFilteringMethod::Gaussian", "crates/bevy_light/src/lib.rs", APPROXIMATE),
+                "blend": _s(True, "overlap_proportion 0.2 (cascades overlap and blend)",
+                            f"{_BEVY_AT}:crates/bevy_light/src/cascade.rs:155", APPROXIMATE),
+                "blend_width": _s(0.2, "overlap_proportion 0.2", f"{_BEVY_AT}:crates/bevy_light/src/cascade.rs:155",
+                                  APPROXIMATE),
+                "filter": _s("pcf5", "ShadowFilteringMethod::Gaussian", f"{_BEVY_AT}:crates/bevy_light/src/lib.rs:305-306",
+                             APPROXIMATE),
             },
         },
     }),
@@ -239,14 +290,21 @@ PRESETS: dict[str, Preset] = {
         "shadow_map": {
             kind: {
                 "variant": _s("constant", "bias added to the window depth; normalBias 0 adds nothing",
-                              "shadowmap_pars_fragment.glsl.js getShadow: shadowCoord.z += shadowBias", EXACT),
-                "bias_space": _s("window", "bias in window depth [0, 1]", "shadowmap_pars_fragment.glsl.js getShadow", EXACT),
-                "bias": _s(0.0, "LightShadow bias = 0", "src/lights/LightShadow.js constructor: this.bias = 0", EXACT),
-                "resolution": _s(512, "LightShadow mapSize 512 x 512",
-                                 "src/lights/LightShadow.js constructor: new Vector2( 512, 512 )", EXACT),
-                "filter": _s("pcf3", "WebGLRenderer shadowMap.type PCFShadowMap: nearest comparisons within one texel",
-                             "shadowmap_pars_fragment.glsl.js SHADOWMAP_TYPE_PCF (17 taps, radius 1)", APPROXIMATE,
-                             "three.js taps 17 points within +-1 texel of the point, the lab the 3x3 texel grid"),
+                              f"{_THREE_AT}:src/renderers/shaders/ShaderChunk/shadowmap_pars_fragment.glsl.js:162 "
+                              f"(getShadow: shadowCoord.z += shadowBias); src/lights/LightShadow.js:74 (normalBias = 0)",
+                              EXACT),
+                "bias_space": _s("window", "bias in window depth [0, 1]",
+                                 f"{_THREE_AT}:src/renderers/shaders/ShaderChunk/shadowmap_pars_fragment.glsl.js:"
+                                 f"150-162", EXACT, "point lights: added to the cube map's normalised depth (:388)"),
+                "bias": _s(0.0, "LightShadow bias = 0", f"{_THREE_AT}:src/lights/LightShadow.js:53", EXACT),
+                "resolution": _s(512, "LightShadow mapSize 512 x 512", f"{_THREE_AT}:src/lights/LightShadow.js:104",
+                                 EXACT),
+                "filter": _s("pcf3", "WebGLShadowMap type PCFShadowMap: 5 Vogel-disk taps of hardware 2x2 comparisons "
+                                     "within radius 1 texel, rotated per pixel",
+                             f"{_THREE_AT}:src/renderers/webgl/WebGLShadowMap.js:89 (type = PCFShadowMap); "
+                             f"src/renderers/shaders/ShaderChunk/shadowmap_pars_fragment.glsl.js:173-185; "
+                             f"src/lights/LightShadow.js:87 (radius = 1)", APPROXIMATE,
+                             "the lab's pcf3 averages the 3x3 texel grid; three.js jitters 5 bilinear taps"),
             } for kind in KINDS
         },
     }),
@@ -254,27 +312,39 @@ PRESETS: dict[str, Preset] = {
         "shadow_map": {
             kind: {
                 "variant": _s("normal_offset", "depth bias + normal bias, both x texel size",
-                              "Runtime/ShadowUtils.cs GetShadowBias; ShaderLibrary/Shadows.hlsl ApplyShadowBias",
+                              f"{_URP_AT}/Runtime/ShadowUtils.cs:278-332 (GetShadowBias); "
+                              f"ShaderLibrary/Shadows.hlsl:471-480 (ApplyShadowBias, casters)",
                               APPROXIMATE, "URP moves the casters, the lab the receiver; no (1 - N.L) factor"),
-                "bias_space": _s("texels", "depthBias x texelSize (world)", "Runtime/ShadowUtils.cs GetShadowBias", APPROXIMATE,
-                                 "local lights: URP's texel at the light's range, the lab's at the map's far plane"),
-                "bias": _s(1.0, "m_ShadowDepthBias = 1.0", f"{_URP_ASSET}: m_ShadowDepthBias = 1.0f", EXACT),
-                "normal_offset": _s(1.0, "m_ShadowNormalBias = 1.0", f"{_URP_ASSET}: m_ShadowNormalBias = 1.0f", APPROXIMATE,
-                                    "applied as a receiver offset"),
-                "resolution": _s(2048 if kind == "directional" else 512,
-                                 "m_MainLightShadowmapResolution 2048" if kind == "directional" else
-                                 "additional lights: the medium tier, 512 (tiers low 256 / medium 512 / high 1024)",
-                                 _URP_ASSET, EXACT if kind == "directional" else UNCERTAIN,
-                                 "" if kind == "directional" else "the per-light tier and the atlas decide"),
+                "bias_space": _s("texels", "depthBias x texelSize (world)",
+                                 f"{_URP_AT}/Runtime/ShadowUtils.cs:323-325", APPROXIMATE,
+                                 "directional: the frustum's width / resolution; local lights: URP's texel at the "
+                                 "light's range, the lab's at the map's far plane"),
+                "bias": _s(1.0, "m_ShadowDepthBias = 1.0", f"{_URP_AT}/{_URP_ASSET}:497", EXACT),
+                "normal_offset": (
+                    _s(1.0, "m_ShadowNormalBias = 1.0", f"{_URP_AT}/{_URP_ASSET}:498", APPROXIMATE,
+                       "applied as a receiver offset")
+                    if kind == "directional" else
+                    _s(0.0, "point lights: normalBias forced to 0 (spot lights keep m_ShadowNormalBias 1.0)",
+                       f"{_URP_AT}/Runtime/ShadowUtils.cs:331-332; {_URP_ASSET}:498 (spot)", APPROXIMATE,
+                       "the point light's value, as the other presets' local kind; a spot light would get 1")),
+                "resolution": (
+                    _s(2048, "m_MainLightShadowmapResolution 2048", f"{_URP_AT}/{_URP_ASSET}:468", EXACT)
+                    if kind == "directional" else
+                    _s(512, "default tier High (1024) in the 2048 additional-lights atlas: a point light's six "
+                            "1024 faces do not fit, so each is scaled to 512 (a spot light keeps 1024)",
+                       f"{_URP_AT}/Runtime/UniversalAdditionalLightData.cs:104,136 (tier High); {_URP_ASSET}:474 "
+                       f"(atlas 2048), 478, 593 (High = 1024); Runtime/Passes/AdditionalLightsShadowCasterPass.cs:"
+                       f"314-326 (scale factor 2)", UNCERTAIN,
+                       "a single point light; more lights in the atlas shrink it further")),
                 "filter": _s("nearest", "m_SoftShadowsSupported = false: hard shadows",
-                             f"{_URP_ASSET}: m_SoftShadowsSupported = false", EXACT),
+                             f"{_URP_AT}/{_URP_ASSET}:506", EXACT),
             } for kind in KINDS
         },
         "cascaded_map": {
             "directional": {
-                "cascades": _s(1, "m_ShadowCascadeCount = 1", f"{_URP_ASSET}: m_ShadowCascadeCount = 1", EXACT),
-                "resolution": _s(2048, "m_MainLightShadowmapResolution 2048", _URP_ASSET, EXACT),
-                "filter": _s("nearest", "m_SoftShadowsSupported = false", _URP_ASSET, EXACT),
+                "cascades": _s(1, "m_ShadowCascadeCount = 1", f"{_URP_AT}/{_URP_ASSET}:492", EXACT),
+                "resolution": _s(2048, "m_MainLightShadowmapResolution 2048", f"{_URP_AT}/{_URP_ASSET}:468", EXACT),
+                "filter": _s("nearest", "m_SoftShadowsSupported = false", f"{_URP_AT}/{_URP_ASSET}:506", EXACT),
             },
         },
     }),
@@ -282,18 +352,25 @@ PRESETS: dict[str, Preset] = {
         "shadow_map": {
             kind: {
                 "variant": _s("slope", "Shadow Bias + Shadow Slope Bias (conventional shadow maps)",
-                              "UE5 docs: Light component, Shadow Bias 0.5 / Shadow Slope Bias 0.5", UNCERTAIN,
-                              "UE5's default for movable lights is a virtual shadow map"),
-                "bias_space": _s("texels", "UE scales the depth bias by the map's texel size", "UE5 docs (no code)",
-                                 UNCERTAIN),
-                "bias": _s(0.5, "Shadow Bias 0.5", "UE5 docs: Light component properties, Shadow Bias", UNCERTAIN,
-                           "the cvar r.Shadow.CSMDepthBias / r.Shadow.PointLightDepthBias multiplies it"),
+                              f"{_UE5_BIAS}; {_UE5_CVARS}r.shadow.csmslopescaledepthbias", UNCERTAIN,
+                              "UE5's default for movable lights is a virtual shadow map; the conventional map's "
+                              "depth + slope-scaled depth bias is the fallback"),
+                "bias_space": _s("texels", "UE scales the depth bias by the map's texel size", "UE5 documentation",
+                                 UNCERTAIN, f"units {_NOT_FOUND}"),
+                "bias": _s(0.5, "light Shadow Bias (UI range 0-1; 'around 0.5 seems to be a good tradeoff')",
+                           _UE5_BIAS, UNCERTAIN,
+                           f"the default value is {_NOT_FOUND} (the page recommends about 0.5); the cvars "
+                           f"r.Shadow.CSMDepthBias 10 (directional), r.Shadow.PointLightDepthBias 0.02, "
+                           f"r.Shadow.SpotLightDepthBias 3 ({_UE5_CVARS}r.shadow.csmdepthbias, "
+                           f"r.shadow.pointlightdepthbias, r.shadow.spotlightdepthbias) scale it in units not documented"),
                 "slope_scale": _s(1.5, "Shadow Slope Bias 0.5 x r.Shadow.CSMSlopeScaleDepthBias 3",
-                                  "UE5 docs: console variables r.Shadow.*SlopeScaleDepthBias", UNCERTAIN),
-                "resolution": _s(2048, "r.Shadow.MaxResolution 2048", "UE5 docs: console variable r.Shadow.MaxResolution",
-                                 UNCERTAIN),
-                "filter": _s("pcf3", "Shadow Filter Sharpen 0, r.ShadowQuality 5: PCF", "UE5 docs: scalability", UNCERTAIN,
-                             "UE's PCF kernel is wider and weighted"),
+                                  f"{_UE5_CVARS}r.shadow.csmslopescaledepthbias (3.0); "
+                                  f"{_UE5_CVARS}r.shadow.pointlightslopescaledepthbias (3.0)", UNCERTAIN,
+                                  f"the light's Shadow Slope Bias default is {_NOT_FOUND} (0.5 recommended)"),
+                "resolution": _s(2048, "r.Shadow.MaxResolution 2048", f"{_UE5_CVARS}r.shadow.maxresolution",
+                                 UNCERTAIN, "a maximum: UE sizes each map by its screen size up to it"),
+                "filter": _s("pcf3", "UE's shadow PCF", "UE5 documentation", UNCERTAIN,
+                             f"{_NOT_FOUND}; UE's PCF kernel is wider and weighted"),
             } for kind in KINDS
         },
     }),

@@ -20,16 +20,22 @@ parameter reproduces the engine's meaning (:data:`EXACT`, :data:`APPROXIMATE`, :
 docs/your-scenes.md lists every one (generated from :func:`table_rows`). What the engines' biases
 mean, read from their code (units matter; none of the code is copied here):
 
-- **Godot 4** (``scene/3d/light_3d.cpp`` read at godotengine/godot@8ea4ec9, without line numbers:
-  the repository is too large to fetch here): ``Light3D`` sets ``shadow_bias`` 0.1 and
-  ``shadow_normal_bias`` 1.0, ``DirectionalLight3D`` raises the normal bias to 2.0, ``OmniLight3D``
-  keeps both, ``SpotLight3D`` lowers the bias to 0.03. How the renderer applies them was read in
-  an earlier pass and not re-read at this commit (uncertain): the directional bias / 100 × the
-  split's bias scale, added to the lookup point along the light — a world distance:
-  ``bias_space=units``; the normal bias × the split's texel size × (1 − N·L) along the normal
-  (the lab's ``normal_offset`` in texels, without the (1 − N·L) factor); omni lights subtract
-  ``shadow_bias`` (world units) from the radial distance, normal bias × texel size × 10. Default
-  filter: soft PCF over a rotated Poisson disk: no lab twin, nearest is ``pcf3``.
+- **Godot 4** (``scene/3d/light_3d.cpp`` at godotengine/godot@8ea4ec9; ``light_storage.cpp`` at
+  @8403baa and ``scene/main/scene_tree.cpp`` at @002874d, the commits the store holds them at; read
+  in pages through the file index, lines counted): ``Light3D`` sets ``shadow_bias`` 0.1,
+  ``shadow_normal_bias`` 1.0 and ``shadow_blur`` 1.0, ``DirectionalLight3D`` raises the normal bias
+  to 2.0, ``OmniLight3D`` keeps both, ``SpotLight3D`` lowers the bias to 0.03. ``update_light_buffers``
+  sends a directional light's bias as shadow_bias / 100 × the split's bias scale × shadow_blur × the
+  directional quality radius (2.0 at the Soft Low filter quality: that radius and that default were
+  read only in copies the index could not place, uncertain), its normal bias × the split's texel
+  size; an omni light's bias unscaled and its normal bias × its atlas texel size × 10. The forward
+  shaders that apply them (``BIAS_FUNC``, ``light_process_omni_shadow``) were not read: that the
+  directional bias moves the lookup point along the light (a world distance: ``bias_space=units``)
+  and the normal bias along the normal × (1 − N·L) is an earlier reading, unverified; the lab's
+  ``normal_offset`` in texels has no (1 − N·L) factor. Positional atlas 4096 with quadrant
+  subdivisions 4/4/16/64 shadows (SceneTree's ``GLOBAL_DEF``); ``directional_shadow/size`` 4096 and
+  the filter quality were not read in Godot's own ``rendering_server.cpp``. Default filter: soft PCF
+  over a Vogel disk: no lab twin, nearest is ``pcf3``.
 - **Bevy** (bevyengine/bevy@4805ca7: ``crates/bevy_light/src/*_light.rs``;
   ``crates/bevy_pbr/src/render/light.rs`` and ``shadows.wesl``): the lookup point moves
   ``shadow_depth_bias`` world units towards the light (``bias_space=units``) and
@@ -120,12 +126,20 @@ class Preset:
 
 
 _GODOT_AT = "godotengine/godot@8ea4ec9"
-_GODOT = ("Godot 4 master, godotengine/godot@8ea4ec9531e385802c08b97cb214e2de03056ddc (scene/3d/light_3d.cpp "
-          "read at that commit; no line numbers: the repository is too large to fetch here)")
+_GODOT = ("Godot 4 master: scene/3d/light_3d.cpp read at godotengine/godot@8ea4ec9531e385802c08b97cb214e2de03056ddc; "
+          "servers/rendering/renderer_rd/storage_rd/light_storage.cpp read at "
+          "godotengine/godot@8403baa5a1e36485516c769a6393e056ed55192a (the store holds it at no nearer commit); "
+          "scene/main/scene_tree.cpp at godotengine/godot@002874d427012c965eef4cdeff03c1da4ee0431a")
 _GODOT_LIGHT = f"{_GODOT_AT}:scene/3d/light_3d.cpp"
-_GODOT_STORE = ("servers/rendering/renderer_rd/storage_rd/light_storage.cpp (update_light_buffers; "
-                "not re-read at 8ea4ec9: UNVERIFIED)")
-_GODOT_DOC = "Godot ProjectSettings reference (not re-read: UNVERIFIED)"
+_GODOT_STORE = "godotengine/godot@8403baa:servers/rendering/renderer_rd/storage_rd/light_storage.cpp"
+_GODOT_TREE = ("godotengine/godot@002874d:scene/main/scene_tree.cpp SceneTree::SceneTree (GLOBAL_DEF; line not "
+               "counted: the file was read in pages but not counted through)")
+_GODOT_RSERVER = ("servers/rendering_server.cpp RenderingServer::init GLOBAL_DEF (not read in godotengine/godot: "
+                  "UNVERIFIED; seen only in third-party copies of that code)")
+_GODOT_QUALITY = ("servers/rendering/renderer_rd/renderer_scene_render_rd.cpp "
+                  "RendererSceneRenderRD::directional_soft_shadow_filter_set_quality (read in a stored copy whose "
+                  "repository and commit the index did not name: UNVERIFIED)")
+_GODOT_SHADER = ("servers/rendering/renderer_rd/shaders/scene_forward_lights_inc.glsl (not read: UNVERIFIED)")
 _BEVY_AT = "bevyengine/bevy@4805ca7"
 _BEVY = "Bevy main (0.20.0-dev), bevyengine/bevy@4805ca792c3e94eef07afd6fa9a2712f388c9a67"
 _THREE_AT = "mrdoob/three.js@r187 (npm three@0.187.0)"
@@ -151,65 +165,85 @@ PRESETS: dict[str, Preset] = {
         "shadow_map": {
             "directional": {
                 "variant": _s("normal_offset", "depth bias + normal bias together",
-                              "servers/rendering/renderer_rd/forward_clustered/scene_forward_clustered.glsl BIAS_FUNC "
-                              "(not re-read: UNVERIFIED)",
+                              f"{_GODOT_STORE}:710-711 (shadow_bias[j], shadow_normal_bias[j] sent to the shader); "
+                              "servers/rendering/renderer_rd/shaders/forward_clustered/scene_forward_clustered.glsl "
+                              "BIAS_FUNC (not read: UNVERIFIED)",
                               APPROXIMATE, "both move the lookup point; the lab's normal offset has no (1 - N.L) factor"),
                 "bias_space": _s("units", "shadow_bias is a world distance along the light",
-                                 "BIAS_FUNC: light_dir * shadow_bias (not re-read: UNVERIFIED)", APPROXIMATE),
-                "bias": _s(0.001, "DirectionalLight3D keeps Light3D's shadow_bias 0.1, / 100 x bias_scale "
-                                  "(1 on the first split)",
-                           f"{_GODOT_LIGHT} Light3D::Light3D(LightType): set_param(PARAM_SHADOW_BIAS, 0.1) "
-                           f"(DirectionalLight3D::DirectionalLight3D does not override it); {_GODOT_STORE}: / 100.0",
-                           APPROXIMATE, "bias_scale grows on later splits; the lab's single map uses the first split's"),
+                                 "scene_forward_clustered.glsl BIAS_FUNC: light_dir * shadow_bias (not read: UNVERIFIED)",
+                                 UNCERTAIN, "the shader that applies the bias was not read"),
+                "bias": _s(0.002, "DirectionalLight3D keeps Light3D's shadow_bias 0.1; the renderer sends 0.1 / 100 x "
+                                  "bias_scale x soft_shadow_scale, where soft_shadow_scale = shadow_blur 1.0 x the "
+                                  "directional quality radius (2.0 at soft_shadow_filter_quality Soft Low)",
+                           f"{_GODOT_LIGHT}:484 (set_param(PARAM_SHADOW_BIAS, 0.1)), :483 (PARAM_SHADOW_BLUR 1.0); "
+                           f"{_GODOT_STORE}:684 (soft_shadow_scale = shadow_blur), :688 (x "
+                           f"directional_shadow_quality_radius_get()), :709-710 (/ 100.0 x bias_scale x "
+                           f"soft_shadow_scale); radius 2.0 for SHADOW_QUALITY_SOFT_LOW: {_GODOT_QUALITY}",
+                           UNCERTAIN, "the x 2 rests on the Soft Low default and its radius 2.0, both UNVERIFIED; "
+                                      "bias_scale (per split, renderer_scene_cull.cpp, not read) is taken as 1 on the "
+                                      "first split, the one the lab's single map stands for"),
                 "normal_offset": _s(2.0, "DirectionalLight3D shadow_normal_bias 2.0 x the split's texel size",
-                                    f"{_GODOT_LIGHT} DirectionalLight3D::DirectionalLight3D: "
-                                    f"set_param(PARAM_SHADOW_NORMAL_BIAS, 2.0); {_GODOT_STORE}: x shadow_texel_size",
-                                    APPROXIMATE, "Godot scales by (1 - N.L) and drops the part along the light"),
+                                    f"{_GODOT_LIGHT}:596 (set_param(PARAM_SHADOW_NORMAL_BIAS, 2.0)); "
+                                    f"{_GODOT_STORE}:711 (x shadow_transform[j].shadow_texel_size)",
+                                    APPROXIMATE, "Godot's shader scales by (1 - N.L) and drops the part along the light "
+                                                 "(BIAS_FUNC, not read); the lab offsets the full normal"),
                 "resolution": _s(4096, "rendering/lights_and_shadows/directional_shadow/size 4096",
-                                 f"{_GODOT_DOC}, directional_shadow/size (4 splits share it: 2048 each)",
+                                 f"{_GODOT_RSERVER}, directional_shadow/size; "
+                                 f"{_GODOT_STORE}:49 (LightStorage reads it)",
                                  UNCERTAIN, "one 4096 atlas split 2x2 among the PSSM splits; the lab draws one map"),
-                "filter": _s("pcf3", "soft_shadow_filter_quality 2 (soft low): rotated Poisson-disk PCF",
-                             f"{_GODOT_DOC}, directional_shadow/soft_shadow_filter_quality", UNCERTAIN,
-                             "no disk-kernel PCF in the lab; pcf3 is the nearest"),
+                "filter": _s("pcf3", "soft_shadow_filter_quality 2 (Soft Low): 4 Vogel-disk taps within the "
+                                     "quality radius",
+                             f"{_GODOT_RSERVER}, directional_shadow/soft_shadow_filter_quality; {_GODOT_QUALITY}",
+                             UNCERTAIN, "no disk-kernel PCF in the lab; pcf3 is the nearest"),
             },
             "local": {
                 "variant": _s("normal_offset", "depth bias + normal bias together",
-                              "scene_forward_lights_inc.glsl (not re-read: UNVERIFIED)", APPROXIMATE, "as directional"),
-                "bias_space": _s("units", "omni: shadow_bias subtracted from the radial distance (world units)",
-                                 "scene_forward_lights_inc.glsl light_process_omni_shadow (not re-read: UNVERIFIED)",
-                                 UNCERTAIN, "spot lights divide by 100 and by the distance in projected depth"),
+                              f"{_GODOT_STORE}:955, 957-961 (shadow_normal_bias, shadow_bias sent to the shader); "
+                              f"{_GODOT_SHADER}", APPROXIMATE, "as directional"),
+                "bias_space": _s("units", "omni: shadow_bias sent unscaled (world units, by the earlier reading of the "
+                                          "shader: subtracted from the radial distance)",
+                                 f"{_GODOT_STORE}:959-960 (omni: the raw shadow_bias); {_GODOT_SHADER} "
+                                 f"light_process_omni_shadow",
+                                 UNCERTAIN, "the shader was not read; spot lights send shadow_bias / 100 x "
+                                            "soft_shadow_scale (:958, :1011) in projected depth"),
                 "bias": _s(0.1, "OmniLight3D keeps Light3D's shadow_bias 0.1 (SpotLight3D sets 0.03)",
-                           f"{_GODOT_LIGHT} Light3D::Light3D(LightType): set_param(PARAM_SHADOW_BIAS, 0.1) "
-                           f"(OmniLight3D::OmniLight3D does not override it); SpotLight3D::SpotLight3D: "
-                           f"set_param(PARAM_SHADOW_BIAS, 0.03)", APPROXIMATE,
-                           "the omni value; spot lights would get 0.03 / 100 x distance in projected depth"),
-                "normal_offset": _s(10.0, "shadow_normal_bias 1.0 x texel size x 10",
-                                    f"{_GODOT_LIGHT} Light3D::Light3D(LightType): set_param(PARAM_SHADOW_NORMAL_BIAS, "
-                                    f"1.0); {_GODOT_STORE}: x shadow_texel_size x 10.0", UNCERTAIN,
-                                    "the x 10 was not re-read at this commit; (1 - |N.L|) factor not modelled"),
-                "resolution": _s(1024, "positional shadow atlas 4096, quadrant subdivision 2/4/16/64: a first-quadrant "
-                                       "light gets 1024 (a cube face of an omni light less)",
-                                 f"{_GODOT_DOC}, positional_shadow/atlas_size and atlas_quadrant_*_subdiv",
-                                 UNCERTAIN, "depends on how many lights share the atlas"),
-                "filter": _s("pcf3", "soft_shadow_filter_quality 2 (soft low)", _GODOT_DOC, UNCERTAIN,
+                           f"{_GODOT_LIGHT}:484 (Light3D::Light3D: set_param(PARAM_SHADOW_BIAS, 0.1); "
+                           f"OmniLight3D::OmniLight3D, :639-642, does not override it); :673 (SpotLight3D: 0.03); "
+                           f"{_GODOT_STORE}:960 (omni: sent as is)", APPROXIMATE,
+                           "the omni value; spot lights would get 0.03 / 100 x the quality radius in projected depth"),
+                "normal_offset": _s(10.0, "shadow_normal_bias 1.0 x the light's atlas texel size x 10",
+                                    f"{_GODOT_LIGHT}:485 (set_param(PARAM_SHADOW_NORMAL_BIAS, 1.0)); "
+                                    f"{_GODOT_STORE}:954-955 (x light_instance_get_shadow_texel_size(...) x 10.0)",
+                                    UNCERTAIN, "the x 10 is read; how light_instance_get_shadow_texel_size measures a "
+                                               "texel, and the shader's (1 - |N.L|) factor, were not read"),
+                "resolution": _s(1024, "positional shadow atlas 4096, quadrant subdivisions 2/2/3/4 (4, 4, 16 and 64 "
+                                       "shadows): a light in quadrant 0 or 1 gets 2048 / 2 = 1024",
+                                 f"{_GODOT_TREE}: positional_shadow/atlas_size 4096, atlas_quadrant_0..3_subdiv 2, 2, 3, "
+                                 f"4; {_GODOT_STORE}:482 (an omni light takes two atlas spots)",
+                                 UNCERTAIN, "depends on how many lights share the atlas; an omni light's cube is "
+                                            "stored in two spots"),
+                "filter": _s("pcf3", "positional soft_shadow_filter_quality (Soft Low by the third-party copies)",
+                             f"{_GODOT_RSERVER}, positional_shadow/soft_shadow_filter_quality; {_GODOT_STORE}:986 "
+                             f"(omni: x shadows_quality_radius_get())", UNCERTAIN,
                              "no disk-kernel PCF in the lab"),
             },
         },
         "cascaded_map": {
             "directional": {
                 "cascades": _s(4, "DirectionalLight3D directional_shadow_mode PSSM 4 splits",
-                               f"{_GODOT_LIGHT} DirectionalLight3D::DirectionalLight3D: "
-                               f"set_shadow_mode(SHADOW_PARALLEL_4_SPLITS)", EXACT),
+                               f"{_GODOT_LIGHT}:598 (DirectionalLight3D::DirectionalLight3D: "
+                               f"set_shadow_mode(SHADOW_PARALLEL_4_SPLITS))", EXACT),
                 "resolution": _s(2048, "directional_shadow/size 4096 shared 2x2 by four splits",
-                                 f"{_GODOT_DOC}, directional_shadow/size", UNCERTAIN),
+                                 f"{_GODOT_RSERVER}, directional_shadow/size", UNCERTAIN),
                 "split_lambda": _s(0.5, "splits at 0.1 / 0.2 / 0.5 of max distance 100",
-                                   f"{_GODOT_LIGHT} Light3D::Light3D(LightType): PARAM_SHADOW_SPLIT_1/2/3_OFFSET 0.1, "
-                                   f"0.2, 0.5; DirectionalLight3D::DirectionalLight3D: PARAM_SHADOW_MAX_DISTANCE 100",
+                                   f"{_GODOT_LIGHT}:477-479 (PARAM_SHADOW_SPLIT_1/2/3_OFFSET 0.1, 0.2, 0.5); "
+                                   f":593 (DirectionalLight3D: PARAM_SHADOW_MAX_DISTANCE 100)",
                                    UNCERTAIN, "fixed fractions, not a lambda mix; 0.5 lies between their uniform and "
                                               "log fits"),
                 "blend": _s(False, "directional_shadow_blend_splits false",
-                            f"{_GODOT_LIGHT} DirectionalLight3D::DirectionalLight3D: blend_splits = false", EXACT),
-                "filter": _s("pcf3", "soft low Poisson-disk PCF", _GODOT_DOC, UNCERTAIN),
+                            f"{_GODOT_LIGHT}:599 (DirectionalLight3D::DirectionalLight3D: blend_splits = false)", EXACT),
+                "filter": _s("pcf3", "soft_shadow_filter_quality Soft Low: Vogel-disk PCF",
+                             f"{_GODOT_RSERVER}; {_GODOT_QUALITY}", UNCERTAIN),
             },
         },
     }),

@@ -22,7 +22,7 @@ def test_preset_expands_to_its_documented_directional_values(name):
 
 def test_documented_values_of_two_engines():
     godot = presets.PRESETS["godot"].values("shadow_map", "directional")
-    assert (godot["bias"], godot["bias_space"], godot["normal_offset"]) == (0.001, "units", 2.0)
+    assert (godot["bias"], godot["bias_space"], godot["normal_offset"]) == (0.002, "units", 2.0)
     bevy_local = presets.PRESETS["bevy"].values("shadow_map", "local")
     assert (bevy_local["bias"], bevy_local["resolution"]) == (0.08, 1024)
     assert math.isclose(bevy_local["normal_offset"], 0.6 * math.sqrt(2.0), rel_tol=1e-3)

@@ -2,7 +2,7 @@
 
 For every preset of :mod:`shadowlab.techniques.maps.presets` (``shadow_map:preset=NAME``) and every
 shadow-map hard case of docs/hard-cases.md, ``shadowlab tune SCENE -t shadow_map:preset=NAME
---param bias=LO:HI:log`` is run: the engine's default as given (its error rate, acne =
+--param bias=LO:HI:log`` is run (the range per the preset's ``bias_space``: :data:`BIAS_RANGES`): the engine's default as given (its error rate, acne =
 ``false_shadow_rate``, peter-panning = ``false_lit_rate``, ``contact_gap_px``) and the exact
 optimum of the same preset with its constant bias free (every other key of the preset held) —
 the tuned parameter is ``bias``, in the preset's own ``bias_space``. ``regret`` is the default's
@@ -14,6 +14,7 @@ Writes results/presets/presets.csv (one row per preset × scene) and results/pre
 machine.
 
     python experiments/engine_presets.py [--out results/presets] [--size 320x240] [--jobs 2]
+        [--scenes SCENE ...] [--presets PRESET ...]   (a partial rerun replaces those rows)
 """
 from __future__ import annotations
 
@@ -29,15 +30,26 @@ from pathlib import Path
 
 import pandas as pd
 
-from shadowlab.techniques.maps.presets import PRESETS
+from shadowlab.techniques.maps.presets import KINDS, PRESETS
 
 #: The shadow-map hard cases of docs/hard-cases.md, and the point-light volume case whose lamp is
 #: close to its casters.
 SCENES = ["sm_contact", "sm_grazing", "sm_thin", "sm_aliasing", "sm_lamp_contact", "sm_point_cube",
           "sm_light_bleeding", "sm_far_origin", "sv_light_close"]
-#: The bias range the optimum is searched over: from far below any preset's value to the
-#: parameter's limit (units: a metre of scene; window: all of it; texels: one map texel).
-BIAS_RANGE = "1e-7:1.0:log"
+#: The bias range the optimum is searched over, per the preset's ``bias_space``: from far below
+#: any preset's value to far above it — window depth: all of it; scene units: 10 (metres in the
+#: engines' scenes, several times the hard cases' sizes); texels: 64 map texels.
+BIAS_RANGES = {"window": "1e-7:1.0:log", "world": "1e-7:1.0:log", "units": "1e-6:10.0:log",
+               "texels": "1e-3:64.0:log"}
+
+
+def bias_range(preset: str) -> str:
+    """The tuned range for ``preset`` (:data:`BIAS_RANGES` of its shadow_map ``bias_space``; the
+    presets give every light kind the same space)."""
+    spaces = {PRESETS[preset].values("shadow_map", kind).get("bias_space", "world") for kind in KINDS}
+    if len(spaces) != 1:
+        raise SystemExit(f"preset {preset}: bias_space differs between light kinds ({spaces}); give each its range")
+    return BIAS_RANGES[spaces.pop()]
 METRICS = ["error_rate", "false_shadow_rate", "false_lit_rate", "contact_gap_px", "visibility_mae"]
 
 
@@ -45,7 +57,7 @@ def tune_one(preset: str, scene: str, size: str, work: Path) -> dict:
     """One ``shadowlab tune`` run; the default's and the optimum's figures."""
     out = work / f"{preset}_{scene}"
     cmd = [sys.executable, "-m", "shadowlab", "tune", scene, "-t", f"shadow_map:preset={preset}",
-           "--param", f"bias={BIAS_RANGE}", "--size", size, "--out", str(out)]
+           "--param", f"bias={bias_range(preset)}", "--size", size, "--out", str(out)]
     done = subprocess.run(cmd, capture_output=True, text=True)
     if done.returncode != 0:
         return {"preset": preset, "scene": scene, "status": "failed",
@@ -61,6 +73,7 @@ def tune_one(preset: str, scene: str, size: str, work: Path) -> dict:
     record.update({f"optimum_{m}": float(tuned[m]) for m in METRICS if m in tuned})
     record["optimum_bias"] = float(best["params"].get("bias", float("nan")))
     record["regret"] = float(best.get("regret_of_default", float("nan")))
+    record["bias_range"] = bias_range(preset)
     record["emulation_mismatch"] = best.get("emulation_mismatch")
     record["verified"] = best.get("verified")
     params = default.get("params", "")
@@ -84,24 +97,27 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--scenes", nargs="*", default=None,
                     help="rerun only these scenes, replacing their rows of an existing presets.csv")
+    ap.add_argument("--presets", nargs="*", default=None, choices=list(PRESETS),
+                    help="rerun only these presets, replacing their rows of an existing presets.csv")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
-        jobs = [(p, s) for p in PRESETS for s in (args.scenes or SCENES)]
+        jobs = [(p, s) for p in (args.presets or PRESETS) for s in (args.scenes or SCENES)]
         with ThreadPoolExecutor(args.jobs) as pool:
             rows = list(pool.map(lambda job: tune_one(*job, args.size, Path(tmp)), jobs))
     table = pd.DataFrame(rows)
-    if args.scenes and (out / "presets.csv").exists():  # a partial rerun: replace those scenes' rows
+    if (args.scenes or args.presets) and (out / "presets.csv").exists():  # a partial rerun: replace those rows
         old = pd.read_csv(out / "presets.csv")
-        table = pd.concat([old[~old["scene"].isin(args.scenes)], table], ignore_index=True)
+        rerun = old["scene"].isin(args.scenes or SCENES) & old["preset"].isin(args.presets or list(PRESETS))
+        table = pd.concat([old[~rerun], table], ignore_index=True)
         order = {s: i for i, s in enumerate(SCENES)}
         table = table.sort_values(["preset", "scene"], key=lambda c: c.map(order) if c.name == "scene" else
                                   c.map({p: i for i, p in enumerate(PRESETS)})).reset_index(drop=True)
     table.to_csv(out / "presets.csv", index=False)
     record = {"experiment": "engine_presets", "size": args.size, "scenes": SCENES, "presets": list(PRESETS),
-              "bias_range": BIAS_RANGE, "tuned_parameter": "bias",
+              "bias_ranges": {p: bias_range(p) for p in PRESETS}, "tuned_parameter": "bias",
               "command": f"python experiments/engine_presets.py --size {args.size}",
               "machine": platform.platform(), "seconds": round(time.perf_counter() - started, 1)}
     try:

@@ -26,8 +26,8 @@ vec3 light_dir_to(vec3 p) {
     return normalize(light_position - p);
 }
 
-// Distance attenuation of a light with a range (glTF KHR_lights_punctual's recommended window over
-// inverse-square falloff): clamp(1 - (d/range)^4, 0, 1)^2 / max(d^2, (0.01 range)^2). Numpy twin:
+// Distance attenuation of a light with a range (Karis's squared window over inverse-square falloff;
+// KHR_lights_punctual recommends the window unsquared): clamp(1 - (d/range)^4, 0, 1)^2 / max(d^2, (0.01 range)^2). Numpy twin:
 // range_attenuation() in shadowlab/scene/lights.py (RANGE_NEAR = 0.01), operation for operation.
 float light_attenuation(vec3 p) {
     vec3 v = p - light_position;

@@ -206,6 +206,14 @@ class _Reader:
             raise self.error(key, f"must be > 0, got {value!r}")
         return float(value)
 
+    def count(self, table: dict, name: str, key: str, default=None, *, at_least: int = 0) -> int:
+        """A whole number ≥ ``at_least`` (``default`` when absent): byte offsets, lengths, strides
+        and element counts, which the spec makes non-negative integers."""
+        value = self.number(table, name, key, default)
+        if value != int(value) or value < at_least:
+            raise self.error(key, f"must be a whole number >= {at_least}, got {table.get(name, default)!r}")
+        return int(value)
+
     def numbers(self, table: dict, name: str, n: int, key: str, default=None) -> np.ndarray:
         """A list of ``n`` finite numbers as float64 (``default`` when absent)."""
         value = table.get(name, default)
@@ -217,7 +225,7 @@ class _Reader:
 
     def _buffer(self, i: int, buf: dict) -> bytes:
         key = f"buffers[{i}]"
-        length = int(self.number(buf, "byteLength", f"{key}.byteLength"))
+        length = self.count(buf, "byteLength", f"{key}.byteLength")
         uri = buf.get("uri")
         if uri is None:
             if i != 0 or self.bin is None:
@@ -248,14 +256,18 @@ class _Reader:
         for i, v in enumerate(views):
             key = f"bufferViews[{i}]"
             b = self.index(v.get("buffer"), len(self.buffers), f"{key}.buffer", "buffers")
-            start = int(self.number(v, "byteOffset", f"{key}.byteOffset", 0))
-            size = int(self.number(v, "byteLength", f"{key}.byteLength"))
+            start = self.count(v, "byteOffset", f"{key}.byteOffset", 0)
+            size = self.count(v, "byteLength", f"{key}.byteLength", at_least=1)
+            if "byteStride" in v:
+                stride = self.count(v, "byteStride", f"{key}.byteStride", at_least=4)
+                if stride > 252 or stride % 4:
+                    raise self.error(f"{key}.byteStride", f"must be a multiple of 4 from 4 to 252, got {stride}")
             if start + size > len(self.buffers[b]):
                 raise self.error(key, f"bytes {start}..{start + size} run past buffer {b} "
                                       f"({len(self.buffers[b])} bytes)")
         for i, a in enumerate(self.array("accessors")):
             key = f"accessors[{i}]"
-            count = int(self.number(a, "count", f"{key}.count"))
+            count = self.count(a, "count", f"{key}.count", at_least=1)
             if a.get("componentType") not in _COMPONENT_SIZES:
                 raise self.error(f"{key}.componentType", f"unknown component type {a.get('componentType')!r}")
             if a.get("type") not in _TYPE_COUNTS:
@@ -265,7 +277,7 @@ class _Reader:
             vi = self.index(a["bufferView"], len(views), f"{key}.bufferView", "bufferViews")
             element = _COMPONENT_SIZES[a["componentType"]] * _TYPE_COUNTS[a["type"]]
             stride = int(views[vi].get("byteStride", element)) or element
-            end = int(self.number(a, "byteOffset", f"{key}.byteOffset", 0)) + (stride * (count - 1) + element
+            end = self.count(a, "byteOffset", f"{key}.byteOffset", 0) + (stride * (count - 1) + element
                                                                               if count else 0)
             if end > int(views[vi]["byteLength"]):
                 raise self.error(key, f"{count} elements need {end} bytes of bufferView {vi}, which has "
@@ -535,6 +547,10 @@ def _light(rd: _Reader, li: int, d: dict, node_name: str, world: np.ndarray, not
         if not 0 <= light.inner < light.outer <= math.pi / 2:
             raise rd.error(f"{key}.spot", f"needs 0 <= innerConeAngle < outerConeAngle <= pi/2, got "
                                           f"{light.inner} and {light.outer}")
+        for what, angle in (("outer", light.outer), ("inner", light.inner)):
+            if math.degrees(2 * angle) > MAX_SPOT_ANGLE:
+                notes.append(f"spot light {name!r}: {what} cone {math.degrees(2 * angle):.6g}° wide, narrowed to "
+                             f"{MAX_SPOT_ANGLE:g}° (the lab's spot cone is below a half space)")
     return light
 
 
@@ -695,7 +711,8 @@ def light_table(light: GltfLight, exposure: float, ambient_share: float = DEFAUL
     - ``ambient`` = ``ambient_share`` · the brightest channel of that colour;
     - directional → ``directional`` along the node's −Z;
     - point → ``point`` at the node, with ``range`` when the file gives one (the lab's range is
-      KHR's recommended windowed 1/d²) and ``inverse_square = true`` when it does not (KHR: an
+      Karis's squared window over 1/d²; KHR recommends it unsquared: see the mapping table in
+      docs/contracts.md#gltf-scenes) and ``inverse_square = true`` when it does not (KHR: an
       infinite range with 1/d² falloff);
     - spot → ``spot`` with ``alpha`` = 2 · outerConeAngle, ``beta`` = 2 · innerConeAngle (degrees;
       alpha at most :data:`MAX_SPOT_ANGLE`) and ``cone_falloff = "squared"`` (KHR's ramp).

@@ -20,7 +20,7 @@ Footprint λ (docs/architecture.md#the-shading-pass-shadowlabgpushadingpy): spot
 to 0 at the cone half-angle α/2; target-direct (a cylinder of parallel rays of outer radius R,
 inner radius r) — 1 within r of the axis, linear to 0 at R, 0 behind the light's plane. A point
 or spot light with a ``range`` (> 0) multiplies that by the distance attenuation of
-:func:`range_attenuation` (glTF KHR_lights_punctual's recommended falloff over 1/d²), so λ is
+:func:`range_attenuation` (Karis's windowed 1/d², the form KHR_lights_punctual allows), so λ is
 then ≥ 0 but no longer bounded by 1 (its ``color`` is its intensity at distance 1); without a
 range, λ is the shape factor alone, bit for bit as before ranges existed — unless the light asks for
 ``inverse_square`` (no range, KHR_lights_punctual's infinite-range light): then the shape factor
@@ -68,14 +68,17 @@ def range_attenuation(d2: np.ndarray, light_range: float) -> np.ndarray:
     """The distance attenuation of a light with a ``range`` at squared distances ``d2`` (N,)
     float64: ``clamp(1 − (d/range)⁴, 0, 1)² / max(d², (RANGE_NEAR·range)²)``.
 
-    glTF 2.0's KHR_lights_punctual extension recommends this form (after Karis, "Real Shading in
-    Unreal Engine 4", SIGGRAPH 2013 course notes): physical inverse-square falloff, windowed so
-    that it reaches exactly 0 at ``range`` with zero slope there, so a light touches only the
+    Karis's window ("Real Shading in Unreal Engine 4", SIGGRAPH 2013 course notes; also
+    Filament's): physical inverse-square falloff, windowed so that it reaches exactly 0 at
+    ``range`` with zero slope there, so a light touches only the
     pixels within ``range`` of it (its evaluated pixels). The light's colour is thus its
     intensity at distance 1. The window is a function of (d/range)² = d²/range², so no square
     root is taken; the lower clamp on d² (:data:`RANGE_NEAR`) keeps a receiver at the light
-    finite. Must match ``light_attenuation()`` in shadowlab/gpu/lights.glsl operation for
-    operation."""
+    finite. glTF 2.0's KHR_lights_punctual allows "some non-quadratic falloff near the edge of the
+    range" and recommends the same window unsquared, clamp(1 − (d/range)⁴, 0, 1) / d²: both are 1/d²
+    near the light and 0 at the range; between, the squared window is the darker (at d = range/2,
+    0.879 against 0.9375 of 1/d²). Must match ``light_attenuation()`` in shadowlab/gpu/lights.glsl
+    operation for operation."""
     r2 = light_range * light_range
     x = d2 / r2  # (d / range)²
     window = np.clip(1.0 - x * x, 0.0, 1.0)

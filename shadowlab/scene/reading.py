@@ -285,6 +285,8 @@ class _GltfPart:
     def __init__(self, table, file: str, base: Path, path: Path | None = None, camera=None):
         rd = TableReader(table, "gltf", file)
         self.rd, self.file = rd, file
+        # the key an unknown camera is named by: the [gltf] table's, or the "#camera" of a bare file
+        self.camera_key = "gltf.camera" if path is None else "camera"
         if path is None:
             ref = rd.string("file")
             path = (base / ref).resolve()
@@ -321,7 +323,7 @@ class _GltfPart:
 
     def camera(self, bounds: np.ndarray) -> Camera:
         """The chosen camera of the file (SceneError naming ``gltf.camera`` when it has none)."""
-        cam, _ = gltf.choose_camera(self.source, self.camera_choice, key="gltf.camera")
+        cam, _ = gltf.choose_camera(self.source, self.camera_choice, key=self.camera_key)
         return gltf.lab_camera(cam, bounds)
 
     def lights(self, target: np.ndarray) -> list[Light]:

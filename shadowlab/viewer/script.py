@@ -95,8 +95,8 @@ def parse_script(data: dict, file: str) -> Script:
     """A :class:`Script` from a parsed TOML file; SceneError (one line naming the step and the
     key) on anything else."""
     rd = TableReader(data, "", file)
-    tables = rd.table_list("step")
-    rd.finish()
+    tables = rd.table_list("step", [])
+    rd.finish()  # before the "no steps" check: a misspelt [[steps]] gets its "did you mean"
     if not tables:
         raise SceneError(file, "step", "a script needs at least one [[step]]")
     steps, frame = [], 0

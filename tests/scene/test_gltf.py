@@ -157,6 +157,17 @@ def _fixture_doc() -> dict:
                                      ({**n, "children": [1, 2, 4, 5, 0]} if n.get("name") == "Root" else n)
                                      for n in _fixture_doc()["nodes"]]})), "nodes[0]"),
     ("faces.gltf", None, "indices"),
+    ("count.gltf", lambda p: p.write_text(json.dumps(
+        {**_fixture_doc(), "accessors": [{**a, "count": 2.5} if i == 0 else a
+                                         for i, a in enumerate(_fixture_doc()["accessors"])]})), "accessors[0].count"),
+    ("offset.gltf", lambda p: p.write_text(json.dumps(
+        {**_fixture_doc(), "bufferViews": [{**v, "byteOffset": -100} if i == 0 else v
+                                           for i, v in enumerate(_fixture_doc()["bufferViews"])]})),
+     "bufferViews[0].byteOffset"),
+    ("stride.gltf", lambda p: p.write_text(json.dumps(
+        {**_fixture_doc(), "bufferViews": [{**v, "byteStride": 6} if i == 0 else v
+                                           for i, v in enumerate(_fixture_doc()["bufferViews"])]})),
+     "bufferViews[0].byteStride"),
 ])
 def test_a_broken_file_is_one_scene_error_naming_the_key(tmp_path, name, break_it, key):
     path = tmp_path / name
@@ -328,3 +339,18 @@ def test_a_suite_runs_a_gltf_file_like_a_toml_scene(tmp_path):
     (tmp_path / "s.toml").write_text('name = "s"\nscenes = ["fixture.gltf#B"]\ntechniques = ["shadow_map"]\n')
     with pytest.raises(SuiteError, match="cannot choose a glTF file's camera"):
         load_suite(tmp_path / "s.toml")
+
+
+def test_a_spot_wider_than_the_labs_cone_is_narrowed_with_a_note(tmp_path):
+    """outerConeAngle = π/2 (a half space, glTF's widest) becomes the lab's widest cone, 179°,
+    and the scene's notes say so: nothing is changed silently."""
+    doc = _fixture_doc()
+    lights = doc["extensions"]["KHR_lights_punctual"]["lights"]
+    spot = next(i for i, l in enumerate(lights) if l["type"] == "spot")
+    lights[spot]["spot"] = {"innerConeAngle": 0.2, "outerConeAngle": math.pi / 2}
+    path = tmp_path / "wide.gltf"
+    path.write_text(json.dumps(doc))
+    scene = load_scene(path)
+    wide = next(l for l in scene.lights if isinstance(l, SpotLight))
+    assert wide.alpha == 179.0
+    assert any("outer cone 180° wide, narrowed to 179°" in n for n in scene.notes)

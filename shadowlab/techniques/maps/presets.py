@@ -21,13 +21,13 @@ docs/your-scenes.md lists every one (generated from :func:`table_rows`). What th
 mean, read from their code (units matter; none of the code is copied here):
 
 - **Godot 4** (``scene/3d/light_3d.cpp`` at godotengine/godot@8ea4ec9; ``light_storage.cpp`` at
-  @8403baa and ``scene/main/scene_tree.cpp`` at @002874d, the commits the store holds them at; read
-  in pages through the file index, lines counted): ``Light3D`` sets ``shadow_bias`` 0.1,
+  @8403baa and ``scene/main/scene_tree.cpp`` at @002874d, the nearest commits they could be read
+  at; lines counted): ``Light3D`` sets ``shadow_bias`` 0.1,
   ``shadow_normal_bias`` 1.0 and ``shadow_blur`` 1.0, ``DirectionalLight3D`` raises the normal bias
   to 2.0, ``OmniLight3D`` keeps both, ``SpotLight3D`` lowers the bias to 0.03. ``update_light_buffers``
   sends a directional light's bias as shadow_bias / 100 × the split's bias scale × shadow_blur × the
   directional quality radius (2.0 at the Soft Low filter quality: that radius and that default were
-  read only in copies the index could not place, uncertain), its normal bias × the split's texel
+  not read at a known commit of godotengine/godot, uncertain), its normal bias × the split's texel
   size; an omni light's bias unscaled and its normal bias × its atlas texel size × 10. The forward
   shaders that apply them (``BIAS_FUNC``, ``light_process_omni_shadow``) were not read: that the
   directional bias moves the lookup point along the light (a world distance: ``bias_space=units``)
@@ -128,17 +128,17 @@ class Preset:
 _GODOT_AT = "godotengine/godot@8ea4ec9"
 _GODOT = ("Godot 4 master: scene/3d/light_3d.cpp read at godotengine/godot@8ea4ec9531e385802c08b97cb214e2de03056ddc; "
           "servers/rendering/renderer_rd/storage_rd/light_storage.cpp read at "
-          "godotengine/godot@8403baa5a1e36485516c769a6393e056ed55192a (the store holds it at no nearer commit); "
+          "godotengine/godot@8403baa5a1e36485516c769a6393e056ed55192a (the nearest commit it could be read at); "
           "scene/main/scene_tree.cpp at godotengine/godot@002874d427012c965eef4cdeff03c1da4ee0431a")
 _GODOT_LIGHT = f"{_GODOT_AT}:scene/3d/light_3d.cpp"
 _GODOT_STORE = "godotengine/godot@8403baa:servers/rendering/renderer_rd/storage_rd/light_storage.cpp"
 _GODOT_TREE = ("godotengine/godot@002874d:scene/main/scene_tree.cpp SceneTree::SceneTree (GLOBAL_DEF; line not "
-               "counted: the file was read in pages but not counted through)")
+               "verified)")
 _GODOT_RSERVER = ("servers/rendering_server.cpp RenderingServer::init GLOBAL_DEF (not read in godotengine/godot: "
                   "UNVERIFIED; seen only in third-party copies of that code)")
 _GODOT_QUALITY = ("servers/rendering/renderer_rd/renderer_scene_render_rd.cpp "
-                  "RendererSceneRenderRD::directional_soft_shadow_filter_set_quality (read in a stored copy whose "
-                  "repository and commit the index did not name: UNVERIFIED)")
+                  "RendererSceneRenderRD::directional_soft_shadow_filter_set_quality (not read at a known commit of "
+                  "godotengine/godot: UNVERIFIED)")
 _GODOT_SHADER = ("servers/rendering/renderer_rd/shaders/scene_forward_lights_inc.glsl (not read: UNVERIFIED)")
 _BEVY_AT = "bevyengine/bevy@4805ca7"
 _BEVY = "Bevy main (0.20.0-dev), bevyengine/bevy@4805ca792c3e94eef07afd6fa9a2712f388c9a67"
@@ -443,9 +443,22 @@ class PresetMixin:
         self._preset = chosen
         self._kind = None
         if chosen is not None:
+            if self.name not in chosen.settings:
+                having = [p.name for p in PRESETS.values() if self.name in p.settings]
+                raise TechniqueError(f"{self.name}: preset={name} has no {self.name} defaults ({chosen.engine}'s "
+                                     f"are for {', '.join(chosen.settings)}; {self.name} presets: "
+                                     f"{', '.join(having)})")
             # the directional values until the light is known (resolve_preset)
             params = {**chosen.values(self.name, "directional"), **params}
         super().__init__(**params)
+
+    def params(self) -> dict:
+        """As the technique's, without ``preset`` when there is none: a spec without a preset
+        has exactly the parameters (and metrics.csv ``param_*`` columns) it had before presets."""
+        out = super().params()
+        if self._preset is None:
+            out.pop("preset", None)
+        return out
 
     def preset_values(self, kind: str) -> dict:
         """The preset's values for a light of ``kind`` that the spec did not override."""
@@ -459,7 +472,10 @@ class PresetMixin:
         if self._preset is None:
             return
         kind = KIND_OF_LIGHT.get(light.type_name, "local")
-        values = self.preset_values(kind)
+        # every key the preset fills back to its declared default first: a key only one light kind
+        # sets (Bevy's cube projection for point lights) must not carry over to the next light
+        values = {k: self.PARAMS[k].default for k in self._preset.keys(self.name) - self._given}
+        values.update(self.preset_values(kind))
         parsed = {k: self.PARAMS[k].parse(self.name, k, v) for k, v in values.items()}
         self._params.update(parsed)
         self._check_params()

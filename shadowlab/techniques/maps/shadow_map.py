@@ -139,6 +139,12 @@ UNBIASED_VARIANTS = ("none", "second_depth", "midpoint", "dual")
 #: every tap with the point's own depth (0, DEPTH_COMPARISON_POINT).
 PER_TAP_VARIANTS = {"receiver_plane": 1, "adaptive": 2}
 
+#: The largest ``bias`` in the absolute bias spaces (``units``: scene units; ``texels``); the
+#: fractional spaces (``world``, ``window``) stop at 1 (:meth:`ComparisonVariants.check_bias`).
+MAX_ABSOLUTE_BIAS = 1000.0
+#: The bias spaces in which ``bias`` is a fraction (of the extent, the depth range or window depth).
+FRACTION_BIAS_SPACES = ("world", "window")
+
 #: The parameters of the depth comparison that shadow_map and lispsm share.
 COMPARISON_PARAMS = {
     "resolution": Param(2048, "shadow map width and height in texels (per cube face)", min=16, max=16384,
@@ -148,8 +154,10 @@ COMPARISON_PARAMS = {
                          "of the scene's extent (perspective maps) or of the depth range (orthographic maps); "
                          "with window, window-depth units [0, 1] (dual: the offset cap, window depth); with units, scene "
                          "units; with texels, map texels",
-                  # acne below ~1e-6 of the depth range (or extent) even at 32 bits; 0.05 detaches every contact
-                  min=0.0, max=1.0, tune=TuneRange(1e-6, 0.05, log=True)),
+                  # acne below ~1e-6 of the depth range (or extent) even at 32 bits; 0.05 detaches every contact.
+                  # At most 1 as a fraction (world, window: checked in ComparisonVariants); scene units and
+                  # texels go further (an engine's bias of 2 texels, or of 0.5 m in a city)
+                  min=0.0, max=MAX_ABSOLUTE_BIAS, tune=TuneRange(1e-6, 0.05, log=True)),
     "bias_space": Param("world", "what bias measures: world (a distance moved towards the light at each receiver, "
                                  "the same whatever the near plane: bias x the scene's extent on perspective maps, "
                                  "converted to window depth at the receiver; on orthographic maps window depth is "
@@ -189,10 +197,21 @@ class ComparisonVariants:
 
     def __init__(self, **params):
         super().__init__(**params)
+        self.check_bias()
         if self.variant in PER_TAP_VARIANTS and FILTERS[self.filter] is None:
             raise TechniqueError(f"{self.name}: variant={self.variant} compares each texel with its own receiver "
                                  f"depth; filter={self.filter} compares one depth in the texture unit; use nearest, "
                                  f"pcf3 or pcf5")
+
+    def check_bias(self) -> None:
+        """``bias`` is a fraction in the fractional bias spaces (world: of the extent or depth range;
+        window: of window depth), so at most 1 there; the absolute spaces (units, texels) take up to
+        :data:`MAX_ABSOLUTE_BIAS`. A one-line TechniqueError otherwise."""
+        if self.bias_space in FRACTION_BIAS_SPACES and self.bias > 1.0:
+            absolute = [b for b in self.PARAMS["bias_space"].choices if b not in FRACTION_BIAS_SPACES]
+            raise TechniqueError(f"{self.name}: bias must be <= 1.0 with bias_space={self.bias_space} (a fraction), "
+                                 f"got {self.bias}" + (f"; bias_space={' or '.join(absolute)} take larger values"
+                                                       if absolute else ""))
 
     def two_layer(self) -> bool:
         """Midpoint and dual compare against the resolved pair of the first two layers."""
@@ -299,7 +318,9 @@ class ShadowMap(PresetMixin, ContactShadows, ComparisonVariants, DepthMapTechniq
     }
 
     def _check_params(self) -> None:
-        """The per-tap variants need a depth test per texel: refused with hw2x2 (as when parsed)."""
+        """The per-tap variants need a depth test per texel: refused with hw2x2 (as when parsed);
+        the bias within its space's range (:meth:`check_bias`)."""
+        self.check_bias()
         if self.variant in PER_TAP_VARIANTS and FILTERS[self.filter] is None:
             raise TechniqueError(f"{self.name}: variant={self.variant} compares each texel with its own receiver "
                                  f"depth; filter={self.filter} compares one depth in the texture unit")

@@ -56,7 +56,9 @@ def test_the_light_type_picks_the_values():
     tech.resolve_preset(Light("point"))
     assert (tech.bias, tech.resolution, tech.projection) == (0.08, 1024, "cube")
     tech.resolve_preset(Light("directional"))
-    assert (tech.bias, tech.resolution) == (0.02, 2048)
+    # a key only the point light's set gives (the cube) goes back to the technique's default
+    assert (tech.bias, tech.resolution, tech.projection) == (0.02, 2048, "auto")
+    assert tech.short_label() == "shadow_map:preset=bevy" and from_spec(tech.spec()).projection == "auto"
     given = from_spec("shadow_map:preset=bevy,bias=0.5")
     given.resolve_preset(Light("spot"))
     assert given.bias == 0.5
@@ -81,6 +83,8 @@ def test_no_preset_leaves_the_spec_as_it_was():
     spec = from_spec("shadow_map").spec()
     assert "preset" not in spec
     assert from_spec("shadow_map:preset=none").spec() == spec
+    # nor its parameters (metrics.csv's param_* columns and run.json)
+    assert "preset" not in from_spec("shadow_map").params() and "preset" not in from_spec("cascaded_map").params()
 
 
 def test_tuner_keeps_the_preset_light_dependent():
@@ -93,6 +97,9 @@ def test_tuner_keeps_the_preset_light_dependent():
     ("shadow_map:preset=unreal", "preset must be one of"),
     ("cascaded_map:preset=3js", "preset"),
     ("shadow_map:bias_space=metres", "bias_space"),
+    ("cascaded_map:preset=threejs", "preset=threejs has no cascaded_map defaults"),
+    ("cascaded_map:preset=ue5", "cascaded_map presets: godot, bevy, unity"),
+    ("shadow_map:bias=2", "bias must be <= 1.0 with bias_space=world"),
 ])
 def test_bad_names_are_one_line_errors(spec, fragment):
     with pytest.raises(TechniqueError) as info:
@@ -124,3 +131,12 @@ def test_units_bias_is_a_world_distance(lab):
     window = from_spec(f"shadow_map:bias_space=window,bias={0.01 / depth_range!r}")
     m_window = measure(window, ev.frame, 0, repeat=1, warmup=0)
     assert (m_units.visibility == m_window.visibility).all()
+
+
+def test_absolute_bias_spaces_go_past_one():
+    """units and texels are absolute (an engine's 2 texels, half a metre in a city): up to 1000;
+    the fractional spaces stop at 1."""
+    assert from_spec("shadow_map:bias_space=texels,bias=2").bias == 2.0
+    assert from_spec("shadow_map:bias_space=units,bias=40").bias == 40.0
+    with pytest.raises(TechniqueError, match="bias must be <= 1.0 with bias_space=window"):
+        from_spec("shadow_map:bias_space=window,bias=1.5")

@@ -452,14 +452,6 @@ class PresetMixin:
             params = {**chosen.values(self.name, "directional"), **params}
         super().__init__(**params)
 
-    def params(self) -> dict:
-        """As the technique's, without ``preset`` when there is none: a spec without a preset
-        has exactly the parameters (and metrics.csv ``param_*`` columns) it had before presets."""
-        out = super().params()
-        if self._preset is None:
-            out.pop("preset", None)
-        return out
-
     def preset_values(self, kind: str) -> dict:
         """The preset's values for a light of ``kind`` that the spec did not override."""
         if self._preset is None:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import gzip
 import io
-import tomllib
 from importlib import resources
 from pathlib import Path
 
@@ -24,7 +23,7 @@ import trimesh
 
 from ..geometry import transforms as tf
 from ..util.text import first_sentence
-from ..util.validation import SceneError, TableReader, did_you_mean
+from ..util.validation import SceneError, TableReader, did_you_mean, read_toml_file
 from . import gltf
 from .animation import parse_animation
 from .area_lights import AREA_SHAPES
@@ -420,13 +419,7 @@ def load_scene(ref: str | Path) -> Scene:
     if gltf.is_gltf(path):
         head, choice = gltf.split_reference(str(ref))
         return gltf_scene(path, choice if Path(head).is_file() and not Path(str(ref)).is_file() else None)
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(str(path), "toml", f"not valid TOML: {exc}") from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(str(path), "file", f"cannot read: {exc}") from exc
-    return parse_scene(data, str(path), path.parent)
+    return parse_scene(read_toml_file(path), str(path), path.parent)
 
 
 def scene_summary(path: Path) -> str:

@@ -140,3 +140,18 @@ def check_size(size: tuple[int, int]) -> tuple[int, int]:
     if w < 8 or h < 8 or w * h > MAX_PIXELS:
         raise RunError(f"--size {w}x{h} is out of range (each side >= 8, at most {MAX_PIXELS} pixels)")
     return w, h
+
+
+def read_toml_file(path) -> dict:
+    """The parsed TOML file ``path`` (a scene, a viewer script); a one-line SceneError naming the
+    file when it cannot be read or is not valid TOML."""
+    import tomllib
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(str(path), "toml", f"not valid TOML: {exc}") from exc
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(str(path), "file", f"cannot read: {exc}") from exc

@@ -23,11 +23,9 @@ machine, however fast it renders. A script that does not quit leaves the window 
 """
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
-from pathlib import Path
 
-from ..util.validation import SceneError, TableReader
+from ..util.validation import SceneError, TableReader, read_toml_file
 from .state import KEYMAP, MOVE_KEYS
 
 #: The step kinds, each a key of a ``[[step]]`` table; a step holds exactly one.
@@ -135,11 +133,4 @@ def parse_script(data: dict, file: str) -> Script:
 
 def load_script(path) -> Script:
     """Read a script file (SceneError naming the file when it is missing or not TOML)."""
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(str(path), "toml", f"not valid TOML: {exc}") from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(str(path), "file", f"cannot read: {exc}") from exc
-    return parse_script(data, str(path))
+    return parse_script(read_toml_file(path), str(path))

@@ -9,7 +9,7 @@ import pytest
 
 from shadowlab.scene import load_scene
 from shadowlab.scene.model import Camera
-from shadowlab.util.validation import RunError, SceneError
+from shadowlab.util.validation import SceneError
 from shadowlab.viewer import scene_file, state
 from shadowlab.viewer.app import FrameTime, frame_time_summary, greyed, hud_picture
 from shadowlab.viewer.script import parse_script

@@ -91,39 +91,22 @@ def open_window(size: tuple[int, int], title: str):
     return window
 
 
-_QUAD = """
-#version 330
-#if defined VERTEX_SHADER
-void main() {
-    // one triangle over the whole viewport
-    vec2 p = vec2(float((gl_VertexID & 1) << 2) - 1.0, float((gl_VertexID & 2) << 1) - 1.0);
-    gl_Position = vec4(p, 0.0, 1.0);
-}
-#elif defined FRAGMENT_SHADER
-uniform sampler2D u_image;
-uniform vec2 u_scale;  // texels per window pixel (1 when the window is the image's size)
-out vec4 f_color;
-void main() {
-    f_color = vec4(texelFetch(u_image, ivec2(gl_FragCoord.xy * u_scale), 0).rgb, 1.0);
-}
-#endif
-"""
-
-
 class Screen:
-    """What the window draws: one RGB texture, one texel per pixel, drawn by a full-screen
-    triangle; and its read-back for screenshots. It draws on the window's context, which is also
-    the lab's (:func:`shadowlab.gpu.gl.adopt`): every draw binds the window's framebuffer and
+    """What the window draws: one RGB texture, one texel per pixel, drawn by the lab's
+    full-screen quad with ``screen.glsl``; and its read-back for screenshots. It draws on the
+    window's context, which is also the lab's (:func:`shadowlab.gpu.gl.adopt`): every draw binds the window's framebuffer and
     applies a full pass state first, as every lab pass does (nothing is inherited either way)."""
 
     def __init__(self, window, size: tuple[int, int]):
         self.window, self.size = window, size
+        from ..gpu import programs, targets
+
         ctx = window.ctx
-        self.prog = ctx.program(vertex_shader=_QUAD.replace("#version 330", "#version 330\n#define VERTEX_SHADER"),
-                                fragment_shader=_QUAD.replace("#version 330", "#version 330\n#define FRAGMENT_SHADER"))
+        # the lab's loader and full-screen quad: the window's context is the lab's (gl.adopt)
+        self.prog = programs.program("screen.glsl")
         self.texture = ctx.texture(size, 3, dtype="f1")
         self.texture.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.vao = ctx.vertex_array(self.prog, [])
+        self.vao = targets.fullscreen_quad(self.prog)
 
     def draw(self, picture: np.ndarray) -> None:
         """Show ``picture``: uint8 (H, W, 3), row 0 = top."""
@@ -138,7 +121,7 @@ class Screen:
         self.prog["u_scale"].value = (self.size[0] / bw, self.size[1] / bh)
         self.texture.use(0)
         self.prog["u_image"].value = 0
-        self.vao.render(vertices=3)
+        self.vao.render()
 
     def read(self) -> np.ndarray:
         """The window as drawn (the back buffer, before the swap): uint8 (H, W, 3), row 0 = top.

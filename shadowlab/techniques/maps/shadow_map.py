@@ -269,7 +269,7 @@ class ComparisonVariants:
         kind, unit = self.bias_unit()
         if kind == "world":
             return 0.0, float(self.bias) * unit
-        return (float(self.bias) if unit == 1.0 else float(self.bias) * unit), 0.0
+        return float(self.bias) * unit, 0.0  # × 1.0 is exact: window and world-ortho biases unchanged
 
     def comparison_uniforms(self) -> dict:
         """The variant's bias terms, the first face's texel size, the PCF radius, the per-tap
